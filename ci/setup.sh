@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs what a fresh Debian machine lacks to build and test pathwave: Vulkan loader, lavapipe, glslang, validation layers.
+set -euo pipefail
+
+PACKAGES=(
+  libvulkan1            # the Vulkan loader
+  mesa-vulkan-drivers   # lavapipe: Vulkan on the CPU
+  vulkan-validationlayers
+  glslang-tools         # glslangValidator, used by build.rs and hot reload
+  spirv-tools
+  vulkan-tools          # vulkaninfo, for diagnosing a machine
+  pkg-config
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" -eq 0 ]; then SUDO=(); else SUDO=(sudo); fi
+  echo "ci/setup.sh: installing ${missing[*]}"
+  "${SUDO[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  "${SUDO[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+  if [ -x "$HOME/.cargo/bin/cargo" ]; then
+    export PATH="$HOME/.cargo/bin:$PATH"
+  else
+    echo "ci/setup.sh: cargo not found; install Rust (rustup) first" >&2
+    exit 1
+  fi
+fi

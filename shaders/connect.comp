@@ -1,0 +1,18 @@
+// connect: trace each queued shadow ray (any hit) and add its light when nothing blocks it.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "stage.glsl"
+#include "traverse.glsl"
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= counters.queue_count[QUEUE_SHADOW]) return;
+    uint path = queues[QUEUE_SHADOW * frame.path_capacity + i];
+    vec4 o = path_get(PATH_SHADOW_ORIGIN, path);
+    vec3 d = path_get(PATH_SHADOW_DIR, path).xyz;
+    Hit h = trace(o.xyz, d, 0.0, o.w, true);
+    if (h.tri == NO_HIT) {
+        vec4 l = path_get(PATH_RADIANCE, path);
+        path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));
+    }
+}

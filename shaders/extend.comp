@@ -1,0 +1,16 @@
+// extend: closest hit for every ray in the current queue.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "stage.glsl"
+#include "traverse.glsl"
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint cur = frame.bounce & 1u;
+    if (i >= counters.queue_count[cur]) return;
+    uint path = queues[cur * frame.path_capacity + i];
+    vec3 o = path_get(PATH_ORIGIN, path).xyz;
+    vec3 d = path_get(PATH_DIR, path).xyz;
+    Hit h = trace(o, d, 0.0, 3.0e38, false);
+    path_set(PATH_HIT, path, vec4(h.t, uintBitsToFloat(h.tri), h.uv));
+}

@@ -1,0 +1,26 @@
+// generate: one camera ray per pixel of this pass, jittered inside the pixel (box filter), into ray queue 0.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "stage.glsl"
+#include "rng.glsl"
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i == 0u) counters.queue_count[0] = frame.path_count;
+    if (i >= frame.path_count) return;
+    uint pixel = frame.pixel_offset + i;
+    uint px = pixel % frame.width;
+    uint py = pixel / frame.width;
+    vec2 j = pixel_jitter(pixel, frame.sample_index);
+    float tan_half = frame.cam_origin.w;
+    float aspect = frame.cam_right.w;
+    // Row 0 is the top of the image.
+    float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * tan_half * aspect;
+    float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * tan_half;
+    vec3 d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
+    path_set(PATH_ORIGIN, i, vec4(frame.cam_origin.xyz, 0.0));
+    path_set(PATH_DIR, i, vec4(d, 0.0));
+    path_set(PATH_THROUGHPUT, i, vec4(1.0));
+    path_set(PATH_RADIANCE, i, vec4(0.0));
+    queues[i] = i;
+}

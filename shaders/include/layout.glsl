@@ -1,0 +1,97 @@
+// The buffers, structs and push constants every stage shares; mirrored by src/layout.rs and checked by tests/layout.rs.
+#ifndef LAYOUT_GLSL
+#define LAYOUT_GLSL
+
+#extension GL_GOOGLE_include_directive : require
+#include "shared_constants.glsl"
+
+// 32 bytes. Interior: w of lo = left child index (right child is left + 1), w of hi = 0.
+// Leaf: w of lo = first triangle, w of hi = triangle count (> 0). Both w hold uint bits.
+struct BvhNode {
+    vec4 lo;
+    vec4 hi;
+};
+
+// 48 bytes: precomputed edges for Moller-Trumbore. v0.w = material index (uint bits).
+struct TriVerts {
+    vec4 v0;
+    vec4 e1;
+    vec4 e2;
+};
+
+// 48 bytes: vertex normals. n0.w = pdf (per unit area) of next-event estimation choosing a point
+// on this triangle, 0 if it does not emit; n1.w = triangle area; n2.w unused.
+struct TriShading {
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+
+// 32 bytes. base_color.w unused; emission rgb = radiance (W sr^-1 m^-2), emission.w = 1 if double-sided.
+struct Material {
+    vec4 base_color;
+    vec4 emission;
+};
+
+// 16 bytes, one per emissive triangle, sorted by the host; cdf is the inclusive upper end.
+struct Light {
+    uint tri;
+    float cdf;
+    float prob;
+    float area;
+};
+
+// 48 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
+// dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages.
+struct Counters {
+    uint queue_count[4];
+    uint dispatch[4];
+    uint extension_rays;
+    uint shadow_rays;
+    uint pad0;
+    uint pad1;
+};
+
+// 128 bytes, the guaranteed push-constant budget. The camera basis vectors are in world space.
+struct Frame {
+    vec4 cam_origin;   // w: tan(yfov / 2)
+    vec4 cam_right;    // w: aspect (width / height)
+    vec4 cam_up;       // w unused
+    vec4 cam_forward;  // w unused
+    uint width;
+    uint height;
+    uint sample_index;
+    uint seed;
+    uint bounce;
+    uint max_depth;
+    uint estimator;
+    uint pixel_offset;
+    uint path_count;
+    uint path_capacity;
+    uint light_count;
+    uint pad0;
+    uint pad1;
+    uint pad2;
+    uint pad3;
+    uint pad4;
+};
+
+layout(push_constant) uniform PushConstants { Frame frame; };
+
+layout(std430, set = 0, binding = BINDING_NODES) readonly buffer Nodes { BvhNode nodes[]; };
+layout(std430, set = 0, binding = BINDING_TRI_VERTS) readonly buffer TriVertsBuf { TriVerts tri_verts[]; };
+layout(std430, set = 0, binding = BINDING_TRI_SHADING) readonly buffer TriShadingBuf { TriShading tri_shading[]; };
+layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { Material materials[]; };
+layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = BINDING_PATHS) buffer Paths { vec4 paths[]; };
+layout(std430, set = 0, binding = BINDING_QUEUES) buffer Queues { uint queues[]; };
+layout(std430, set = 0, binding = BINDING_COUNTERS) buffer CountersBuf { Counters counters; };
+// Film: [0, pixels) running sum of samples, [pixels, 2 * pixels) running sum of squares.
+layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
+// Scratch for probe kernels that test device functions from Rust.
+layout(std430, set = 0, binding = BINDING_PROBE) buffer Probe { uint probe[]; };
+
+vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
+void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }
+
+#endif

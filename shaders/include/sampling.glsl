@@ -1,0 +1,50 @@
+// Warps from uniform numbers to directions and points, each with its pdf twin.
+#ifndef SAMPLING_GLSL
+#define SAMPLING_GLSL
+
+const float PI = 3.14159265358979323846;
+
+// Orthonormal basis around a unit normal (Duff et al. 2017).
+void basis(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// Cosine-weighted hemisphere around n (Malley's method on a concentric disk).
+vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
+    vec2 d = 2.0 * u - 1.0;
+    float r, phi;
+    if (d.x == 0.0 && d.y == 0.0) {
+        r = 0.0; phi = 0.0;
+    } else if (abs(d.x) > abs(d.y)) {
+        r = d.x; phi = (PI / 4.0) * (d.y / d.x);
+    } else {
+        r = d.y; phi = (PI / 2.0) - (PI / 4.0) * (d.x / d.y);
+    }
+    vec2 disk = r * vec2(cos(phi), sin(phi));
+    float z = sqrt(max(0.0, 1.0 - dot(disk, disk)));
+    vec3 t, b;
+    basis(n, t, b);
+    return normalize(disk.x * t + disk.y * b + z * n);
+}
+
+float pdf_cosine_hemisphere(vec3 n, vec3 w) {
+    return max(dot(n, w), 0.0) / PI;
+}
+
+// Uniform point on a triangle (Turk 1990); returns barycentrics of v1 and v2.
+vec2 sample_triangle(vec2 u) {
+    float su = sqrt(u.x);
+    return vec2(su * (1.0 - u.y), su * u.y);
+}
+
+float power_heuristic(float pa, float pb) {
+    float a = pa * pa;
+    float b = pb * pb;
+    return a + b > 0.0 ? a / (a + b) : 0.0;
+}
+
+#endif

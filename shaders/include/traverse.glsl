@@ -1,0 +1,113 @@
+// Closest-hit and any-hit traversal of the flattened BVH; src/bvh/traverse.rs is its CPU twin and must match it.
+#ifndef TRAVERSE_GLSL
+#define TRAVERSE_GLSL
+
+struct Hit {
+    float t;
+    uint tri;
+    vec2 uv;
+};
+
+// Moller-Trumbore. Returns t in (tmin, tmax) or -1 (callers keep tmin >= 0); uv are the barycentrics of v1 and v2.
+float intersect_triangle(uint tri, vec3 o, vec3 d, float tmin, float tmax, out vec2 uv) {
+    TriVerts tv = tri_verts[tri];
+    vec3 pvec = cross(d, tv.e2.xyz);
+    float det = dot(tv.e1.xyz, pvec);
+    uv = vec2(0.0);
+    if (det == 0.0) return -1.0;
+    float inv_det = 1.0 / det;
+    vec3 tvec = o - tv.v0.xyz;
+    float u = dot(tvec, pvec) * inv_det;
+    if (u < 0.0 || u > 1.0) return -1.0;
+    vec3 qvec = cross(tvec, tv.e1.xyz);
+    float v = dot(d, qvec) * inv_det;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    float t = dot(tv.e2.xyz, qvec) * inv_det;
+    if (t <= tmin || t >= tmax) return -1.0;
+    uv = vec2(u, v);
+    return t;
+}
+
+// Slab test; returns the entry distance, or +inf when the box is missed within (tmin, tmax).
+float intersect_box(vec3 lo, vec3 hi, vec3 o, vec3 inv_d, float tmin, float tmax) {
+    vec3 t0 = (lo - o) * inv_d;
+    vec3 t1 = (hi - o) * inv_d;
+    vec3 tn = min(t0, t1);
+    vec3 tf = max(t0, t1);
+    float enter = max(max(tn.x, tn.y), max(tn.z, tmin));
+    float exit = min(min(tf.x, tf.y), min(tf.z, tmax));
+    return enter <= exit ? enter : uintBitsToFloat(0x7F800000u);
+}
+
+vec3 safe_inverse(vec3 d) {
+    // A zero component becomes a huge finite value so 0 * inf never makes NaN in the slab test.
+    const float big = 1e30;
+    return vec3(d.x != 0.0 ? 1.0 / d.x : big, d.y != 0.0 ? 1.0 / d.y : big, d.z != 0.0 ? 1.0 / d.z : big);
+}
+
+// any_hit: stop at the first intersection (shadow rays).
+Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit) {
+    Hit hit;
+    hit.t = tmax;
+    hit.tri = NO_HIT;
+    hit.uv = vec2(0.0);
+    vec3 inv_d = safe_inverse(d);
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint node = 0u;
+    if (intersect_box(nodes[0].lo.xyz, nodes[0].hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
+        return hit;
+    }
+    while (true) {
+        BvhNode n = nodes[node];
+        uint count = floatBitsToUint(n.hi.w);
+        uint first = floatBitsToUint(n.lo.w);
+        if (count > 0u) {
+            for (uint i = first; i < first + count; ++i) {
+                vec2 uv;
+                float t = intersect_triangle(i, o, d, tmin, hit.t, uv);
+                if (t >= 0.0) {
+                    hit.t = t;
+                    hit.tri = i;
+                    hit.uv = uv;
+                    if (any_hit) return hit;
+                }
+            }
+        } else {
+            uint left = first;
+            uint right = first + 1u;
+            float tl = intersect_box(nodes[left].lo.xyz, nodes[left].hi.xyz, o, inv_d, tmin, hit.t);
+            float tr = intersect_box(nodes[right].lo.xyz, nodes[right].hi.xyz, o, inv_d, tmin, hit.t);
+            bool hl = tl != uintBitsToFloat(0x7F800000u);
+            bool hr = tr != uintBitsToFloat(0x7F800000u);
+            if (hl && hr) {
+                // Visit the nearer child first; the farther waits on the stack.
+                uint near_child = tl <= tr ? left : right;
+                uint far_child = tl <= tr ? right : left;
+                stack[sp++] = far_child;
+                node = near_child;
+                continue;
+            } else if (hl) {
+                node = left;
+                continue;
+            } else if (hr) {
+                node = right;
+                continue;
+            }
+        }
+        // Pop until a node still overlaps the shrunken interval.
+        bool found = false;
+        while (sp > 0u) {
+            uint cand = stack[--sp];
+            if (intersect_box(nodes[cand].lo.xyz, nodes[cand].hi.xyz, o, inv_d, tmin, hit.t) != uintBitsToFloat(0x7F800000u)) {
+                node = cand;
+                found = true;
+                break;
+            }
+        }
+        if (!found) break;
+    }
+    return hit;
+}
+
+#endif

@@ -1,0 +1,131 @@
+// shade: emission (MIS-weighted), next-event estimation into the shadow queue, and a BSDF-sampled continuation.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#include "stage.glsl"
+#include "rng.glsl"
+#include "bsdf.glsl"
+#include "lights.glsl"
+
+// Moves p off the surface along n by a few ulps, so the next ray cannot hit the surface it leaves
+// (Waechter and Binder, Ray Tracing Gems ch. 6): robust at any scene scale.
+vec3 offset_ray(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0;
+    const float float_scale = 1.0 / 65536.0;
+    const float int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(
+        intBitsToFloat(floatBitsToInt(p.x) + (p.x < 0.0 ? -of_i.x : of_i.x)),
+        intBitsToFloat(floatBitsToInt(p.y) + (p.y < 0.0 ? -of_i.y : of_i.y)),
+        intBitsToFloat(floatBitsToInt(p.z) + (p.z < 0.0 ? -of_i.z : of_i.z)));
+    return vec3(
+        abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+        abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+        abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+void finish(uint path, vec3 radiance) {
+    path_set(PATH_RADIANCE, path, vec4(radiance, 0.0));
+}
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint cur = frame.bounce & 1u;
+    if (i >= counters.queue_count[cur]) return;
+    uint path = queues[cur * frame.path_capacity + i];
+    uint pixel = frame.pixel_offset + path;
+    uint s = frame.sample_index;
+    uint bounce = frame.bounce;
+
+    vec4 hit = path_get(PATH_HIT, path);
+    uint tri = floatBitsToUint(hit.y);
+    vec3 radiance = path_get(PATH_RADIANCE, path).rgb;
+    if (tri == NO_HIT) return; // nothing beyond the scene emits yet
+    vec4 ray_o = path_get(PATH_ORIGIN, path);
+    vec3 ray_d = path_get(PATH_DIR, path).xyz;
+    vec3 beta = path_get(PATH_THROUGHPUT, path).rgb;
+
+    TriVerts tv = tri_verts[tri];
+    TriShading ts = tri_shading[tri];
+    Material m = materials[floatBitsToUint(tv.v0.w)];
+    vec2 uv = hit.zw;
+    vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
+    vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
+    bool front = dot(ng, ray_d) < 0.0;
+    vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
+    vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
+    if (dot(ns, n_in) < 0.0) ns = -ns;
+
+    // Emission seen by this ray, weighted against the chance NEE would have found the same point.
+    bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));
+    if (emits) {
+        float w = 1.0;
+        bool camera_or_specular = bounce == 0u || ray_o.w == 0.0;
+        if (!camera_or_specular) {
+            if (frame.estimator == ESTIMATOR_LIGHT) {
+                w = 0.0;
+            } else if (frame.estimator == ESTIMATOR_MIS) {
+                float cos_l = abs(dot(ng, ray_d));
+                float pdf_light = cos_l > 0.0 ? ts.n0.w * hit.x * hit.x / cos_l : 0.0;
+                w = power_heuristic(ray_o.w, pdf_light);
+            }
+        }
+        radiance += beta * m.emission.rgb * w;
+    }
+    if (bounce >= frame.max_depth) {
+        finish(path, radiance);
+        return;
+    }
+
+    vec3 albedo = m.base_color.rgb;
+    vec3 p_off = offset_ray(p, n_in);
+
+    if (frame.estimator != ESTIMATOR_BSDF && frame.light_count > 0u) {
+        uint li = pick_light(rand2(pixel, s, bounce, DIM_LIGHT_PICK).x);
+        Light l = lights[li];
+        TriVerts lv = tri_verts[l.tri];
+        vec2 b = sample_triangle(rand2(pixel, s, bounce, DIM_LIGHT_POINT));
+        vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
+        vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));
+        vec3 to_light = q - p_off;
+        float dist2 = dot(to_light, to_light);
+        float dist = sqrt(dist2);
+        vec3 wi = to_light / dist;
+        float cos_l = dot(lng, -wi);
+        Material lm = materials[floatBitsToUint(lv.v0.w)];
+        bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
+        float cos_s = dot(ns, wi);
+        if (faces && cos_s > 0.0 && dot(n_in, wi) > 0.0 && dist > 0.0) {
+            float pdf_light = l.prob / l.area * dist2 / abs(cos_l);
+            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(pdf_light, lambert_pdf(ns, wi)) : 1.0;
+            vec3 contribution = beta * lambert_eval(albedo, ns, wi) * cos_s * lm.emission.rgb * (w / pdf_light);
+            uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
+            queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
+            // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
+            path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, dist * (1.0 - 1e-4)));
+            path_set(PATH_SHADOW_DIR, path, vec4(wi, 0.0));
+            path_set(PATH_SHADOW_RADIANCE, path, vec4(contribution, 0.0));
+        }
+    }
+
+    vec3 wi = lambert_sample(ns, rand2(pixel, s, bounce, DIM_BSDF));
+    float pdf = lambert_pdf(ns, wi);
+    if (pdf <= 0.0 || dot(n_in, wi) <= 0.0) {
+        finish(path, radiance);
+        return;
+    }
+    beta *= lambert_eval(albedo, ns, wi) * (dot(ns, wi) / pdf);
+    if (bounce >= RR_START_BOUNCE) {
+        float survive = min(max(beta.r, max(beta.g, beta.b)), 0.95);
+        if (rand2(pixel, s, bounce, DIM_RR).x >= survive) {
+            finish(path, radiance);
+            return;
+        }
+        beta /= survive;
+    }
+    path_set(PATH_ORIGIN, path, vec4(p_off, pdf));
+    path_set(PATH_DIR, path, vec4(wi, 0.0));
+    path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
+    finish(path, radiance);
+    uint slot = atomicAdd(counters.queue_count[1u - cur], 1u);
+    queues[(1u - cur) * frame.path_capacity + slot] = path;
+}

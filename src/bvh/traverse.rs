@@ -1,0 +1,139 @@
+//! CPU traversal of the exact GPU node layout; it mirrors shaders/include/traverse.glsl line for line.
+use crate::constants::{BVH_STACK_SIZE, NO_HIT};
+use crate::layout::{BvhNode, TriVerts};
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceHit {
+    pub t: f32,
+    /// Index into the reordered triangles, or NO_HIT.
+    pub tri: u32,
+    pub uv: Vec2,
+}
+
+fn v3(a: [f32; 4]) -> Vec3 {
+    Vec3::new(a[0], a[1], a[2])
+}
+
+/// Moller-Trumbore, identical to the GLSL: returns t in (tmin, tmax) or None.
+pub fn intersect_triangle(tv: &TriVerts, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec2)> {
+    let (v0, e1, e2) = (v3(tv.v0), v3(tv.e1), v3(tv.e2));
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 {
+        return None;
+    }
+    let inv_det = 1.0 / det;
+    let tvec = o - v0;
+    let u = tvec.dot(pvec) * inv_det;
+    // Written as two comparisons, not a range, so a NaN passes exactly as it does in the GLSL.
+    #[allow(clippy::manual_range_contains)]
+    if u < 0.0 || u > 1.0 {
+        return None;
+    }
+    let qvec = tvec.cross(e1);
+    let v = d.dot(qvec) * inv_det;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = e2.dot(qvec) * inv_det;
+    if t <= tmin || t >= tmax {
+        return None;
+    }
+    Some((t, Vec2::new(u, v)))
+}
+
+fn safe_inverse(d: Vec3) -> Vec3 {
+    let inv = |x: f32| if x != 0.0 { 1.0 / x } else { 1e30 };
+    Vec3::new(inv(d.x), inv(d.y), inv(d.z))
+}
+
+fn intersect_box(n: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let t0 = (v3(n.lo) - o) * inv_d;
+    let t1 = (v3(n.hi) - o) * inv_d;
+    let tn = t0.min(t1);
+    let tf = t0.max(t1);
+    let enter = tn.x.max(tn.y).max(tn.z.max(tmin));
+    let exit = tf.x.min(tf.y).min(tf.z.min(tmax));
+    (enter <= exit).then_some(enter)
+}
+
+/// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device.
+pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> TraceHit {
+    let mut hit = TraceHit { t: ray.tmax, tri: NO_HIT, uv: Vec2::ZERO };
+    let (o, d) = (ray.origin, ray.dir);
+    let inv_d = safe_inverse(d);
+    let mut stack = [0u32; BVH_STACK_SIZE as usize];
+    let mut sp = 0usize;
+    let mut node = 0u32;
+    if intersect_box(&nodes[0], o, inv_d, ray.tmin, hit.t).is_none() {
+        return hit;
+    }
+    loop {
+        let n = &nodes[node as usize];
+        if n.is_leaf() {
+            for i in n.first()..n.first() + n.count() {
+                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
+                    hit = TraceHit { t, tri: i, uv };
+                    if any_hit {
+                        return hit;
+                    }
+                }
+            }
+        } else {
+            let (left, right) = (n.first(), n.first() + 1);
+            let tl = intersect_box(&nodes[left as usize], o, inv_d, ray.tmin, hit.t);
+            let tr = intersect_box(&nodes[right as usize], o, inv_d, ray.tmin, hit.t);
+            match (tl, tr) {
+                (Some(a), Some(b)) => {
+                    let (near, far) = if a <= b { (left, right) } else { (right, left) };
+                    stack[sp] = far;
+                    sp += 1;
+                    node = near;
+                    continue;
+                }
+                (Some(_), None) => {
+                    node = left;
+                    continue;
+                }
+                (None, Some(_)) => {
+                    node = right;
+                    continue;
+                }
+                (None, None) => {}
+            }
+        }
+        let mut found = false;
+        while sp > 0 {
+            sp -= 1;
+            let cand = stack[sp];
+            if intersect_box(&nodes[cand as usize], o, inv_d, ray.tmin, hit.t).is_some() {
+                node = cand;
+                found = true;
+                break;
+            }
+        }
+        if !found {
+            return hit;
+        }
+    }
+}
+
+/// Every triangle tested: the reference both traversals are checked against.
+pub fn brute_force(tris: &[TriVerts], ray: &Ray) -> TraceHit {
+    let mut hit = TraceHit { t: ray.tmax, tri: NO_HIT, uv: Vec2::ZERO };
+    for (i, tv) in tris.iter().enumerate() {
+        if let Some((t, uv)) = intersect_triangle(tv, ray.origin, ray.dir, ray.tmin, hit.t) {
+            hit = TraceHit { t, tri: i as u32, uv };
+        }
+    }
+    hit
+}

@@ -1,0 +1,63 @@
+// Constants shared by Rust and GLSL: build.rs turns this file into `shared_constants.glsl`.
+// Only `pub const NAME: u32 = value;` lines are exported, so keep every shared value in that form.
+
+/// Invocations per workgroup of every 1D wavefront stage.
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Descriptor bindings of the one set every stage shares (set 0).
+pub const BINDING_NODES: u32 = 0;
+pub const BINDING_TRI_VERTS: u32 = 1;
+pub const BINDING_TRI_SHADING: u32 = 2;
+pub const BINDING_MATERIALS: u32 = 3;
+pub const BINDING_LIGHTS: u32 = 4;
+pub const BINDING_PATHS: u32 = 5;
+pub const BINDING_QUEUES: u32 = 6;
+pub const BINDING_COUNTERS: u32 = 7;
+pub const BINDING_FILM: u32 = 8;
+pub const BINDING_PROBE: u32 = 9;
+pub const BINDING_COUNT: u32 = 10;
+
+/// Estimator selection (push constant `estimator`).
+pub const ESTIMATOR_MIS: u32 = 0;
+pub const ESTIMATOR_LIGHT: u32 = 1;
+pub const ESTIMATOR_BSDF: u32 = 2;
+
+/// Traversal stack depth; the builder guarantees the tree is no deeper than this.
+pub const BVH_STACK_SIZE: u32 = 64;
+/// Triangles per leaf the SAH builder may create at most.
+pub const BVH_MAX_LEAF_TRIS: u32 = 4;
+
+/// Bounce at which Russian roulette starts.
+pub const RR_START_BOUNCE: u32 = 3;
+
+/// Random-number dimensions, so each use of randomness has its own stream.
+pub const DIM_PIXEL: u32 = 0;
+pub const DIM_LIGHT_PICK: u32 = 2;
+pub const DIM_LIGHT_POINT: u32 = 3;
+pub const DIM_BSDF: u32 = 5;
+pub const DIM_RR: u32 = 7;
+
+/// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue.
+pub const QUEUE_SHADOW: u32 = 2;
+
+/// Path state is SoA: field `f` of path `i` is `paths[f * path_capacity + i]` (one vec4 each).
+/// xyz origin, w: solid-angle pdf of the BSDF sample that made this ray (0 for camera rays).
+pub const PATH_ORIGIN: u32 = 0;
+/// xyz direction, w unused.
+pub const PATH_DIR: u32 = 1;
+/// rgb throughput, w unused.
+pub const PATH_THROUGHPUT: u32 = 2;
+/// rgb radiance gathered by this sample so far, w unused.
+pub const PATH_RADIANCE: u32 = 3;
+/// x: hit distance, y: triangle index bits (NO_HIT on a miss), zw: barycentrics.
+pub const PATH_HIT: u32 = 4;
+/// xyz shadow-ray origin, w: shadow-ray length.
+pub const PATH_SHADOW_ORIGIN: u32 = 5;
+/// xyz shadow-ray direction, w unused.
+pub const PATH_SHADOW_DIR: u32 = 6;
+/// rgb contribution if the shadow ray is unoccluded, w unused.
+pub const PATH_SHADOW_RADIANCE: u32 = 7;
+pub const PATH_FIELDS: u32 = 8;
+
+/// Triangle index meaning "no hit".
+pub const NO_HIT: u32 = 0xFFFFFFFF;

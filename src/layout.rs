@@ -1,0 +1,104 @@
+//! Rust mirrors of the structs in `shaders/include/layout.glsl`; tests/layout.rs checks them against the SPIR-V.
+use bytemuck::{Pod, Zeroable};
+
+/// 32 bytes. See `BvhNode` in layout.glsl for the meaning of each `w`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BvhNode {
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+}
+
+impl BvhNode {
+    pub fn is_leaf(&self) -> bool {
+        self.count() > 0
+    }
+    /// Left child for an interior node, first triangle for a leaf.
+    pub fn first(&self) -> u32 {
+        self.lo[3].to_bits()
+    }
+    pub fn count(&self) -> u32 {
+        self.hi[3].to_bits()
+    }
+}
+
+/// 48 bytes: vertex 0 and two edges; `v0[3]` holds the material index bits.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriVerts {
+    pub v0: [f32; 4],
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+}
+
+/// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriShading {
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+}
+
+/// 32 bytes: base colour, and emitted radiance with `emission[3]` = 1 when double-sided.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 4],
+    pub emission: [f32; 4],
+}
+
+/// 16 bytes, one per emissive triangle.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLight {
+    pub tri: u32,
+    pub cdf: f32,
+    pub prob: f32,
+    pub area: f32,
+}
+
+/// 48 bytes: queue counters, the indirect dispatch of the current bounce, and ray tallies.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Counters {
+    pub queue_count: [u32; 4],
+    pub dispatch: [u32; 4],
+    pub extension_rays: u32,
+    pub shadow_rays: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// 128 bytes: the push constants of every stage.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Frame {
+    pub cam_origin: [f32; 4],
+    pub cam_right: [f32; 4],
+    pub cam_up: [f32; 4],
+    pub cam_forward: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub sample_index: u32,
+    pub seed: u32,
+    pub bounce: u32,
+    pub max_depth: u32,
+    pub estimator: u32,
+    pub pixel_offset: u32,
+    pub path_count: u32,
+    pub path_capacity: u32,
+    pub light_count: u32,
+    pub pad: [u32; 5],
+}
+
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
+const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
+const _: () = assert!(std::mem::size_of::<Counters>() == 48);
+const _: () = assert!(std::mem::size_of::<Frame>() == 128);
+
+/// Byte offset of the indirect dispatch command inside `Counters`.
+pub const COUNTERS_DISPATCH_OFFSET: u64 = std::mem::offset_of!(Counters, dispatch) as u64;

@@ -1,0 +1,27 @@
+//! pathwave: a physically based wavefront path tracer on Vulkan compute. This is the API a Rust program embeds.
+pub mod bvh;
+pub mod constants;
+pub mod layout;
+pub mod output;
+pub mod render;
+pub mod scene;
+pub mod vk;
+
+pub use render::{Estimator, Film, RenderSettings, RenderStats, Renderer};
+pub use scene::Scene;
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error("{}: {message}", path.display())]
+    Scene { path: PathBuf, message: String },
+    #[error("{}: {message}", path.display())]
+    Output { path: PathBuf, message: String },
+    #[error("Vulkan: {0}")]
+    Vulkan(String),
+    #[error("{0}")]
+    Settings(String),
+    #[error("the validation layer reported {count} error(s); the first: {first}")]
+    Validation { count: usize, first: String },
+}

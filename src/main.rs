@@ -1,0 +1,167 @@
+//! The pathwave command line: render, info.
+use anyhow::{bail, Context as _, Result};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use pathwave::vk::DeviceChoice;
+use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "pathwave", version, about = "A physically based wavefront path tracer on Vulkan compute")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a glTF scene to an EXR (linear) or PNG (sRGB) file.
+    Render(RenderArgs),
+    /// Describe a scene (triangles, materials, lights, BVH) or list the Vulkan devices.
+    Info {
+        /// The glTF (.gltf or .glb) scene.
+        scene: Option<PathBuf>,
+        /// List the Vulkan devices instead (their index is what --device takes).
+        #[arg(long)]
+        devices: bool,
+    },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The glTF (.gltf or .glb) scene.
+    scene: PathBuf,
+    /// Output image; the extension picks the format (.exr or .png).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value = "64", value_parser = positive, allow_hyphen_values = true)]
+    spp: u32,
+    /// Image size as WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x512", value_parser = parse_size, allow_hyphen_values = true)]
+    size: (u32, u32),
+    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
+    #[arg(long, value_parser = clap::value_parser!(u32))]
+    max_depth: Option<u32>,
+    /// Seed of the random sequences; the same seed gives the same bytes.
+    #[arg(long, default_value = "0")]
+    seed: u32,
+    /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
+    #[arg(long)]
+    device: Option<DeviceChoice>,
+    /// Which camera of the file to use, counting from 0.
+    #[arg(long)]
+    camera: Option<usize>,
+    /// Exposure in stops applied to PNG output.
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    exposure: f32,
+    /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
+    #[arg(long, value_enum, default_value = "mis", hide = true)]
+    estimator: Estimator,
+}
+
+fn positive(s: &str) -> Result<u32, String> {
+    match s.parse::<i64>() {
+        Ok(n) if n >= 1 && n <= u32::MAX as i64 => Ok(n as u32),
+        Ok(n) => Err(format!("{n} is not a positive number")),
+        Err(_) => Err(format!("'{s}' is not a number")),
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT (e.g. 640x480)"))?;
+    let w = positive(w).map_err(|e| format!("width: {e}"))?;
+    let h = positive(h).map_err(|e| format!("height: {e}"))?;
+    Ok((w, h))
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render(args),
+        Command::Info { scene, devices } => info(scene, devices),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    // Refuse a bad output path before spending time on the render.
+    output::format_of(&args.output)?;
+    let start = Instant::now();
+    let scene = scene::load(&args.scene, args.camera)?;
+    let mut renderer = Renderer::new(&scene, &args.device.unwrap_or_default())?;
+    for w in &renderer.warnings {
+        eprintln!("warning: {}: {w}", args.scene.display());
+    }
+    let settings = RenderSettings {
+        width: args.size.0,
+        height: args.size.1,
+        spp: args.spp,
+        max_depth: args.max_depth,
+        seed: args.seed,
+        estimator: args.estimator,
+    };
+    let bar = ProgressBar::new(args.spp as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {per_sec}  eta {eta}").unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let device = renderer.context().device_name();
+    let (film, stats) = renderer.render(&settings, &mut |done| bar.set_position(done as u64))?;
+    bar.finish_and_clear();
+    output::write_image(&args.output, film.width, film.height, &film.mean(), args.exposure)?;
+    eprintln!(
+        "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
+        args.output.display(),
+        film.width,
+        film.height,
+        film.spp,
+        start.elapsed().as_secs_f64(),
+        stats.summary()
+    );
+    Ok(())
+}
+
+fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
+    if devices {
+        for d in pathwave::vk::list_devices()? {
+            println!(
+                "{}: {} ({}, Vulkan {}, maxStorageBufferRange {} MiB)",
+                d.index,
+                d.name,
+                d.kind,
+                d.api_version,
+                d.max_storage_buffer_range >> 20
+            );
+        }
+        return Ok(());
+    }
+    let Some(path) = path else { bail!("name a scene, or pass --devices") };
+    let scene = scene::load(&path, None).with_context(|| "cannot describe the scene")?;
+    for w in &scene.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    let start = Instant::now();
+    let packed = pathwave::render::gpu_scene::pack(&scene);
+    let build = start.elapsed();
+    let st = &packed.bvh.stats;
+    println!("scene       {}", path.display());
+    println!("triangles   {}", scene.triangles.len());
+    println!("materials   {}", scene.materials.len() - 1);
+    println!("lights      {} emissive triangles, {:.4} W in total", packed.lights.len(), packed.total_light_power);
+    println!("cameras     {}", scene.camera_count);
+    println!(
+        "bvh         {} nodes ({} leaves), depth {}, at most {} triangles per leaf, SAH cost {:.2}, {} bytes, built in {:.1} ms",
+        st.nodes,
+        st.leaves,
+        st.depth,
+        st.max_leaf_tris,
+        st.sah_cost,
+        st.nodes * std::mem::size_of::<pathwave::layout::BvhNode>(),
+        build.as_secs_f64() * 1e3
+    );
+    Ok(())
+}

@@ -1,0 +1,89 @@
+//! Image files: linear float EXR and sRGB PNG, written to a temporary file and renamed so failures leave nothing behind.
+use crate::Error;
+use std::path::Path;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Exr,
+    Png,
+}
+
+/// The format an output path asks for, by its extension.
+pub fn format_of(path: &Path) -> Result<Format, Error> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("exr") => Ok(Format::Exr),
+        Some("png") => Ok(Format::Png),
+        _ => Err(Error::Output {
+            path: path.to_path_buf(),
+            message: "unknown output format; use a .exr or .png extension".into(),
+        }),
+    }
+}
+
+/// sRGB transfer function (IEC 61966-2-1) of a linear value in [0, 1].
+pub fn srgb_encode(x: f32) -> f32 {
+    if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
+pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
+    let format = format_of(path)?;
+    assert_eq!(rgb.len(), width as usize * height as usize);
+    let err = |message: String| Error::Output { path: path.to_path_buf(), message };
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(err(format!("directory {} does not exist", dir.display())));
+    }
+    let suffix = if format == Format::Exr { ".exr" } else { ".png" };
+    let tmp = tempfile::Builder::new()
+        .prefix(".pathwave-")
+        .suffix(suffix)
+        .tempfile_in(dir)
+        .map_err(|e| err(format!("cannot create a file here: {e}")))?;
+    match format {
+        Format::Exr => {
+            exr::prelude::write_rgb_file(tmp.path(), width as usize, height as usize, |x, y| {
+                let p = rgb[y * width as usize + x];
+                (p[0], p[1], p[2])
+            })
+            .map_err(|e| err(format!("EXR encoding failed: {e}")))?;
+        }
+        Format::Png => {
+            let scale = 2f32.powf(exposure);
+            let bytes: Vec<u8> = rgb
+                .iter()
+                .flat_map(|p| p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8))
+                .collect();
+            let file = std::io::BufWriter::new(tmp.as_file());
+            let mut enc = png::Encoder::new(file, width, height);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            let mut w = enc.write_header().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            w.write_image_data(&bytes).map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+        }
+    }
+    tmp.persist(path).map_err(|e| err(format!("cannot move the finished file into place: {}", e.error)))?;
+    Ok(())
+}
+
+/// Reads an RGB EXR back as (width, height, pixels); used by tests and tools.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::Error> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
+        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = [r, g, b],
+    )
+    .map_err(|e| crate::Error::Output { path: path.to_path_buf(), message: format!("cannot read EXR: {e}") })?;
+    let size = image.layer_data.size;
+    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+}

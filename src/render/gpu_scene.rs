@@ -1,0 +1,69 @@
+//! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
+use crate::bvh::{self, Bvh};
+use crate::layout::{GpuLight, GpuMaterial, TriShading, TriVerts};
+use crate::scene::Scene;
+
+/// Everything the device needs from a scene, in upload order.
+pub struct PackedScene {
+    pub bvh: Bvh,
+    pub tri_verts: Vec<TriVerts>,
+    pub tri_shading: Vec<TriShading>,
+    pub materials: Vec<GpuMaterial>,
+    pub lights: Vec<GpuLight>,
+    /// Sum of the emitters' estimated power (W), what light selection is proportional to.
+    pub total_light_power: f64,
+}
+
+fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
+pub fn emitted_power(scene: &Scene, tri: usize) -> f64 {
+    let m = &scene.materials[scene.material_of[tri] as usize];
+    let [a, b, c] = scene.triangles[tri];
+    let area = 0.5 * (b - a).cross(c - a).length() as f64;
+    let sides = if m.double_sided { 2.0 } else { 1.0 };
+    (m.emission.x + m.emission.y + m.emission.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
+}
+
+pub fn pack(scene: &Scene) -> PackedScene {
+    let bvh = bvh::build(&scene.triangles);
+    let n = scene.triangles.len();
+    let mut tri_verts = Vec::with_capacity(n);
+    let mut tri_shading = Vec::with_capacity(n);
+    let mut powers = Vec::new();
+    for (slot, &orig) in bvh.order.iter().enumerate() {
+        let orig = orig as usize;
+        let [a, b, c] = scene.triangles[orig];
+        let [na, nb, nc] = scene.normals[orig];
+        let material = scene.material_of[orig];
+        tri_verts.push(TriVerts { v0: v4(a, f32::from_bits(material)), e1: v4(b - a, 0.0), e2: v4(c - a, 0.0) });
+        let area = 0.5 * (b - a).cross(c - a).length();
+        tri_shading.push(TriShading { n0: v4(na, 0.0), n1: v4(nb, area), n2: v4(nc, 0.0) });
+        let p = emitted_power(scene, orig);
+        if p > 0.0 {
+            powers.push((slot as u32, p, area));
+        }
+    }
+    let total: f64 = powers.iter().map(|p| p.1).sum();
+    let mut lights = Vec::with_capacity(powers.len());
+    let mut acc = 0.0f64;
+    for (i, &(tri, p, area)) in powers.iter().enumerate() {
+        acc += p;
+        let prob = (p / total) as f32;
+        // The last cdf is exactly 1 so every u in [0, 1) finds a light.
+        let cdf = if i + 1 == powers.len() { 1.0 } else { (acc / total) as f32 };
+        lights.push(GpuLight { tri, cdf, prob, area });
+        tri_shading[tri as usize].n0[3] = prob / area;
+    }
+    let materials = scene
+        .materials
+        .iter()
+        .map(|m| GpuMaterial {
+            base_color: v4(m.base_color, 0.0),
+            emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
+        })
+        .collect();
+    PackedScene { bvh, tri_verts, tri_shading, materials, lights, total_light_power: total }
+}

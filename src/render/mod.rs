@@ -1,0 +1,412 @@
+//! The wavefront integrator: generate, then extend / shade / connect per bounce, then accumulate, all on the device.
+pub mod gpu_scene;
+
+use crate::constants::*;
+use crate::layout::{Counters, Frame, COUNTERS_DISPATCH_OFFSET};
+use crate::scene::Scene;
+use crate::vk::{Buffer, Context, DeviceChoice, Pipelines, Timestamps, Validation};
+use crate::Error;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::time::{Duration, Instant};
+
+/// Which estimator shade uses; the three must agree in expectation (tests/estimators.rs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Estimator {
+    /// Next-event estimation and BSDF sampling combined with the power heuristic.
+    #[default]
+    Mis,
+    /// Light sampling only: emission found by BSDF-sampled rays is ignored after the camera ray.
+    Light,
+    /// BSDF sampling only: no next-event estimation.
+    Bsdf,
+}
+
+impl Estimator {
+    fn code(self) -> u32 {
+        match self {
+            Estimator::Mis => ESTIMATOR_MIS,
+            Estimator::Light => ESTIMATOR_LIGHT,
+            Estimator::Bsdf => ESTIMATOR_BSDF,
+        }
+    }
+}
+
+/// Bounces recorded when no `max_depth` is given: Russian roulette ends paths long before this.
+pub const DEPTH_SAFETY_CAP: u32 = 64;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Longest path in bounces; None means unbounded (Russian roulette, with DEPTH_SAFETY_CAP).
+    pub max_depth: Option<u32>,
+    pub seed: u32,
+    pub estimator: Estimator,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings { width: 256, height: 256, spp: 16, max_depth: None, seed: 0, estimator: Estimator::Mis }
+    }
+}
+
+/// The accumulated image: per-pixel sums of samples and of their squares, so tests can bound the error.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub sum: Vec<[f32; 4]>,
+    pub sum_sq: Vec<[f32; 4]>,
+}
+
+impl Film {
+    /// Per-pixel mean radiance (linear RGB), row 0 at the top.
+    pub fn mean(&self) -> Vec<[f32; 3]> {
+        let inv = 1.0 / self.spp.max(1) as f32;
+        self.sum.iter().map(|s| [s[0] * inv, s[1] * inv, s[2] * inv]).collect()
+    }
+
+    /// Unbiased per-pixel variance of one sample, per channel.
+    pub fn sample_variance(&self) -> Vec<[f32; 3]> {
+        let n = self.spp as f64;
+        self.sum
+            .iter()
+            .zip(&self.sum_sq)
+            .map(|(s, q)| {
+                std::array::from_fn(|c| {
+                    if n < 2.0 {
+                        return 0.0;
+                    }
+                    let m = s[c] as f64 / n;
+                    ((q[c] as f64 / n - m * m) * n / (n - 1.0)).max(0.0) as f32
+                })
+            })
+            .collect()
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub wall: Duration,
+    /// The first pass, which also pays for pipeline compilation on lavapipe.
+    pub first_pass: Duration,
+    pub passes: u32,
+    pub samples: u64,
+    pub extension_rays: u64,
+    pub shadow_rays: u64,
+    /// GPU time per stage in milliseconds, over all passes but the first.
+    pub stage_ms: Vec<(&'static str, f64)>,
+}
+
+impl RenderStats {
+    /// Time over the passes after the first, so compile time does not count against throughput.
+    fn steady(&self) -> Duration {
+        self.wall.saturating_sub(self.first_pass)
+    }
+    pub fn samples_per_sec(&self) -> f64 {
+        let (n, t) = self.steady_counts(self.samples);
+        n / t
+    }
+    pub fn rays_per_sec(&self) -> f64 {
+        let (n, t) = self.steady_counts(self.extension_rays + self.shadow_rays);
+        n / t
+    }
+    fn steady_counts(&self, total: u64) -> (f64, f64) {
+        if self.passes > 1 && !self.steady().is_zero() {
+            let per_pass = total as f64 / self.passes as f64;
+            (per_pass * (self.passes - 1) as f64, self.steady().as_secs_f64())
+        } else {
+            (total as f64, self.wall.as_secs_f64().max(1e-9))
+        }
+    }
+    /// The one-line summary every render ends with.
+    pub fn summary(&self) -> String {
+        let stages: Vec<String> = self.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        format!(
+            "{:.2} s (first pass {:.2} s), {:.0} samples/s, {:.2} Mrays/s ({} extension + {} shadow rays), GPU ms: {}",
+            self.wall.as_secs_f64(),
+            self.first_pass.as_secs_f64(),
+            self.samples_per_sec(),
+            self.rays_per_sec() / 1e6,
+            self.extension_rays,
+            self.shadow_rays,
+            if stages.is_empty() { "n/a".to_string() } else { stages.join(", ") }
+        )
+    }
+}
+
+/// A scene uploaded to one device, ready to render any number of images.
+pub struct Renderer {
+    // Field order is drop order: everything device-owned goes before the context.
+    timestamps: Timestamps,
+    pipelines: Pipelines,
+    scene_buffers: Vec<Buffer>,
+    light_count: u32,
+    camera: crate::scene::Camera,
+    pub warnings: Vec<String>,
+    ctx: Context,
+}
+
+/// Compiled stages embedded by build.rs.
+mod spirv {
+    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+}
+
+/// The SPIR-V of a built-in stage, by name (e.g. "shade").
+pub fn builtin_spirv(name: &str) -> Option<&'static [u8]> {
+    spirv::STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+}
+
+pub fn builtin_stage_names() -> impl Iterator<Item = &'static str> {
+    spirv::STAGES.iter().map(|(n, _)| *n)
+}
+
+impl Renderer {
+    pub fn new(scene: &Scene, device: &DeviceChoice) -> Result<Self, Error> {
+        Self::with_validation(scene, device, Validation::from_env())
+    }
+
+    pub fn with_validation(scene: &Scene, device: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
+        let ctx = Context::new(device, validation)?;
+        let packed = gpu_scene::pack(scene);
+        let mut warnings = scene.warnings.clone();
+        if packed.lights.is_empty() {
+            warnings.push("the scene has no emissive surface, so nothing lights it and the image is black".into());
+        }
+        let scene_buffers = vec![
+            Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
+            Buffer::with_data(&ctx, "triangle vertices", &packed.tri_verts)?,
+            Buffer::with_data(&ctx, "triangle shading", &packed.tri_shading)?,
+            Buffer::with_data(&ctx, "materials", &packed.materials)?,
+            Buffer::with_data(&ctx, "lights", &packed.lights)?,
+        ];
+        let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
+        let timestamps = Timestamps::new(&ctx, 2048)?;
+        Ok(Renderer {
+            timestamps,
+            pipelines,
+            scene_buffers,
+            light_count: packed.lights.len() as u32,
+            camera: scene.camera_or_default(),
+            warnings,
+            ctx,
+        })
+    }
+
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    fn check_validation(&self) -> Result<(), Error> {
+        let errors = self.ctx.validation_errors();
+        match errors.first() {
+            None => Ok(()),
+            Some(first) => Err(Error::Validation { count: errors.len(), first: first.clone() }),
+        }
+    }
+
+    fn bind_scene(&self, extra: &[(u32, &Buffer)]) {
+        let b = &self.scene_buffers;
+        let mut all = vec![
+            (BINDING_NODES, &b[0]),
+            (BINDING_TRI_VERTS, &b[1]),
+            (BINDING_TRI_SHADING, &b[2]),
+            (BINDING_MATERIALS, &b[3]),
+            (BINDING_LIGHTS, &b[4]),
+        ];
+        all.extend_from_slice(extra);
+        self.pipelines.bind_buffers(&self.ctx, &all);
+    }
+
+    fn frame(&self, s: &RenderSettings) -> Frame {
+        let (right, up, forward) = self.camera.basis();
+        let o = self.camera.origin();
+        Frame {
+            cam_origin: [o.x, o.y, o.z, (self.camera.yfov * 0.5).tan()],
+            cam_right: [right.x, right.y, right.z, s.width as f32 / s.height as f32],
+            cam_up: [up.x, up.y, up.z, 0.0],
+            cam_forward: [forward.x, forward.y, forward.z, 0.0],
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP).min(DEPTH_SAFETY_CAP),
+            estimator: s.estimator.code(),
+            light_count: self.light_count,
+            ..Default::default()
+        }
+    }
+
+    /// Renders `settings.spp` samples per pixel; `progress` hears the samples per pixel done so far.
+    pub fn render(&mut self, settings: &RenderSettings, progress: &mut dyn FnMut(u32)) -> Result<(Film, RenderStats), Error> {
+        let s = settings;
+        if s.width == 0 || s.height == 0 {
+            return Err(Error::Settings(format!("image size {}x{} has no pixels", s.width, s.height)));
+        }
+        if s.spp == 0 {
+            return Err(Error::Settings("samples per pixel must be at least 1".into()));
+        }
+        let pixels = s.width as u64 * s.height as u64;
+        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
+        let film_bytes = pixels * 32;
+        if film_bytes > range || pixels > u32::MAX as u64 / 2 {
+            return Err(Error::Settings(format!(
+                "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} bytes",
+                s.width, s.height
+            )));
+        }
+        // Paths in flight per pass: all pixels when they fit, otherwise the image is covered in chunks.
+        let per_path = PATH_FIELDS as u64 * 16;
+        let capacity = pixels.min(range / per_path).min(1 << 20) as u32;
+        let ctx = &self.ctx;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let paths = Buffer::new(ctx, "path state", capacity as u64 * per_path, storage, MemoryLocation::GpuOnly)?;
+        let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
+        let counters = Buffer::new(
+            ctx,
+            "counters",
+            std::mem::size_of::<Counters>() as u64,
+            storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
+        let probe = Buffer::new(ctx, "probe (unused)", 16, storage, MemoryLocation::GpuOnly)?;
+        self.bind_scene(&[
+            (BINDING_PATHS, &paths),
+            (BINDING_QUEUES, &queues),
+            (BINDING_COUNTERS, &counters),
+            (BINDING_FILM, &film),
+            (BINDING_PROBE, &probe),
+        ]);
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })?;
+
+        let mut stats = RenderStats::default();
+        let start = Instant::now();
+        let mut frame = self.frame(s);
+        frame.path_capacity = capacity;
+        let chunks = pixels.div_ceil(capacity as u64) as u32;
+        for sample in 0..s.spp {
+            for chunk in 0..chunks {
+                frame.sample_index = sample;
+                frame.pixel_offset = chunk * capacity;
+                frame.path_count = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
+                let pass_start = Instant::now();
+                self.pass(&frame, &counters)?;
+                let tally: Counters = counters.download(&self.ctx)?[0];
+                stats.extension_rays += tally.extension_rays as u64;
+                stats.shadow_rays += tally.shadow_rays as u64;
+                stats.samples += frame.path_count as u64;
+                if stats.passes == 0 {
+                    stats.first_pass = pass_start.elapsed();
+                } else {
+                    for (label, ns) in self.timestamps.read()? {
+                        match stats.stage_ms.iter_mut().find(|(l, _)| *l == label) {
+                            Some(e) => e.1 += ns * 1e-6,
+                            None => stats.stage_ms.push((label, ns * 1e-6)),
+                        }
+                    }
+                }
+                stats.passes += 1;
+            }
+            progress(sample + 1);
+        }
+        stats.wall = start.elapsed();
+        let raw: Vec<[f32; 4]> = film.download(&self.ctx)?;
+        self.check_validation()?;
+        let (sum, sum_sq) = raw.split_at(pixels as usize);
+        Ok((
+            Film { width: s.width, height: s.height, spp: s.spp, sum: sum.to_vec(), sum_sq: sum_sq[..pixels as usize].to_vec() },
+            stats,
+        ))
+    }
+
+    /// One sample for `frame.path_count` pixels: the whole path, every bounce, in one submission.
+    fn pass(&mut self, frame: &Frame, counters: &Buffer) -> Result<(), Error> {
+        let ctx = &self.ctx;
+        let p = &self.pipelines;
+        let ts = &mut self.timestamps;
+        let groups = frame.path_count.div_ceil(WORKGROUP_SIZE);
+        ctx.submit_and_wait(|cmd| {
+            ts.reset(cmd);
+            unsafe { ctx.device.cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0) };
+            ctx.barrier(cmd);
+            ts.time(cmd, "generate", || p.dispatch(cmd, "generate", frame, groups));
+            ctx.barrier(cmd);
+            let mut f = *frame;
+            for bounce in 0..=frame.max_depth {
+                f.bounce = bounce;
+                ts.time(cmd, "queue_args", || p.dispatch(cmd, "queue_args", &f, 1));
+                ctx.barrier(cmd);
+                ts.time(cmd, "extend", || p.dispatch_indirect(cmd, "extend", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ctx.barrier(cmd);
+                ts.time(cmd, "shade", || p.dispatch_indirect(cmd, "shade", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ctx.barrier(cmd);
+                // Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
+                ts.time(cmd, "connect", || p.dispatch_indirect(cmd, "connect", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ctx.barrier(cmd);
+            }
+            f.bounce = NO_HIT;
+            p.dispatch(cmd, "queue_args", &f, 1);
+            ctx.barrier(cmd);
+            ts.time(cmd, "accumulate", || p.dispatch(cmd, "accumulate", frame, groups));
+            ctx.barrier(cmd);
+        })
+    }
+
+    /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
+    pub fn probe_trace(&mut self, rays: &[crate::bvh::Ray], any_hit: bool) -> Result<Vec<crate::bvh::TraceHit>, Error> {
+        let n = rays.len() as u32;
+        let mut words: Vec<u32> = Vec::with_capacity(rays.len() * 12);
+        for r in rays {
+            words.extend([r.origin.x, r.origin.y, r.origin.z, r.tmin, r.dir.x, r.dir.y, r.dir.z, r.tmax].map(f32::to_bits));
+        }
+        words.resize(rays.len() * 12, 0);
+        let out = self.run_probe("probe_trace", &words, Frame { path_count: n, bounce: any_hit as u32, ..Default::default() })?;
+        Ok((0..rays.len())
+            .map(|k| {
+                let b = 8 * rays.len() + 4 * k;
+                crate::bvh::TraceHit {
+                    t: f32::from_bits(out[b]),
+                    tri: out[b + 1],
+                    uv: glam::Vec2::new(f32::from_bits(out[b + 2]), f32::from_bits(out[b + 3])),
+                }
+            })
+            .collect())
+    }
+
+    /// The light shade would pick for each of `n` samples (first bounce, sample index `sample`).
+    pub fn probe_light_pick(&mut self, n: u32, sample: u32, seed: u32) -> Result<Vec<u32>, Error> {
+        let words = vec![0u32; n as usize];
+        let mut out = self.run_probe("probe_light_pick", &words, Frame { path_count: n, sample_index: sample, seed, ..Default::default() })?;
+        out.truncate(n as usize);
+        Ok(out)
+    }
+
+    fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {
+        let ctx = &self.ctx;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let mut probe = Buffer::new(ctx, "probe", words.len() as u64 * 4, storage, MemoryLocation::CpuToGpu)?;
+        probe.upload(ctx, bytemuck::cast_slice(words))?;
+        let dummy: Vec<Buffer> = (0..4)
+            .map(|i| Buffer::new(ctx, &format!("probe dummy {i}"), 16, storage, MemoryLocation::GpuOnly))
+            .collect::<Result<_, _>>()?;
+        self.bind_scene(&[
+            (BINDING_PATHS, &dummy[0]),
+            (BINDING_QUEUES, &dummy[1]),
+            (BINDING_COUNTERS, &dummy[2]),
+            (BINDING_FILM, &dummy[3]),
+            (BINDING_PROBE, &probe),
+        ]);
+        let frame = Frame { light_count: self.light_count, ..frame };
+        let n = frame.path_count;
+        let p = &self.pipelines;
+        ctx.submit_and_wait(|cmd| {
+            p.dispatch(cmd, stage, &frame, n.div_ceil(WORKGROUP_SIZE));
+        })?;
+        let out = probe.download(ctx)?;
+        self.check_validation()?;
+        Ok(out)
+    }
+}

@@ -1,0 +1,370 @@
+//! glTF loading into the host scene model: world-space triangles, materials, emitters and the camera.
+use crate::Error;
+use glam::{Mat3, Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+/// A Lambertian material with emission (radiance in linear RGB, W sr^-1 m^-2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub base_color: Vec3,
+    pub emission: Vec3,
+    /// Emission leaves both faces; otherwise only the counter-clockwise (front) face emits.
+    pub double_sided: bool,
+}
+
+/// A pinhole camera in world space; the vertical field of view is fixed, the horizontal follows the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub world_from_camera: Mat4,
+    pub yfov: f32,
+}
+
+impl Camera {
+    pub fn origin(&self) -> Vec3 {
+        self.world_from_camera.transform_point3(Vec3::ZERO)
+    }
+    /// Right, up and forward unit vectors; glTF cameras look down -Z with +Y up.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let forward = self.world_from_camera.transform_vector3(-Vec3::Z).normalize();
+        let up0 = self.world_from_camera.transform_vector3(Vec3::Y);
+        let right = forward.cross(up0).normalize();
+        let up = right.cross(forward);
+        (right, up, forward)
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub path: PathBuf,
+    /// World-space triangles; front faces wind counter-clockwise.
+    pub triangles: Vec<[Vec3; 3]>,
+    pub normals: Vec<[Vec3; 3]>,
+    pub material_of: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub camera: Option<Camera>,
+    /// How many cameras the file holds (for `--camera`).
+    pub camera_count: usize,
+    /// Everything the file asked for that pathwave ignored, one sentence each.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.triangles {
+            for v in t {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The file's camera, or one that frames the whole scene from +Z.
+    pub fn camera_or_default(&self) -> Camera {
+        if let Some(c) = self.camera {
+            return c;
+        }
+        let (lo, hi) = if self.triangles.is_empty() { (Vec3::splat(-1.0), Vec3::splat(1.0)) } else { self.bounds() };
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        let yfov = 45f32.to_radians();
+        let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
+        Camera { world_from_camera: Mat4::from_translation(center + Vec3::Z * distance), yfov }
+    }
+
+    pub fn emissive_triangle_count(&self) -> usize {
+        self.material_of.iter().filter(|&&m| self.materials[m as usize].emission.max_element() > 0.0).count()
+    }
+}
+
+/// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
+pub const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+
+fn scene_err(path: &Path, message: impl Into<String>) -> Error {
+    Error::Scene { path: path.to_path_buf(), message: message.into() }
+}
+
+/// Loads a .gltf or .glb. `camera` picks the Nth camera in node order (default: the first).
+pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
+    if !path.exists() {
+        return Err(scene_err(path, "file not found"));
+    }
+    let gltf = gltf::Gltf::open(path).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+        .map_err(|e| scene_err(path, format!("cannot load buffer data: {e}")))?;
+    let mut scene = Scene { path: path.to_path_buf(), ..Default::default() };
+    Loader { path, buffers: &buffers, scene: &mut scene, cameras: Vec::new() }.run(&gltf.document, camera)?;
+    Ok(scene)
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    scene: &'a mut Scene,
+    cameras: Vec<Camera>,
+}
+
+impl Loader<'_> {
+    fn warn(&mut self, w: String) {
+        if !self.scene.warnings.contains(&w) {
+            self.scene.warnings.push(w);
+        }
+    }
+
+    fn run(&mut self, doc: &gltf::Document, camera: Option<usize>) -> Result<(), Error> {
+        for ext in doc.extensions_used() {
+            if !SUPPORTED_EXTENSIONS.contains(&ext) {
+                self.warn(format!("extension {ext} is not supported yet and is ignored"));
+            }
+        }
+        for ext in doc.extensions_required() {
+            if !SUPPORTED_EXTENSIONS.contains(&ext) {
+                return Err(scene_err(self.path, format!("requires extension {ext}, which pathwave does not support")));
+            }
+        }
+        if doc.animations().next().is_some() {
+            self.warn("animations are ignored; the scene renders at its rest pose".into());
+        }
+        if doc.skins().next().is_some() {
+            self.warn("skins are ignored; skinned meshes render at their bind pose".into());
+        }
+        for m in doc.materials() {
+            self.material(&m);
+        }
+        let default_material = self.scene.materials.len() as u32;
+        self.scene.materials.push(Material {
+            name: "(default)".into(),
+            base_color: Vec3::ONE,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        });
+
+        let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(s) => s.nodes().collect(),
+            None => {
+                let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+                doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+            }
+        };
+        let mut visited = HashSet::new();
+        for root in roots {
+            self.node(&root, Mat4::IDENTITY, default_material, &mut visited)?;
+        }
+        self.scene.camera_count = self.cameras.len();
+        self.scene.camera = match camera {
+            None => self.cameras.first().copied(),
+            Some(i) => Some(*self.cameras.get(i).ok_or_else(|| {
+                scene_err(self.path, format!("--camera {i}: the file has {} perspective camera(s)", self.cameras.len()))
+            })?),
+        };
+        if self.scene.camera.is_none() {
+            self.warn("the file has no perspective camera; using one that frames the scene".into());
+        }
+        if self.scene.triangles.is_empty() {
+            return Err(scene_err(self.path, "the scene has no triangles to render"));
+        }
+        Ok(())
+    }
+
+    fn material(&mut self, m: &gltf::Material) {
+        let name = m.name().map(str::to_string).unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
+        let pbr = m.pbr_metallic_roughness();
+        let c = pbr.base_color_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emission = Vec3::from(m.emissive_factor()) * strength;
+        if pbr.metallic_factor() > 0.0 {
+            self.warn(format!(
+                "material '{name}': metallic {} is not supported yet; rendered as Lambertian with its base colour",
+                pbr.metallic_factor()
+            ));
+        }
+        for (what, present) in [
+            ("baseColorTexture", pbr.base_color_texture().is_some()),
+            ("metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
+            ("normalTexture", m.normal_texture().is_some()),
+            ("emissiveTexture", m.emissive_texture().is_some()),
+        ] {
+            if present {
+                self.warn(format!("material '{name}': {what} is ignored (textures are not supported yet)"));
+            }
+        }
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            self.warn(format!("material '{name}': alphaMode {:?} is ignored; rendered opaque", m.alpha_mode()));
+        }
+        self.scene.materials.push(Material {
+            name,
+            base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
+            emission: emission.max(Vec3::ZERO),
+            double_sided: m.double_sided(),
+        });
+    }
+
+    fn node(
+        &mut self,
+        node: &gltf::Node,
+        parent: Mat4,
+        default_material: u32,
+        visited: &mut HashSet<usize>,
+    ) -> Result<(), Error> {
+        if !visited.insert(node.index()) {
+            return Err(scene_err(
+                self.path,
+                format!("node {} appears twice in the hierarchy (a cycle or a shared child)", node.index()),
+            ));
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(scene_err(self.path, format!("node {} has a non-finite transform", node.index())));
+        }
+        if let Some(cam) = node.camera() {
+            match cam.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let yfov = p.yfov();
+                    if yfov > 0.0 && yfov < std::f32::consts::PI {
+                        self.cameras.push(Camera { world_from_camera: world, yfov });
+                    } else {
+                        self.warn(format!("camera {}: yfov {yfov} is out of range and the camera is ignored", cam.index()));
+                    }
+                }
+                gltf::camera::Projection::Orthographic(_) => {
+                    self.warn(format!("camera {}: orthographic cameras are not supported and it is ignored", cam.index()))
+                }
+            }
+        }
+        if let Some(mesh) = node.mesh() {
+            if node.skin().is_some() {
+                self.warn("skins are ignored; skinned meshes render at their bind pose".into());
+            }
+            for prim in mesh.primitives() {
+                self.primitive(&mesh, &prim, world, default_material)?;
+            }
+        }
+        for child in node.children() {
+            self.node(&child, world, default_material, visited)?;
+        }
+        Ok(())
+    }
+
+    /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.
+    fn check_accessor(&self, acc: &gltf::Accessor, what: &str, types: &[DataType], dims: Dimensions) -> Result<(), Error> {
+        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
+        if acc.count() == 0 {
+            return Err(err("count is 0".into()));
+        }
+        if !types.contains(&acc.data_type()) || acc.dimensions() != dims || acc.normalized() {
+            return Err(err(format!(
+                "expected {dims:?} of {types:?}, found {:?} of {:?}{}",
+                acc.dimensions(),
+                acc.data_type(),
+                if acc.normalized() { " (normalized)" } else { "" }
+            )));
+        }
+        if acc.sparse().is_some() {
+            return Err(err("sparse accessors are not supported yet".into()));
+        }
+        let view = acc.view().ok_or_else(|| err("has no bufferView".into()))?;
+        let size = acc.size();
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(err(format!("byteStride {stride} is smaller than the element size {size}")));
+        }
+        let buffer_len = self.buffers.get(view.buffer().index()).map(|b| b.len()).unwrap_or(0);
+        let view_end = view.offset().checked_add(view.length());
+        if view_end.is_none_or(|e| e > buffer_len) {
+            return Err(err(format!("bufferView {} runs past the end of its buffer", view.index())));
+        }
+        let end = (acc.count() - 1).checked_mul(stride).and_then(|x| x.checked_add(size)).and_then(|x| x.checked_add(acc.offset()));
+        if end.is_none_or(|e| e > view.length()) {
+            return Err(err(format!("runs past the end of bufferView {}", view.index())));
+        }
+        Ok(())
+    }
+
+    fn primitive(&mut self, mesh: &gltf::Mesh, prim: &gltf::Primitive, world: Mat4, default_material: u32) -> Result<(), Error> {
+        let mesh_name = mesh.name().map(str::to_string).unwrap_or_else(|| format!("#{}", mesh.index()));
+        let mode = prim.mode();
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.warn(format!("mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"));
+            return Ok(());
+        }
+        if prim.morph_targets().next().is_some() {
+            self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
+        }
+        let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+            self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
+            return Ok(());
+        };
+        self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
+        let normal_acc = prim.get(&gltf::Semantic::Normals);
+        if let Some(n) = &normal_acc {
+            self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)?;
+        }
+        if let Some(i) = prim.indices() {
+            self.check_accessor(&i, "indices", &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)?;
+        }
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
+            .map(Vec3::from)
+            .collect();
+        let normals: Option<Vec<Vec3>> = if normal_acc.is_some() { reader.read_normals().map(|n| n.map(Vec3::from).collect()) } else { None };
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if normals.as_ref().is_some_and(|n| n.len() != positions.len()) {
+            return Err(scene_err(self.path, format!("mesh '{mesh_name}': NORMAL and POSITION have different counts")));
+        }
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return Err(scene_err(
+                self.path,
+                format!("mesh '{mesh_name}': index {bad} is out of range ({} vertices)", positions.len()),
+            ));
+        }
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(scene_err(self.path, format!("mesh '{mesh_name}': POSITION holds a non-finite value")));
+        }
+        let triangles: Vec<[u32; 3]> = match mode {
+            Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            // Strips alternate winding; swapping odd triangles keeps every front face counter-clockwise.
+            Mode::TriangleStrip => (2..indices.len())
+                .map(|i| if i % 2 == 0 { [indices[i - 2], indices[i - 1], indices[i]] } else { [indices[i - 1], indices[i - 2], indices[i]] })
+                .collect(),
+            _ => (2..indices.len()).map(|i| [indices[0], indices[i - 1], indices[i]]).collect(),
+        };
+        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        // A mirroring transform turns counter-clockwise into clockwise; swap two vertices to keep the front face.
+        let flip = Mat3::from_mat4(world).determinant() < 0.0;
+        for [a, b, c] in triangles {
+            let (a, b, c) = if flip { (a, c, b) } else { (a, b, c) };
+            let v = [a, b, c].map(|i| world.transform_point3(positions[i as usize]));
+            let face = (v[1] - v[0]).cross(v[2] - v[0]);
+            if face.length_squared() == 0.0 || !face.is_finite() {
+                continue; // degenerate: no area, cannot be hit or emit
+            }
+            let face_n = face.normalize();
+            let n = match &normals {
+                Some(ns) => [a, b, c].map(|i| {
+                    let n = normal_matrix * ns[i as usize];
+                    if n.is_finite() && n.length_squared() > 0.0 { n.normalize() } else { face_n }
+                }),
+                None => [face_n; 3],
+            };
+            self.scene.triangles.push(v);
+            self.scene.normals.push(n);
+            self.scene.material_of.push(material);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,434 @@
+//! The thin ash layer: instance and device choice, validation, memory, compute pipelines and timestamps.
+mod buffer;
+mod pipeline;
+
+pub use buffer::Buffer;
+pub use pipeline::{Pipelines, Timestamps};
+
+use crate::Error;
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::{c_void, CStr};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+impl From<vk::Result> for Error {
+    fn from(r: vk::Result) -> Self {
+        Error::Vulkan(format!("{r:?}"))
+    }
+}
+
+/// How the validation layer is used, from `PATHWAVE_VALIDATION`: unset/0 off, 1 on, `sync` on with synchronization checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validation {
+    Off,
+    On,
+    Sync,
+}
+
+impl Validation {
+    pub fn from_env() -> Self {
+        match std::env::var("PATHWAVE_VALIDATION").as_deref() {
+            Ok("1") | Ok("on") | Ok("true") => Validation::On,
+            Ok("sync") => Validation::Sync,
+            _ => Validation::Off,
+        }
+    }
+}
+
+/// Which device to use: the best available, or one by index or (part of its) name.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DeviceChoice {
+    #[default]
+    Best,
+    Index(usize),
+    Name(String),
+}
+
+impl std::str::FromStr for DeviceChoice {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s.parse::<usize>() {
+            Ok(i) => DeviceChoice::Index(i),
+            Err(_) => DeviceChoice::Name(s.to_string()),
+        })
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub max_storage_buffer_range: u32,
+}
+
+/// Messages the validation layer reported, kept so a render can fail on any error.
+#[derive(Default)]
+struct ValidationLog {
+    errors: Mutex<Vec<String>>,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    let log = &*(user as *const ValidationLog);
+    let msg = if data.is_null() || (*data).p_message.is_null() {
+        "(no message)".to_string()
+    } else {
+        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+    };
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        eprintln!("validation error: {msg}");
+        if let Ok(mut e) = log.errors.lock() {
+            e.push(msg);
+        }
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        eprintln!("validation warning: {msg}");
+    }
+    vk::FALSE
+}
+
+fn kind_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn kind_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// A device, its one compute queue, the memory allocator and a command pool.
+pub struct Context {
+    pub instance: ash::Instance,
+    pub physical: vk::PhysicalDevice,
+    pub properties: vk::PhysicalDeviceProperties,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
+    pub pool: vk::CommandPool,
+    pub timestamps_valid: bool,
+    pub fence_timeout: Duration,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    debug_device: Option<ash::ext::debug_utils::Device>,
+    log: Box<ValidationLog>,
+    _entry: ash::Entry,
+}
+
+fn load_entry() -> Result<ash::Entry, Error> {
+    // SAFETY: loading the system Vulkan loader; nothing else runs its initialisers concurrently.
+    unsafe { ash::Entry::load() }.map_err(|e| {
+        Error::Vulkan(format!(
+            "cannot load the Vulkan loader ({e}); install libvulkan1 and a driver (bash ci/setup.sh installs lavapipe)"
+        ))
+    })
+}
+
+fn create_instance(entry: &ash::Entry, validation: Validation) -> Result<ash::Instance, Error> {
+    let app = vk::ApplicationInfo::default()
+        .application_name(c"pathwave")
+        .engine_name(c"pathwave")
+        .api_version(vk::API_VERSION_1_2);
+    let mut layers = Vec::new();
+    let mut extensions = Vec::new();
+    if validation != Validation::Off {
+        let available = unsafe { entry.enumerate_instance_layer_properties() }?;
+        let has = available
+            .iter()
+            .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+        if !has {
+            return Err(Error::Vulkan(
+                "PATHWAVE_VALIDATION is set but VK_LAYER_KHRONOS_validation is not installed (apt-get install vulkan-validationlayers)".into(),
+            ));
+        }
+        layers.push(VALIDATION_LAYER.as_ptr());
+        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+    let enables = [
+        vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
+        vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
+    ];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables[..1]);
+    let mut info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    if validation == Validation::Sync {
+        info = info.push_next(&mut features);
+    }
+    Ok(unsafe { entry.create_instance(&info, None) }?)
+}
+
+fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> DeviceInfo {
+    let p = unsafe { instance.get_physical_device_properties(pd) };
+    DeviceInfo {
+        index,
+        name: p.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        kind: kind_name(p.device_type).to_string(),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(p.api_version),
+            vk::api_version_minor(p.api_version),
+            vk::api_version_patch(p.api_version)
+        ),
+        max_storage_buffer_range: p.limits.max_storage_buffer_range,
+    }
+}
+
+fn compute_queue_family(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<u32> {
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    families
+        .iter()
+        .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        .map(|i| i as u32)
+}
+
+/// Every Vulkan device on this machine, in the loader's order (the index `--device` takes).
+pub fn list_devices() -> Result<Vec<DeviceInfo>, Error> {
+    let entry = load_entry()?;
+    let instance = create_instance(&entry, Validation::Off)?;
+    let devices = unsafe { instance.enumerate_physical_devices() }?;
+    let infos = devices.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect();
+    unsafe { instance.destroy_instance(None) };
+    Ok(infos)
+}
+
+impl Context {
+    pub fn new(choice: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
+        let entry = load_entry()?;
+        let instance = create_instance(&entry, validation)?;
+        let log = Box::<ValidationLog>::default();
+        let debug = if validation != Validation::Off {
+            let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*log as *const ValidationLog as *mut c_void);
+            let m = unsafe { du.create_debug_utils_messenger(&info, None) }?;
+            Some((du, m))
+        } else {
+            None
+        };
+        let devices = unsafe { instance.enumerate_physical_devices() }?;
+        let usable: Vec<(usize, vk::PhysicalDevice)> = devices
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|(_, pd)| compute_queue_family(&instance, *pd).is_some())
+            .collect();
+        let picked = match choice {
+            DeviceChoice::Best => usable
+                .iter()
+                .min_by_key(|(i, pd)| (kind_rank(unsafe { instance.get_physical_device_properties(*pd) }.device_type), *i))
+                .copied(),
+            DeviceChoice::Index(n) => usable.iter().find(|(i, _)| i == n).copied(),
+            DeviceChoice::Name(name) => usable
+                .iter()
+                .find(|(i, pd)| describe(&instance, *i, *pd).name.to_lowercase().contains(&name.to_lowercase()))
+                .copied(),
+        };
+        let Some((_, physical)) = picked else {
+            let names: Vec<String> =
+                devices.iter().enumerate().map(|(i, &pd)| format!("{i}: {}", describe(&instance, i, pd).name)).collect();
+            unsafe { instance.destroy_instance(None) };
+            return Err(Error::Vulkan(match choice {
+                DeviceChoice::Best => "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into(),
+                other => format!("no device matches {other:?}; devices: [{}]", names.join(", ")),
+            }));
+        };
+        let properties = unsafe { instance.get_physical_device_properties(physical) };
+        let queue_family = compute_queue_family(&instance, physical).expect("filtered above");
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        let timestamps_valid =
+            families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
+        let priorities = [1.0];
+        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device = unsafe { instance.create_device(physical, &device_info, None) }?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| Error::Vulkan(format!("allocator: {e}")))?;
+        let pool = unsafe {
+            device.create_command_pool(
+                &vk::CommandPoolCreateInfo::default()
+                    .queue_family_index(queue_family)
+                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                None,
+            )
+        }?;
+        let debug_device = debug.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let fence_timeout = Duration::from_secs(
+            std::env::var("PATHWAVE_GPU_TIMEOUT_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(300),
+        );
+        Ok(Context {
+            instance,
+            physical,
+            properties,
+            device,
+            queue,
+            queue_family,
+            allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
+            pool,
+            timestamps_valid,
+            fence_timeout,
+            debug,
+            debug_device,
+            log,
+            _entry: entry,
+        })
+    }
+
+    pub fn device_name(&self) -> String {
+        self.properties.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    }
+
+    /// Validation errors reported since the context was made.
+    pub fn validation_errors(&self) -> Vec<String> {
+        self.log.errors.lock().map(|e| e.clone()).unwrap_or_default()
+    }
+
+    /// Names an object for validation messages and capture tools; a no-op without debug utils.
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.debug_device {
+            if let Ok(c) = std::ffi::CString::new(name) {
+                let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&c);
+                let _ = unsafe { du.set_debug_utils_object_name(&info) };
+            }
+        }
+    }
+
+    /// Records commands into a fresh command buffer, submits it and waits, with a timeout so a hung device is an error.
+    pub fn submit_and_wait(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<(), Error> {
+        let d = &self.device;
+        let cmd = unsafe {
+            d.allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(self.pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1),
+            )
+        }?[0];
+        let fence = unsafe { d.create_fence(&vk::FenceCreateInfo::default(), None) }?;
+        let result = (|| -> Result<(), Error> {
+            unsafe {
+                d.begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )?;
+            }
+            record(cmd);
+            unsafe {
+                // Makes device writes visible to host reads of mapped memory once the fence signals.
+                let to_host = vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ);
+                d.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[to_host],
+                    &[],
+                    &[],
+                );
+                d.end_command_buffer(cmd)?;
+                let cmds = [cmd];
+                d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence)?;
+                match d.wait_for_fences(&[fence], true, self.fence_timeout.as_nanos() as u64) {
+                    Ok(()) => Ok(()),
+                    Err(vk::Result::TIMEOUT) => Err(Error::Vulkan(format!(
+                        "the device did not finish within {} s (PATHWAVE_GPU_TIMEOUT_SECS); it may be hung",
+                        self.fence_timeout.as_secs()
+                    ))),
+                    Err(e) => Err(e.into()),
+                }
+            }
+        })();
+        unsafe {
+            if result.is_ok() {
+                d.free_command_buffers(self.pool, &[cmd]);
+                d.destroy_fence(fence, None);
+            } else {
+                // After a timeout the device may still use them; waiting for idle before freeing keeps that legal.
+                let _ = d.device_wait_idle();
+                d.free_command_buffers(self.pool, &[cmd]);
+                d.destroy_fence(fence, None);
+            }
+        }
+        result
+    }
+
+    /// A full compute-to-compute (and to indirect-argument and transfer) barrier; the wavefront's stages are serial.
+    pub fn barrier(&self, cmd: vk::CommandBuffer) {
+        let barrier = vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(
+                vk::AccessFlags::SHADER_READ
+                    | vk::AccessFlags::SHADER_WRITE
+                    | vk::AccessFlags::INDIRECT_COMMAND_READ
+                    | vk::AccessFlags::TRANSFER_READ
+                    | vk::AccessFlags::TRANSFER_WRITE,
+            );
+        unsafe {
+            self.device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::COMPUTE_SHADER
+                    | vk::PipelineStageFlags::DRAW_INDIRECT
+                    | vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            );
+        }
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_command_pool(self.pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((du, m)) = self.debug.take() {
+                du.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

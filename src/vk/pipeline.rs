@@ -1,0 +1,208 @@
+//! Compute pipelines that share one descriptor set layout and one push-constant block, and per-stage GPU timers.
+use super::{Buffer, Context};
+use crate::constants::BINDING_COUNT;
+use crate::layout::Frame;
+use crate::Error;
+use ash::vk;
+use std::collections::HashMap;
+
+pub struct Pipelines {
+    pub set_layout: vk::DescriptorSetLayout,
+    pub layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    pipelines: HashMap<String, vk::Pipeline>,
+    device: ash::Device,
+}
+
+impl Pipelines {
+    pub fn new(ctx: &Context, stages: &[(&str, &[u8])]) -> Result<Self, Error> {
+        let d = &ctx.device;
+        let bindings: Vec<_> = (0..BINDING_COUNT)
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let set_layout =
+            unsafe { d.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(std::mem::size_of::<Frame>() as u32)];
+        let set_layouts = [set_layout];
+        let layout = unsafe {
+            d.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&ranges),
+                None,
+            )
+        }?;
+        let sizes = [vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(BINDING_COUNT)];
+        let pool =
+            unsafe { d.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }?;
+        let set = unsafe {
+            d.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts))
+        }?[0];
+        let mut me = Pipelines { set_layout, layout, pool, set, pipelines: HashMap::new(), device: d.clone() };
+        for (name, spv) in stages {
+            me.replace(ctx, name, spv)?;
+        }
+        Ok(me)
+    }
+
+    /// Builds (or rebuilds) one stage's pipeline from SPIR-V.
+    pub fn replace(&mut self, ctx: &Context, name: &str, spv: &[u8]) -> Result<(), Error> {
+        let d = &ctx.device;
+        let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
+            .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
+        let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(self.layout)];
+        let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        unsafe { d.destroy_shader_module(module, None) };
+        let pipeline = result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
+        ctx.set_name(pipeline, name);
+        if let Some(old) = self.pipelines.insert(name.to_string(), pipeline) {
+            unsafe { d.destroy_pipeline(old, None) };
+        }
+        Ok(())
+    }
+
+    pub fn bind_buffers(&self, ctx: &Context, buffers: &[(u32, &Buffer)]) {
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(b.raw).offset(0).range(vk::WHOLE_SIZE)])
+            .collect();
+        let writes: Vec<_> = buffers
+            .iter()
+            .zip(&infos)
+            .map(|((binding, _), info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    fn bind(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame) {
+        let pipeline = *self.pipelines.get(name).unwrap_or_else(|| panic!("no pipeline named {name}"));
+        unsafe {
+            self.device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+            self.device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            self.device.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(frame),
+            );
+        }
+    }
+
+    pub fn dispatch(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, groups: u32) {
+        self.bind(cmd, name, frame);
+        unsafe { self.device.cmd_dispatch(cmd, groups, 1, 1) };
+    }
+
+    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, args: &Buffer, offset: u64) {
+        self.bind(cmd, name, frame);
+        unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
+    }
+}
+
+impl Drop for Pipelines {
+    fn drop(&mut self) {
+        unsafe {
+            for (_, p) in self.pipelines.drain() {
+                self.device.destroy_pipeline(p, None);
+            }
+            self.device.destroy_descriptor_pool(self.pool, None);
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// Timestamp pairs around dispatches, summed per stage name after the command buffer completes.
+pub struct Timestamps {
+    pool: vk::QueryPool,
+    capacity: u32,
+    labels: Vec<&'static str>,
+    period_ns: f64,
+    enabled: bool,
+    device: ash::Device,
+}
+
+impl Timestamps {
+    pub fn new(ctx: &Context, capacity: u32) -> Result<Self, Error> {
+        let pool = unsafe {
+            ctx.device.create_query_pool(
+                &vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity),
+                None,
+            )
+        }?;
+        Ok(Timestamps {
+            pool,
+            capacity,
+            labels: Vec::new(),
+            period_ns: ctx.properties.limits.timestamp_period as f64,
+            enabled: ctx.timestamps_valid,
+            device: ctx.device.clone(),
+        })
+    }
+
+    pub fn reset(&mut self, cmd: vk::CommandBuffer) {
+        self.labels.clear();
+        if self.enabled {
+            unsafe { self.device.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
+        }
+    }
+
+    /// Records `f` between two timestamps labelled `label`; beyond capacity it records untimed.
+    pub fn time(&mut self, cmd: vk::CommandBuffer, label: &'static str, f: impl FnOnce()) {
+        let q = 2 * self.labels.len() as u32;
+        if !self.enabled || q + 2 > self.capacity {
+            f();
+            return;
+        }
+        unsafe { self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, q) };
+        f();
+        unsafe { self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
+        self.labels.push(label);
+    }
+
+    /// Nanoseconds per label for the last completed command buffer.
+    pub fn read(&self) -> Result<Vec<(&'static str, f64)>, Error> {
+        if self.labels.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mut raw = vec![0u64; 2 * self.labels.len()];
+        unsafe {
+            self.device.get_query_pool_results(self.pool, 0, &mut raw, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+        }?;
+        let mut sums: Vec<(&'static str, f64)> = Vec::new();
+        for (i, label) in self.labels.iter().enumerate() {
+            let ns = raw[2 * i + 1].saturating_sub(raw[2 * i]) as f64 * self.period_ns;
+            match sums.iter_mut().find(|(l, _)| l == label) {
+                Some(e) => e.1 += ns,
+                None => sums.push((label, ns)),
+            }
+        }
+        Ok(sums)
+    }
+}
+
+impl Drop for Timestamps {
+    fn drop(&mut self) {
+        unsafe { self.device.destroy_query_pool(self.pool, None) };
+    }
+}

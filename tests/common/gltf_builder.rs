@@ -1,0 +1,159 @@
+//! Writes small glTF 2.0 scenes (one .gltf with an embedded buffer) for tests and for scenes/.
+#![allow(dead_code)]
+use glam::{Mat3, Quat, Vec3};
+use serde_json::{json, Value};
+
+#[derive(Default)]
+pub struct GltfBuilder {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    nodes: Vec<Value>,
+    cameras: Vec<Value>,
+    extensions: Vec<&'static str>,
+}
+
+impl GltfBuilder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A Lambertian material; emission is radiance (W sr^-1 m^-2), written with KHR_materials_emissive_strength past 1.
+    pub fn material(&mut self, name: &str, base: [f32; 3], emission: [f32; 3], double_sided: bool) -> usize {
+        let peak = emission.iter().cloned().fold(0.0f32, f32::max);
+        let mut m = json!({
+            "name": name,
+            "pbrMetallicRoughness": { "baseColorFactor": [base[0], base[1], base[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 },
+            "doubleSided": double_sided,
+        });
+        if peak > 0.0 {
+            let scale = peak.max(1.0);
+            m["emissiveFactor"] = json!(emission.map(|e| e / scale));
+            if scale > 1.0 {
+                m["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": scale } });
+                if !self.extensions.contains(&"KHR_materials_emissive_strength") {
+                    self.extensions.push("KHR_materials_emissive_strength");
+                }
+            }
+        }
+        self.materials.push(m);
+        self.materials.len() - 1
+    }
+
+    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.views.push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target }));
+        self.views.len() - 1
+    }
+
+    /// An indexed triangle mesh on its own node; front faces wind counter-clockwise.
+    pub fn mesh(&mut self, name: &str, positions: &[[f32; 3]], indices: &[u32], material: usize) {
+        let pos_bytes: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let pv = self.push_view(&pos_bytes, 34962);
+        let iv = self.push_view(&idx_bytes, 34963);
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in positions {
+            for c in 0..3 {
+                lo[c] = lo[c].min(p[c]);
+                hi[c] = hi[c].max(p[c]);
+            }
+        }
+        self.accessors.push(json!({ "bufferView": pv, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi }));
+        let pa = self.accessors.len() - 1;
+        self.accessors.push(json!({ "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR" }));
+        let ia = self.accessors.len() - 1;
+        self.meshes.push(json!({ "name": name, "primitives": [{ "attributes": { "POSITION": pa }, "indices": ia, "material": material }] }));
+        self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
+    }
+
+    /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
+    pub fn quad(&mut self, name: &str, corners: [[f32; 3]; 4], material: usize, facing: Option<[f32; 3]>) {
+        let c = corners.map(Vec3::from);
+        let n = (c[1] - c[0]).cross(c[2] - c[0]);
+        let flip = facing.is_some_and(|f| n.dot(Vec3::from(f)) < 0.0);
+        let idx: &[u32] = if flip { &[0, 2, 1, 0, 3, 2] } else { &[0, 1, 2, 0, 2, 3] };
+        self.mesh(name, &corners, idx, material);
+    }
+
+    /// An axis-aligned box whose faces look inwards (for closed rooms) or outwards.
+    pub fn cube(&mut self, name: &str, lo: [f32; 3], hi: [f32; 3], material: usize, inward: bool) {
+        let (l, h) = (Vec3::from(lo), Vec3::from(hi));
+        let center = (l + h) * 0.5;
+        let v = |x: f32, y: f32, z: f32| [x, y, z];
+        let faces = [
+            [v(l.x, l.y, l.z), v(l.x, h.y, l.z), v(l.x, h.y, h.z), v(l.x, l.y, h.z)],
+            [v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(h.x, l.y, h.z)],
+            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, l.y, h.z), v(l.x, l.y, h.z)],
+            [v(l.x, h.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
+            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(l.x, h.y, l.z)],
+            [v(l.x, l.y, h.z), v(h.x, l.y, h.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
+        ];
+        for (i, f) in faces.iter().enumerate() {
+            let fc = f.iter().map(|p| Vec3::from(*p)).sum::<Vec3>() / 4.0;
+            let out = fc - center;
+            let facing = if inward { -out } else { out };
+            self.quad(&format!("{name} {i}"), *f, material, Some(facing.into()));
+        }
+    }
+
+    /// A perspective camera at `eye` looking at `target`; yfov in degrees.
+    pub fn camera(&mut self, eye: [f32; 3], target: [f32; 3], up: [f32; 3], yfov_deg: f32) {
+        // glTF cameras look down -Z with +Y up.
+        let forward = (Vec3::from(target) - Vec3::from(eye)).normalize();
+        let right = forward.cross(Vec3::from(up)).normalize();
+        let true_up = right.cross(forward);
+        let rot = Quat::from_mat3(&Mat3::from_cols(right, true_up, -forward)).normalize();
+        self.cameras.push(json!({ "type": "perspective", "perspective": { "yfov": yfov_deg.to_radians(), "znear": 0.01, "aspectRatio": 1.0 } }));
+        self.nodes.push(json!({ "name": "camera", "camera": self.cameras.len() - 1, "translation": eye, "rotation": rot.to_array() }));
+    }
+
+    pub fn to_json(&self) -> String {
+        let mut doc = json!({
+            "asset": { "version": "2.0", "generator": "pathwave tests/common/gltf_builder.rs" },
+            "scene": 0,
+            "scenes": [{ "nodes": (0..self.nodes.len()).collect::<Vec<_>>() }],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "accessors": self.accessors,
+            "bufferViews": self.views,
+            "buffers": [{ "byteLength": self.bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64(&self.bin)) }],
+        });
+        if !self.cameras.is_empty() {
+            doc["cameras"] = json!(self.cameras);
+        }
+        if !self.extensions.is_empty() {
+            doc["extensionsUsed"] = json!(self.extensions);
+        }
+        serde_json::to_string_pretty(&doc).unwrap() + "\n"
+    }
+
+    pub fn write(&self, path: &std::path::Path) {
+        std::fs::write(path, self.to_json()).unwrap();
+    }
+}
+
+fn base64(data: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::with_capacity(data.len().div_ceil(3) * 4);
+    for c in data.chunks(3) {
+        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for (i, shift) in [18, 12, 6, 0].into_iter().enumerate() {
+            if i <= c.len() {
+                s.push(A[(n >> shift & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}

@@ -1,0 +1,72 @@
+//! The scenes in scenes/, as code: tests/scenes.rs checks the files match, examples/make_scenes.rs writes them.
+#![allow(dead_code)]
+use super::gltf_builder::GltfBuilder;
+
+/// The Cornell box with the measured dimensions (in metres) and the common RGB reflectances of its walls.
+pub fn cornell_box() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let s = 0.001; // the original data is in millimetres
+    let p = |v: [f32; 3]| [v[0] * s, v[1] * s, v[2] * s];
+    let white = b.material("white", [0.725, 0.71, 0.68], [0.0; 3], false);
+    let red = b.material("red", [0.63, 0.065, 0.05], [0.0; 3], false);
+    let green = b.material("green", [0.14, 0.45, 0.091], [0.0; 3], false);
+    let light = b.material("light", [0.78, 0.78, 0.78], [17.0, 12.0, 4.0], false);
+    let inward = |c: [f32; 3]| Some([278.0 - c[0], 274.4 - c[1], 279.6 - c[2]]);
+    let quad = |b: &mut GltfBuilder, name: &str, q: [[f32; 3]; 4], m: usize, facing: Option<[f32; 3]>| b.quad(name, q.map(p), m, facing);
+    quad(&mut b, "floor", [[552.8, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 559.2], [549.6, 0.0, 559.2]], white, inward([278.0, 0.0, 279.6]));
+    quad(&mut b, "ceiling", [[556.0, 548.8, 0.0], [556.0, 548.8, 559.2], [0.0, 548.8, 559.2], [0.0, 548.8, 0.0]], white, inward([278.0, 548.8, 279.6]));
+    quad(&mut b, "back wall", [[549.6, 0.0, 559.2], [0.0, 0.0, 559.2], [0.0, 548.8, 559.2], [556.0, 548.8, 559.2]], white, inward([278.0, 274.4, 559.2]));
+    quad(&mut b, "green wall", [[0.0, 0.0, 559.2], [0.0, 0.0, 0.0], [0.0, 548.8, 0.0], [0.0, 548.8, 559.2]], green, inward([0.0, 274.4, 279.6]));
+    quad(&mut b, "red wall", [[552.8, 0.0, 0.0], [549.6, 0.0, 559.2], [556.0, 548.8, 559.2], [556.0, 548.8, 0.0]], red, inward([556.0, 274.4, 279.6]));
+    quad(&mut b, "light", [[343.0, 548.7, 227.0], [343.0, 548.7, 332.0], [213.0, 548.7, 332.0], [213.0, 548.7, 227.0]], light, Some([0.0, -1.0, 0.0]));
+    let block = |b: &mut GltfBuilder, name: &str, top: [[f32; 3]; 4], height: f32| {
+        // Sides from each top edge down to the floor, then the top; faces point away from the block's axis.
+        let c = top.iter().fold([0.0; 3], |a, v| [a[0] + v[0] / 4.0, 0.0, a[2] + v[2] / 4.0]);
+        for i in 0..4 {
+            let (a, d) = (top[i], top[(i + 1) % 4]);
+            let q = [[a[0], 0.0, a[2]], [a[0], height, a[2]], [d[0], height, d[2]], [d[0], 0.0, d[2]]];
+            let mid = [(a[0] + d[0]) / 2.0 - c[0], 0.0, (a[2] + d[2]) / 2.0 - c[2]];
+            quad(b, &format!("{name} side {i}"), q, white, Some(mid));
+        }
+        quad(b, &format!("{name} top"), top, white, Some([0.0, 1.0, 0.0]));
+    };
+    block(&mut b, "short block", [[130.0, 165.0, 65.0], [82.0, 165.0, 225.0], [240.0, 165.0, 272.0], [290.0, 165.0, 114.0]], 165.0);
+    block(&mut b, "tall block", [[423.0, 330.0, 247.0], [265.0, 330.0, 296.0], [314.0, 330.0, 456.0], [472.0, 330.0, 406.0]], 330.0);
+    b.camera(p([278.0, 273.0, -800.0]), p([278.0, 273.0, 0.0]), [0.0, 1.0, 0.0], 39.3077);
+    b
+}
+
+/// A closed room whose walls emit `le` from their inner faces and reflect `albedo`: every pixel converges to le / (1 - albedo).
+pub fn furnace(le: f32, albedo: f32) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let m = b.material("wall", [albedo; 3], [le; 3], false);
+    b.cube("room", [-1.0; 3], [1.0; 3], m, true);
+    b.camera([0.2, -0.1, 0.3], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 60.0);
+    b
+}
+
+/// A grey floor lit from above by one large and one small area light of equal power.
+pub fn two_lights() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3], false);
+    let big = b.material("big light", [0.0; 3], [1.0; 3], false);
+    let small = b.material("small light", [0.0; 3], [100.0; 3], false);
+    b.quad("floor", [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], floor, Some([0.0, 1.0, 0.0]));
+    b.quad("big light", [[-1.8, 1.0, -1.0], [-0.2, 1.0, -1.0], [-0.2, 1.0, 1.0], [-1.8, 1.0, 1.0]], big, Some([0.0, -1.0, 0.0]));
+    b.quad("small light", [[0.9, 0.6, -0.16], [1.1, 0.6, -0.16], [1.1, 0.6, 0.16], [0.9, 0.6, 0.16]], small, Some([0.0, -1.0, 0.0]));
+    b.camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    b
+}
+
+/// Two square lights whose power differs by a known ratio (4:1 by area, 3:1 by radiance: 12:1 overall).
+pub fn unequal_lights() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3], false);
+    let a = b.material("bright", [0.0; 3], [3.0; 3], false);
+    let c = b.material("dim", [0.0; 3], [1.0; 3], false);
+    b.quad("floor", [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]], floor, Some([0.0, 1.0, 0.0]));
+    b.quad("bright", [[-1.5, 1.0, -0.5], [-0.5, 1.0, -0.5], [-0.5, 1.0, 0.5], [-1.5, 1.0, 0.5]], a, Some([0.0, -1.0, 0.0]));
+    b.quad("dim", [[0.5, 1.0, -0.25], [1.0, 1.0, -0.25], [1.0, 1.0, 0.25], [0.5, 1.0, 0.25]], c, Some([0.0, -1.0, 0.0]));
+    b.camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    b
+}
