@@ -95,13 +95,87 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     if !path.exists() {
         return Err(scene_err(path, "file not found"));
     }
-    let gltf = gltf::Gltf::open(path).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
+    // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
+    if bytes.starts_with(b"glTF") && bytes.get(8..12).is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12) {
+        return Err(scene_err(path, "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes"));
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    let json = gltf.document.into_json();
+    pre_validate(path, &json)?;
+    let document = gltf::Document::from_json(json).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+    check_buffer_uris(path, base, &document)?;
+    let buffers = gltf::import_buffers(&document, Some(base), gltf.blob)
         .map_err(|e| scene_err(path, format!("cannot load buffer data: {e}")))?;
     let mut scene = Scene { path: path.to_path_buf(), ..Default::default() };
-    Loader { path, buffers: &buffers, scene: &mut scene, cameras: Vec::new() }.run(&gltf.document, camera)?;
+    Loader { path, buffers: &buffers, scene: &mut scene, cameras: Vec::new() }.run(&document, camera)?;
     Ok(scene)
+}
+
+/// What gltf 1.4's own validation assumes instead of checking (it indexes the POSITION accessor unchecked),
+/// plus required extensions, refused here with a clearer message than its "Unsupported extension".
+fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
+    for ext in &json.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(scene_err(path, format!("requires extension {ext}, which pathwave does not support")));
+        }
+    }
+    let positions = gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.get(&positions).filter(|i| i.value() >= json.accessors.len()) {
+                return Err(scene_err(
+                    path,
+                    format!("mesh {m} primitive {p}: POSITION refers to accessor {}, which does not exist", i.value()),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses external buffer URIs gltf 1.4 would panic on (percent-escapes that decode to invalid UTF-8) or
+/// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO).
+fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document) -> Result<(), Error> {
+    for buffer in doc.buffers() {
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else { continue };
+        let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
+        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+            PathBuf::from(rest)
+        } else if uri.contains(':') {
+            continue; // data: URIs are decoded in memory; other schemes are refused by gltf
+        } else {
+            let decoded = percent_decode(uri).ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
+            base.join(decoded)
+        };
+        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
+            return Err(err("not a regular file"));
+        }
+    }
+    Ok(())
+}
+
+/// Percent-decodes a relative URI as gltf 1.4 does (malformed escapes stay literal); `None` if not UTF-8.
+fn percent_decode(uri: &str) -> Option<String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = b.get(i + 1..i + 3).filter(|h| h.iter().all(u8::is_ascii_hexdigit));
+        let hex = hex.and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
+        match (b[i], hex) {
+            (b'%', Some(v)) => {
+                out.push(v);
+                i += 3;
+            }
+            (c, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 struct Loader<'a> {
@@ -124,11 +198,6 @@ impl Loader<'_> {
                 self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }
         }
-        for ext in doc.extensions_required() {
-            if !SUPPORTED_EXTENSIONS.contains(&ext) {
-                return Err(scene_err(self.path, format!("requires extension {ext}, which pathwave does not support")));
-            }
-        }
         if doc.animations().next().is_some() {
             self.warn("animations are ignored; the scene renders at its rest pose".into());
         }
@@ -136,7 +205,7 @@ impl Loader<'_> {
             self.warn("skins are ignored; skinned meshes render at their bind pose".into());
         }
         for m in doc.materials() {
-            self.material(&m);
+            self.material(&m)?;
         }
         let default_material = self.scene.materials.len() as u32;
         self.scene.materials.push(Material {
@@ -154,8 +223,12 @@ impl Loader<'_> {
             }
         };
         let mut visited = HashSet::new();
-        for root in roots {
-            self.node(&root, Mat4::IDENTITY, default_material, &mut visited)?;
+        // Depth-first in node order, on an explicit stack so a deep hierarchy cannot overflow the thread's stack.
+        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            let world = self.node(&node, parent, default_material, &mut visited)?;
+            let children: Vec<gltf::Node> = node.children().collect();
+            stack.extend(children.into_iter().rev().map(|c| (c, world)));
         }
         self.scene.camera_count = self.cameras.len();
         self.scene.camera = match camera {
@@ -173,12 +246,15 @@ impl Loader<'_> {
         Ok(())
     }
 
-    fn material(&mut self, m: &gltf::Material) {
+    fn material(&mut self, m: &gltf::Material) -> Result<(), Error> {
         let name = m.name().map(str::to_string).unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
         let pbr = m.pbr_metallic_roughness();
         let c = pbr.base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         let emission = Vec3::from(m.emissive_factor()) * strength;
+        if !emission.is_finite() {
+            return Err(scene_err(self.path, format!("material '{name}': the emission {emission} is not finite")));
+        }
         if pbr.metallic_factor() > 0.0 {
             self.warn(format!(
                 "material '{name}': metallic {} is not supported yet; rendered as Lambertian with its base colour",
@@ -204,15 +280,17 @@ impl Loader<'_> {
             emission: emission.max(Vec3::ZERO),
             double_sided: m.double_sided(),
         });
+        Ok(())
     }
 
+    /// Takes in one node's camera and meshes; returns its world transform for its children.
     fn node(
         &mut self,
         node: &gltf::Node,
         parent: Mat4,
         default_material: u32,
         visited: &mut HashSet<usize>,
-    ) -> Result<(), Error> {
+    ) -> Result<Mat4, Error> {
         if !visited.insert(node.index()) {
             return Err(scene_err(
                 self.path,
@@ -247,10 +325,7 @@ impl Loader<'_> {
                 self.primitive(&mesh, &prim, world, default_material)?;
             }
         }
-        for child in node.children() {
-            self.node(&child, world, default_material, visited)?;
-        }
-        Ok(())
+        Ok(world)
     }
 
     /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.

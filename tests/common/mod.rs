@@ -2,14 +2,39 @@
 #![allow(dead_code)]
 pub mod gltf_builder;
 pub mod scenes;
+pub mod stats;
 
 use std::path::PathBuf;
 
-/// Tests run with the validation layer when it is installed, and fail on any of its errors.
-pub fn enable_validation() {
-    if std::env::var_os("PATHWAVE_VALIDATION").is_none() && validation_layer_installed() {
-        std::env::set_var("PATHWAVE_VALIDATION", "1");
+/// Tests run with the validation layer when it is installed (a render then fails on any of its errors);
+/// PATHWAVE_VALIDATION=0 turns it off, =sync adds synchronization checks.
+pub fn validation() -> pathwave::vk::Validation {
+    use pathwave::vk::Validation;
+    match std::env::var("PATHWAVE_VALIDATION").as_deref() {
+        Ok("0") | Ok("off") => Validation::Off,
+        Ok("sync") => Validation::Sync,
+        _ if validation_layer_installed() => Validation::On,
+        _ => {
+            eprintln!("note: VK_LAYER_KHRONOS_validation is not installed; running without validation");
+            Validation::Off
+        }
     }
+}
+
+/// A renderer for a scene file on the best device, with the tests' validation setting.
+pub fn renderer(path: &std::path::Path) -> pathwave::Renderer {
+    let scene = pathwave::scene::load(path, None).unwrap_or_else(|e| panic!("{e}"));
+    pathwave::Renderer::with_validation(&scene, &pathwave::vk::DeviceChoice::Best, validation()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> pathwave::RenderSettings {
+    pathwave::RenderSettings { width, height, spp, seed, ..Default::default() }
+}
+
+pub fn render(r: &mut pathwave::Renderer, s: &pathwave::RenderSettings) -> pathwave::Film {
+    let (film, stats) = r.render(s, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!("{}x{} {} spp: {}", s.width, s.height, s.spp, stats.summary());
+    film
 }
 
 pub fn validation_layer_installed() -> bool {

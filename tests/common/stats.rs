@@ -1,0 +1,113 @@
+//! Statistics for the tests: chi-square p-values (regularized incomplete gamma) and image summaries.
+#![allow(dead_code)]
+
+fn ln_gamma(x: f64) -> f64 {
+    // Lanczos approximation (g = 7, n = 9), accurate to ~1e-15 for x > 0.
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        return std::f64::consts::PI.ln() - (std::f64::consts::PI * x).sin().ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let mut a = C[0];
+    let t = x + 7.5;
+    for (i, c) in C.iter().enumerate().skip(1) {
+        a += c / (x + i as f64);
+    }
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Q(a, x) = 1 - P(a, x), the upper regularized incomplete gamma function.
+fn gamma_q(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    if x < a + 1.0 {
+        // Series for P.
+        let mut sum = 1.0 / a;
+        let mut term = sum;
+        let mut n = a;
+        for _ in 0..10_000 {
+            n += 1.0;
+            term *= x / n;
+            sum += term;
+            if term.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - ln_gamma(a)).exp()
+    } else {
+        // Continued fraction for Q (Lentz).
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - ln_gamma(a)).exp() * h
+    }
+}
+
+/// Probability that a chi-square variable with `dof` degrees of freedom is at least `stat`.
+pub fn chi2_p_value(stat: f64, dof: usize) -> f64 {
+    gamma_q(dof as f64 / 2.0, stat / 2.0)
+}
+
+/// Pearson's chi-square of observed counts against expected counts, pooling cells expected below
+/// `min_expected` into one (the Mitsuba 3 convention). Returns (statistic, degrees of freedom).
+pub fn chi2_statistic(observed: &[f64], expected: &[f64], min_expected: f64) -> (f64, usize) {
+    let mut stat = 0.0;
+    let mut cells = 0usize;
+    let (mut pool_o, mut pool_e) = (0.0, 0.0);
+    for (&o, &e) in observed.iter().zip(expected) {
+        if e < min_expected {
+            pool_o += o;
+            pool_e += e;
+        } else {
+            stat += (o - e) * (o - e) / e;
+            cells += 1;
+        }
+    }
+    if pool_e > 0.0 {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        cells += 1;
+    }
+    (stat, cells.saturating_sub(1))
+}
+
+/// Mean over pixels of a channel average, with the standard error of that mean from per-pixel sample variances.
+pub fn image_mean_and_stderr(film: &pathwave::Film) -> (f64, f64) {
+    let mean = film.mean();
+    let var = film.sample_variance();
+    let p = mean.len() as f64;
+    let m: f64 = mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / p;
+    // The channel average's variance is bounded by the mean of the channel variances (Cauchy-Schwarz), which keeps this honest without covariances.
+    let v: f64 = var.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / film.spp as f64 / (p * p);
+    (m, v.sqrt())
+}

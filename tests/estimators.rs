@@ -1,0 +1,95 @@
+//! Light sampling, BSDF sampling and MIS agree in expectation; MIS has the least variance; lights are picked by power.
+mod common;
+
+use common::stats::{chi2_p_value, chi2_statistic, image_mean_and_stderr};
+use pathwave::{Estimator, Film};
+
+fn render_with(path: &std::path::Path, estimator: Estimator, spp: u32) -> Film {
+    let mut r = common::renderer(path);
+    let mut s = common::settings(24, 24, spp, 5);
+    s.estimator = estimator;
+    common::render(&mut r, &s)
+}
+
+fn total_variance(film: &Film) -> f64 {
+    film.sample_variance().iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum()
+}
+
+#[test]
+fn estimators_agree_and_mis_has_least_variance() {
+    let (_dir, path) = common::write_temp(&common::scenes::two_lights(), "two-lights.gltf");
+    let films: Vec<(Estimator, Film)> =
+        [Estimator::Mis, Estimator::Light, Estimator::Bsdf].into_iter().map(|e| (e, render_with(&path, e, 256))).collect();
+    let stats: Vec<(Estimator, f64, f64, f64)> = films
+        .iter()
+        .map(|(e, f)| {
+            let (m, se) = image_mean_and_stderr(f);
+            (*e, m, se, total_variance(f))
+        })
+        .collect();
+    for (e, m, se, v) in &stats {
+        eprintln!("{e:?}: mean {m:.5} +- {se:.5}, summed per-sample variance {v:.3}");
+        assert!(*m > 0.0 && *se > 0.0);
+    }
+    // Means agree within 4 combined standard errors (two-sided, ~6e-5 false alarm per pair).
+    for i in 0..stats.len() {
+        for j in i + 1..stats.len() {
+            let (ei, mi, si, _) = stats[i];
+            let (ej, mj, sj, _) = stats[j];
+            let z = (mi - mj).abs() / (si * si + sj * sj).sqrt();
+            assert!(z < 4.0, "{ei:?} mean {mi} and {ej:?} mean {mj} differ by {z:.2} standard errors");
+        }
+    }
+    let (_, _, _, v_mis) = stats[0];
+    let (_, _, _, v_light) = stats[1];
+    let (_, _, _, v_bsdf) = stats[2];
+    assert!(v_mis < v_light, "MIS variance {v_mis} is not below light sampling's {v_light}");
+    assert!(v_mis < v_bsdf, "MIS variance {v_mis} is not below BSDF sampling's {v_bsdf}");
+}
+
+#[test]
+fn lights_are_picked_in_proportion_to_power() {
+    let (_dir, path) = common::write_temp(&common::scenes::unequal_lights(), "unequal.gltf");
+    let scene = pathwave::scene::load(&path, None).unwrap();
+    let packed = pathwave::render::gpu_scene::pack(&scene);
+    // Expected probabilities from the scene itself: radiance (channel mean) times area, per emissive triangle.
+    let order = &packed.bvh.order;
+    let weights: Vec<f64> = packed
+        .lights
+        .iter()
+        .map(|l| {
+            let orig = order[l.tri as usize] as usize;
+            let m = &scene.materials[scene.material_of[orig] as usize];
+            let [a, b, c] = scene.triangles[orig];
+            let area = 0.5 * (b - a).cross(c - a).length() as f64;
+            (m.emission.x + m.emission.y + m.emission.z) as f64 / 3.0 * area
+        })
+        .collect();
+    assert_eq!(weights.len(), 4, "two quads make four emissive triangles");
+    let total: f64 = weights.iter().sum();
+    let n = 200_000u32;
+    let mut r = common::renderer(&path);
+    let picks = r.probe_light_pick(n, 0, 1).unwrap();
+    let mut counts = vec![0f64; weights.len()];
+    for p in picks {
+        counts[p as usize] += 1.0;
+    }
+    let expected: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
+    let (stat, dof) = chi2_statistic(&counts, &expected, 5.0);
+    let p = chi2_p_value(stat, dof);
+    eprintln!("light picks {counts:?}, expected {expected:?}: chi2 {stat:.2}, dof {dof}, p = {p:.4}");
+    assert!(p > 1e-3, "light selection frequencies do not follow power (p = {p})");
+    // The bright quad has 12x the dim one's power.
+    let bright: f64 = counts.iter().zip(&weights).filter(|(_, &w)| w > 0.5).map(|(c, _)| c).sum();
+    let ratio = bright / (n as f64 - bright);
+    assert!((ratio - 12.0).abs() < 0.5, "bright/dim pick ratio {ratio}, expected 12");
+}
+
+#[test]
+fn chi2_p_values_match_known_quantiles() {
+    // 95th percentiles of chi-square: dof 1 -> 3.841, dof 10 -> 18.307, dof 100 -> 124.342.
+    assert!((chi2_p_value(3.841, 1) - 0.05).abs() < 1e-3);
+    assert!((chi2_p_value(18.307, 10) - 0.05).abs() < 1e-3);
+    assert!((chi2_p_value(124.342, 100) - 0.05).abs() < 1e-3);
+    assert!((chi2_p_value(0.0, 5) - 1.0).abs() < 1e-12);
+}
