@@ -14,7 +14,11 @@ fn main() {
     let generated = out.join("generated");
     std::fs::create_dir_all(&generated).unwrap();
     let constants = std::fs::read_to_string(root.join("src/constants.rs")).unwrap();
-    std::fs::write(generated.join("shared_constants.glsl"), glsl_constants(&constants)).unwrap();
+    std::fs::write(
+        generated.join("shared_constants.glsl"),
+        glsl_constants(&constants),
+    )
+    .unwrap();
 
     for dir in [&shaders, &include] {
         for entry in std::fs::read_dir(dir).unwrap() {
@@ -60,7 +64,10 @@ fn main() {
             }
             Ok(_) => {}
         }
-        table.push_str(&format!("    ({name:?}, include_bytes!({:?})),\n", spv.display().to_string()));
+        table.push_str(&format!(
+            "    ({name:?}, include_bytes!({:?})),\n",
+            spv.display().to_string()
+        ));
     }
     table.push_str("];\n");
     if failed {

@@ -8,7 +8,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Parser)]
-#[command(name = "pathwave", version, about = "A physically based wavefront path tracer on Vulkan compute")]
+#[command(
+    name = "pathwave",
+    version,
+    about = "A physically based wavefront path tracer on Vulkan compute"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -32,9 +36,9 @@ enum Command {
 struct RenderArgs {
     /// The glTF (.gltf or .glb) scene.
     scene: PathBuf,
-    /// Output image; the extension picks the format (.exr or .png).
-    #[arg(short, long)]
-    output: PathBuf,
+    /// Output image; the extension picks the format (.exr or .png). Repeat to write several from one render.
+    #[arg(short, long, required = true)]
+    output: Vec<PathBuf>,
     /// Samples per pixel.
     #[arg(long, default_value = "64", value_parser = positive, allow_hyphen_values = true)]
     spp: u32,
@@ -70,7 +74,9 @@ fn positive(s: &str) -> Result<u32, String> {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT (e.g. 640x480)"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT (e.g. 640x480)"))?;
     let w = positive(w).map_err(|e| format!("width: {e}"))?;
     let h = positive(h).map_err(|e| format!("height: {e}"))?;
     Ok((w, h))
@@ -90,7 +96,9 @@ fn main() {
 
 fn render(args: RenderArgs) -> Result<()> {
     // Refuse a bad output path before spending time on the render.
-    output::format_of(&args.output)?;
+    for out in &args.output {
+        output::format_of(out)?;
+    }
     let start = Instant::now();
     let scene = scene::load(&args.scene, args.camera)?;
     let mut renderer = Renderer::new(&scene, &args.device.unwrap_or_default())?;
@@ -107,15 +115,24 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {per_sec}  eta {eta}").unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {per_sec}  eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let device = renderer.context().device_name();
     let (film, stats) = renderer.render(&settings, &mut |done| bar.set_position(done as u64))?;
     bar.finish_and_clear();
-    output::write_image(&args.output, film.width, film.height, &film.mean(), args.exposure)?;
+    let pixels = film.mean();
+    for out in &args.output {
+        output::write_image(out, film.width, film.height, &pixels, args.exposure)?;
+    }
+    let names: Vec<String> = args
+        .output
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
-        args.output.display(),
+        names.join(", "),
         film.width,
         film.height,
         film.spp,
@@ -139,7 +156,9 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
         }
         return Ok(());
     }
-    let Some(path) = path else { bail!("name a scene, or pass --devices") };
+    let Some(path) = path else {
+        bail!("name a scene, or pass --devices")
+    };
     let scene = scene::load(&path, None).with_context(|| "cannot describe the scene")?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
@@ -151,7 +170,11 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     println!("scene       {}", path.display());
     println!("triangles   {}", scene.triangles.len());
     println!("materials   {}", scene.materials.len() - 1);
-    println!("lights      {} emissive triangles, {:.4} W in total", packed.lights.len(), packed.total_light_power);
+    println!(
+        "lights      {} emissive triangles, {:.4} W in total",
+        packed.lights.len(),
+        packed.total_light_power
+    );
     println!("cameras     {}", scene.camera_count);
     println!(
         "bvh         {} nodes ({} leaves), depth {}, at most {} triangles per leaf, SAH cost {:.2}, {} bytes, built in {:.1} ms",

@@ -12,14 +12,19 @@ fn render_with(path: &std::path::Path, estimator: Estimator, spp: u32) -> Film {
 }
 
 fn total_variance(film: &Film) -> f64 {
-    film.sample_variance().iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum()
+    film.sample_variance()
+        .iter()
+        .map(|v| (v[0] + v[1] + v[2]) as f64)
+        .sum()
 }
 
 #[test]
 fn estimators_agree_and_mis_has_least_variance() {
     let (_dir, path) = common::write_temp(&common::scenes::two_lights(), "two-lights.gltf");
-    let films: Vec<(Estimator, Film)> =
-        [Estimator::Mis, Estimator::Light, Estimator::Bsdf].into_iter().map(|e| (e, render_with(&path, e, 256))).collect();
+    let films: Vec<(Estimator, Film)> = [Estimator::Mis, Estimator::Light, Estimator::Bsdf]
+        .into_iter()
+        .map(|e| (e, render_with(&path, e, 256)))
+        .collect();
     let stats: Vec<(Estimator, f64, f64, f64)> = films
         .iter()
         .map(|(e, f)| {
@@ -37,14 +42,23 @@ fn estimators_agree_and_mis_has_least_variance() {
             let (ei, mi, si, _) = stats[i];
             let (ej, mj, sj, _) = stats[j];
             let z = (mi - mj).abs() / (si * si + sj * sj).sqrt();
-            assert!(z < 4.0, "{ei:?} mean {mi} and {ej:?} mean {mj} differ by {z:.2} standard errors");
+            assert!(
+                z < 4.0,
+                "{ei:?} mean {mi} and {ej:?} mean {mj} differ by {z:.2} standard errors"
+            );
         }
     }
     let (_, _, _, v_mis) = stats[0];
     let (_, _, _, v_light) = stats[1];
     let (_, _, _, v_bsdf) = stats[2];
-    assert!(v_mis < v_light, "MIS variance {v_mis} is not below light sampling's {v_light}");
-    assert!(v_mis < v_bsdf, "MIS variance {v_mis} is not below BSDF sampling's {v_bsdf}");
+    assert!(
+        v_mis < v_light,
+        "MIS variance {v_mis} is not below light sampling's {v_light}"
+    );
+    assert!(
+        v_mis < v_bsdf,
+        "MIS variance {v_mis} is not below BSDF sampling's {v_bsdf}"
+    );
 }
 
 #[test]
@@ -77,12 +91,25 @@ fn lights_are_picked_in_proportion_to_power() {
     let expected: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
     let (stat, dof) = chi2_statistic(&counts, &expected, 5.0);
     let p = chi2_p_value(stat, dof);
-    eprintln!("light picks {counts:?}, expected {expected:?}: chi2 {stat:.2}, dof {dof}, p = {p:.4}");
-    assert!(p > 1e-3, "light selection frequencies do not follow power (p = {p})");
+    eprintln!(
+        "light picks {counts:?}, expected {expected:?}: chi2 {stat:.2}, dof {dof}, p = {p:.4}"
+    );
+    assert!(
+        p > 1e-3,
+        "light selection frequencies do not follow power (p = {p})"
+    );
     // The bright quad has 12x the dim one's power.
-    let bright: f64 = counts.iter().zip(&weights).filter(|(_, &w)| w > 0.5).map(|(c, _)| c).sum();
+    let bright: f64 = counts
+        .iter()
+        .zip(&weights)
+        .filter(|(_, &w)| w > 0.5)
+        .map(|(c, _)| c)
+        .sum();
     let ratio = bright / (n as f64 - bright);
-    assert!((ratio - 12.0).abs() < 0.5, "bright/dim pick ratio {ratio}, expected 12");
+    assert!(
+        (ratio - 12.0).abs() < 0.5,
+        "bright/dim pick ratio {ratio}, expected 12"
+    );
 }
 
 #[test]

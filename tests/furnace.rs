@@ -11,16 +11,28 @@ fn assert_pixels_near(film: &Film, expected: f64, z: f64) {
     let mut worst = (0.0f64, 0usize);
     for (i, (m, v)) in mean.iter().zip(&var).enumerate() {
         let se = (v[0] as f64 / film.spp as f64).sqrt();
-        assert!(se > 0.0, "pixel {i} has zero variance: the estimator is not random, the test proves nothing");
+        assert!(
+            se > 0.0,
+            "pixel {i} has zero variance: the estimator is not random, the test proves nothing"
+        );
         let dev = (m[0] as f64 - expected).abs() / se;
         if dev > worst.0 {
             worst = (dev, i);
         }
-        assert!(m[0] == m[1] && m[1] == m[2], "grey furnace gave colour at pixel {i}: {m:?}");
+        assert!(
+            m[0] == m[1] && m[1] == m[2],
+            "grey furnace gave colour at pixel {i}: {m:?}"
+        );
     }
     let (img_mean, img_se) = common::stats::image_mean_and_stderr(film);
     eprintln!("image mean {img_mean:.5} +- {img_se:.5} (expected {expected}); worst pixel {} at {:.2} sigma", worst.1, worst.0);
-    assert!(worst.0 < z, "pixel {} is {:.2} standard errors from {expected} (mean {:?})", worst.1, worst.0, mean[worst.1]);
+    assert!(
+        worst.0 < z,
+        "pixel {} is {:.2} standard errors from {expected} (mean {:?})",
+        worst.1,
+        worst.0,
+        mean[worst.1]
+    );
     assert!(
         (img_mean - expected).abs() < 4.0 * img_se,
         "image mean {img_mean} is {:.2} standard errors from {expected}",
@@ -59,7 +71,12 @@ fn furnace_with_max_depth_sums_exactly_that_many_bounces() {
         let expected: f64 = (0..=depth).map(|k| 0.5 * 0.5f64.powi(k as i32)).sum();
         if depth == 0 {
             // Only the emission seen by the camera: exact, no noise.
-            assert!(film.mean().iter().all(|m| (m[0] as f64 - expected).abs() < 1e-6), "depth 0 must be exactly Le");
+            assert!(
+                film.mean()
+                    .iter()
+                    .all(|m| (m[0] as f64 - expected).abs() < 1e-6),
+                "depth 0 must be exactly Le"
+            );
         } else {
             assert_pixels_near(&film, expected, 4.6);
         }

@@ -55,7 +55,9 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit) {
     uint stack[BVH_STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
-    if (intersect_box(nodes[0].lo.xyz, nodes[0].hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
+    // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
+    bool empty = floatBitsToUint(nodes[0].lo.w) == 0u && floatBitsToUint(nodes[0].hi.w) == 0u;
+    if (empty || intersect_box(nodes[0].lo.xyz, nodes[0].hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
         return hit;
     }
     while (true) {

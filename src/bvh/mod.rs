@@ -20,7 +20,10 @@ struct Aabb {
 }
 
 impl Aabb {
-    const EMPTY: Aabb = Aabb { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Aabb = Aabb {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
     fn grow(&mut self, p: Vec3) {
         self.lo = self.lo.min(p);
         self.hi = self.hi.max(p);
@@ -78,10 +81,14 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     let mut nodes = vec![BvhNode::default()];
     let mut stats = BvhStats::default();
     if n == 0 {
-        // An inverted box: the slab test misses it, so traversal returns at once.
+        // first = 0 and count = 0 marks the empty tree; both traversals return at once.
         nodes[0] = node(&Aabb::EMPTY, 0, 0);
         stats.nodes = 1;
-        return Bvh { nodes, order, stats };
+        return Bvh {
+            nodes,
+            order,
+            stats,
+        };
     }
     let bounds_of = |range: &[u32]| {
         let mut b = Aabb::EMPTY;
@@ -95,7 +102,11 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     while let Some((index, start, end, depth, bounds)) = work.pop() {
         stats.depth = stats.depth.max(depth);
         let count = end - start;
-        let split = if count <= 1 { None } else { choose_split(&mut order[start..end], &centroids, &boxes, &bounds, depth) };
+        let split = if count <= 1 {
+            None
+        } else {
+            choose_split(&mut order[start..end], &centroids, &boxes, &bounds, depth)
+        };
         match split {
             None => {
                 nodes[index] = node(&bounds, start as u32, count as u32);
@@ -117,23 +128,41 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         }
     }
     stats.nodes = nodes.len();
-    Bvh { nodes, order, stats }
+    Bvh {
+        nodes,
+        order,
+        stats,
+    }
 }
 
 /// Partitions `idx` and returns the size of the left part, or None to make a leaf.
-fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aabb, depth: u32) -> Option<usize> {
+fn choose_split(
+    idx: &mut [u32],
+    centroids: &[Vec3],
+    boxes: &[Aabb],
+    bounds: &Aabb,
+    depth: u32,
+) -> Option<usize> {
     let count = idx.len();
     let mut cb = Aabb::EMPTY;
     idx.iter().for_each(|&i| cb.grow(centroids[i as usize]));
     let extent = cb.hi - cb.lo;
-    let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
     if extent[axis] <= 0.0 || depth >= SAH_DEPTH_LIMIT {
         // Coincident centroids (or too deep for SAH): halve by position so leaves stay small and depth stays bounded.
         if count <= BVH_MAX_LEAF_TRIS as usize {
             return None;
         }
         let mid = count / 2;
-        idx.select_nth_unstable_by(mid, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]));
+        idx.select_nth_unstable_by(mid, |&a, &b| {
+            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+        });
         return Some(mid);
     }
     // SAH over bins on every axis with a non-zero extent.
@@ -143,7 +172,8 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
             continue;
         }
         let scale = BINS as f32 / extent[ax];
-        let bin_of = |i: u32| (((centroids[i as usize][ax] - cb.lo[ax]) * scale) as usize).min(BINS - 1);
+        let bin_of =
+            |i: u32| (((centroids[i as usize][ax] - cb.lo[ax]) * scale) as usize).min(BINS - 1);
         let mut bin_box = [Aabb::EMPTY; BINS];
         let mut bin_count = [0usize; BINS];
         for &i in idx.iter() {
@@ -182,7 +212,9 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
             return None;
         }
         let mid = count / 2;
-        idx.select_nth_unstable_by(mid, |&a, &b| centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis]));
+        idx.select_nth_unstable_by(mid, |&a, &b| {
+            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+        });
         return Some(mid);
     }
     let (_, ax, split_bin) = best;

@@ -24,7 +24,13 @@ fn v3(a: [f32; 4]) -> Vec3 {
 }
 
 /// Moller-Trumbore, identical to the GLSL: returns t in (tmin, tmax) or None.
-pub fn intersect_triangle(tv: &TriVerts, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec2)> {
+pub fn intersect_triangle(
+    tv: &TriVerts,
+    o: Vec3,
+    d: Vec3,
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, Vec2)> {
     let (v0, e1, e2) = (v3(tv.v0), v3(tv.e1), v3(tv.e2));
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
@@ -68,20 +74,27 @@ fn intersect_box(n: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Opt
 
 /// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device.
 pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> TraceHit {
-    let mut hit = TraceHit { t: ray.tmax, tri: NO_HIT, uv: Vec2::ZERO };
+    let mut hit = TraceHit {
+        t: ray.tmax,
+        tri: NO_HIT,
+        uv: Vec2::ZERO,
+    };
     let (o, d) = (ray.origin, ray.dir);
     let inv_d = safe_inverse(d);
     let mut stack = [0u32; BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
     let mut node = 0u32;
-    if intersect_box(&nodes[0], o, inv_d, ray.tmin, hit.t).is_none() {
+    // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
+    let empty = nodes[0].first() == 0 && nodes[0].count() == 0;
+    if empty || intersect_box(&nodes[0], o, inv_d, ray.tmin, hit.t).is_none() {
         return hit;
     }
     loop {
         let n = &nodes[node as usize];
         if n.is_leaf() {
             for i in n.first()..n.first() + n.count() {
-                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
+                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t)
+                {
                     hit = TraceHit { t, tri: i, uv };
                     if any_hit {
                         return hit;
@@ -129,10 +142,18 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
 
 /// Every triangle tested: the reference both traversals are checked against.
 pub fn brute_force(tris: &[TriVerts], ray: &Ray) -> TraceHit {
-    let mut hit = TraceHit { t: ray.tmax, tri: NO_HIT, uv: Vec2::ZERO };
+    let mut hit = TraceHit {
+        t: ray.tmax,
+        tri: NO_HIT,
+        uv: Vec2::ZERO,
+    };
     for (i, tv) in tris.iter().enumerate() {
         if let Some((t, uv)) = intersect_triangle(tv, ray.origin, ray.dir, ray.tmin, hit.t) {
-            hit = TraceHit { t, tri: i as u32, uv };
+            hit = TraceHit {
+                t,
+                tri: i as u32,
+                uv,
+            };
         }
     }
     hit

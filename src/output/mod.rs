@@ -10,7 +10,12 @@ pub enum Format {
 
 /// The format an output path asks for, by its extension.
 pub fn format_of(path: &Path) -> Result<Format, Error> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
         Some("exr") => Ok(Format::Exr),
         Some("png") => Ok(Format::Png),
         _ => Err(Error::Output {
@@ -30,10 +35,19 @@ pub fn srgb_encode(x: f32) -> f32 {
 }
 
 /// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
-pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
+pub fn write_image(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<(), Error> {
     let format = format_of(path)?;
     assert_eq!(rgb.len(), width as usize * height as usize);
-    let err = |message: String| Error::Output { path: path.to_path_buf(), message };
+    let err = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -41,7 +55,11 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
     if !dir.is_dir() {
         return Err(err(format!("directory {} does not exist", dir.display())));
     }
-    let suffix = if format == Format::Exr { ".exr" } else { ".png" };
+    let suffix = if format == Format::Exr {
+        ".exr"
+    } else {
+        ".png"
+    };
     let tmp = tempfile::Builder::new()
         .prefix(".pathwave-")
         .suffix(suffix)
@@ -59,19 +77,30 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
             let scale = 2f32.powf(exposure);
             let bytes: Vec<u8> = rgb
                 .iter()
-                .flat_map(|p| p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8))
+                .flat_map(|p| {
+                    p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
+                })
                 .collect();
             let file = std::io::BufWriter::new(tmp.as_file());
             let mut enc = png::Encoder::new(file, width, height);
             enc.set_color(png::ColorType::Rgb);
             enc.set_depth(png::BitDepth::Eight);
             enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-            let mut w = enc.write_header().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
-            w.write_image_data(&bytes).map_err(|e| err(format!("PNG encoding failed: {e}")))?;
-            w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            let mut w = enc
+                .write_header()
+                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            w.write_image_data(&bytes)
+                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            w.finish()
+                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
         }
     }
-    tmp.persist(path).map_err(|e| err(format!("cannot move the finished file into place: {}", e.error)))?;
+    tmp.persist(path).map_err(|e| {
+        err(format!(
+            "cannot move the finished file into place: {}",
+            e.error
+        ))
+    })?;
     Ok(())
 }
 
@@ -83,7 +112,14 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::Error> 
         |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
         |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = [r, g, b],
     )
-    .map_err(|e| crate::Error::Output { path: path.to_path_buf(), message: format!("cannot read EXR: {e}") })?;
+    .map_err(|e| crate::Error::Output {
+        path: path.to_path_buf(),
+        message: format!("cannot read EXR: {e}"),
+    })?;
     let size = image.layer_data.size;
-    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+    Ok((
+        size.width() as u32,
+        size.height() as u32,
+        image.layer_data.channel_data.pixels.1,
+    ))
 }

@@ -38,9 +38,17 @@ pub fn pack(scene: &Scene) -> PackedScene {
         let [a, b, c] = scene.triangles[orig];
         let [na, nb, nc] = scene.normals[orig];
         let material = scene.material_of[orig];
-        tri_verts.push(TriVerts { v0: v4(a, f32::from_bits(material)), e1: v4(b - a, 0.0), e2: v4(c - a, 0.0) });
+        tri_verts.push(TriVerts {
+            v0: v4(a, f32::from_bits(material)),
+            e1: v4(b - a, 0.0),
+            e2: v4(c - a, 0.0),
+        });
         let area = 0.5 * (b - a).cross(c - a).length();
-        tri_shading.push(TriShading { n0: v4(na, 0.0), n1: v4(nb, area), n2: v4(nc, 0.0) });
+        tri_shading.push(TriShading {
+            n0: v4(na, 0.0),
+            n1: v4(nb, area),
+            n2: v4(nc, 0.0),
+        });
         let p = emitted_power(scene, orig);
         if p > 0.0 {
             powers.push((slot as u32, p, area));
@@ -53,8 +61,17 @@ pub fn pack(scene: &Scene) -> PackedScene {
         acc += p;
         let prob = (p / total) as f32;
         // The last cdf is exactly 1 so every u in [0, 1) finds a light.
-        let cdf = if i + 1 == powers.len() { 1.0 } else { (acc / total) as f32 };
-        lights.push(GpuLight { tri, cdf, prob, area });
+        let cdf = if i + 1 == powers.len() {
+            1.0
+        } else {
+            (acc / total) as f32
+        };
+        lights.push(GpuLight {
+            tri,
+            cdf,
+            prob,
+            area,
+        });
         tri_shading[tri as usize].n0[3] = prob / area;
     }
     let materials = scene
@@ -65,5 +82,12 @@ pub fn pack(scene: &Scene) -> PackedScene {
             emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
         })
         .collect();
-    PackedScene { bvh, tri_verts, tri_shading, materials, lights, total_light_power: total }
+    PackedScene {
+        bvh,
+        tri_verts,
+        tri_shading,
+        materials,
+        lights,
+        total_light_power: total,
+    }
 }

@@ -48,7 +48,14 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 256, height: 256, spp: 16, max_depth: None, seed: 0, estimator: Estimator::Mis }
+        RenderSettings {
+            width: 256,
+            height: 256,
+            spp: 16,
+            max_depth: None,
+            seed: 0,
+            estimator: Estimator::Mis,
+        }
     }
 }
 
@@ -66,7 +73,10 @@ impl Film {
     /// Per-pixel mean radiance (linear RGB), row 0 at the top.
     pub fn mean(&self) -> Vec<[f32; 3]> {
         let inv = 1.0 / self.spp.max(1) as f32;
-        self.sum.iter().map(|s| [s[0] * inv, s[1] * inv, s[2] * inv]).collect()
+        self.sum
+            .iter()
+            .map(|s| [s[0] * inv, s[1] * inv, s[2] * inv])
+            .collect()
     }
 
     /// Unbiased per-pixel variance of one sample, per channel.
@@ -117,14 +127,21 @@ impl RenderStats {
     fn steady_counts(&self, total: u64) -> (f64, f64) {
         if self.passes > 1 && !self.steady().is_zero() {
             let per_pass = total as f64 / self.passes as f64;
-            (per_pass * (self.passes - 1) as f64, self.steady().as_secs_f64())
+            (
+                per_pass * (self.passes - 1) as f64,
+                self.steady().as_secs_f64(),
+            )
         } else {
             (total as f64, self.wall.as_secs_f64().max(1e-9))
         }
     }
     /// The one-line summary every render ends with.
     pub fn summary(&self) -> String {
-        let stages: Vec<String> = self.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        let stages: Vec<String> = self
+            .stage_ms
+            .iter()
+            .map(|(n, ms)| format!("{n} {ms:.1}"))
+            .collect();
         format!(
             "{:.2} s (first pass {:.2} s), {:.0} samples/s, {:.2} Mrays/s ({} extension + {} shadow rays), GPU ms: {}",
             self.wall.as_secs_f64(),
@@ -157,7 +174,10 @@ mod spirv {
 
 /// The SPIR-V of a built-in stage, by name (e.g. "shade").
 pub fn builtin_spirv(name: &str) -> Option<&'static [u8]> {
-    spirv::STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+    spirv::STAGES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
 }
 
 pub fn builtin_stage_names() -> impl Iterator<Item = &'static str> {
@@ -169,12 +189,19 @@ impl Renderer {
         Self::with_validation(scene, device, Validation::from_env())
     }
 
-    pub fn with_validation(scene: &Scene, device: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
+    pub fn with_validation(
+        scene: &Scene,
+        device: &DeviceChoice,
+        validation: Validation,
+    ) -> Result<Self, Error> {
         let ctx = Context::new(device, validation)?;
         let packed = gpu_scene::pack(scene);
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
-            warnings.push("the scene has no emissive surface, so nothing lights it and the image is black".into());
+            warnings.push(
+                "the scene has no emissive surface, so nothing lights it and the image is black"
+                    .into(),
+            );
         }
         let scene_buffers = vec![
             Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
@@ -204,7 +231,10 @@ impl Renderer {
         let errors = self.ctx.validation_errors();
         match errors.first() {
             None => Ok(()),
-            Some(first) => Err(Error::Validation { count: errors.len(), first: first.clone() }),
+            Some(first) => Err(Error::Validation {
+                count: errors.len(),
+                first: first.clone(),
+            }),
         }
     }
 
@@ -232,7 +262,10 @@ impl Renderer {
             width: s.width,
             height: s.height,
             seed: s.seed,
-            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP).min(DEPTH_SAFETY_CAP),
+            max_depth: s
+                .max_depth
+                .unwrap_or(DEPTH_SAFETY_CAP)
+                .min(DEPTH_SAFETY_CAP),
             estimator: s.estimator.code(),
             light_count: self.light_count,
             ..Default::default()
@@ -240,13 +273,22 @@ impl Renderer {
     }
 
     /// Renders `settings.spp` samples per pixel; `progress` hears the samples per pixel done so far.
-    pub fn render(&mut self, settings: &RenderSettings, progress: &mut dyn FnMut(u32)) -> Result<(Film, RenderStats), Error> {
+    pub fn render(
+        &mut self,
+        settings: &RenderSettings,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<(Film, RenderStats), Error> {
         let s = settings;
         if s.width == 0 || s.height == 0 {
-            return Err(Error::Settings(format!("image size {}x{} has no pixels", s.width, s.height)));
+            return Err(Error::Settings(format!(
+                "image size {}x{} has no pixels",
+                s.width, s.height
+            )));
         }
         if s.spp == 0 {
-            return Err(Error::Settings("samples per pixel must be at least 1".into()));
+            return Err(Error::Settings(
+                "samples per pixel must be at least 1".into(),
+            ));
         }
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
@@ -262,8 +304,20 @@ impl Renderer {
         let capacity = pixels.min(range / per_path).min(1 << 20) as u32;
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let paths = Buffer::new(ctx, "path state", capacity as u64 * per_path, storage, MemoryLocation::GpuOnly)?;
-        let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
+        let paths = Buffer::new(
+            ctx,
+            "path state",
+            capacity as u64 * per_path,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?;
+        let queues = Buffer::new(
+            ctx,
+            "queues",
+            capacity as u64 * 4 * 3,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?;
         let counters = Buffer::new(
             ctx,
             "counters",
@@ -280,7 +334,10 @@ impl Renderer {
             (BINDING_FILM, &film),
             (BINDING_PROBE, &probe),
         ]);
-        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })?;
+        ctx.submit_and_wait(|cmd| unsafe {
+            ctx.device
+                .cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0)
+        })?;
 
         let mut stats = RenderStats::default();
         let start = Instant::now();
@@ -317,7 +374,13 @@ impl Renderer {
         self.check_validation()?;
         let (sum, sum_sq) = raw.split_at(pixels as usize);
         Ok((
-            Film { width: s.width, height: s.height, spp: s.spp, sum: sum.to_vec(), sum_sq: sum_sq[..pixels as usize].to_vec() },
+            Film {
+                width: s.width,
+                height: s.height,
+                spp: s.spp,
+                sum: sum.to_vec(),
+                sum_sq: sum_sq[..pixels as usize].to_vec(),
+            },
             stats,
         ))
     }
@@ -330,40 +393,70 @@ impl Renderer {
         let groups = frame.path_count.div_ceil(WORKGROUP_SIZE);
         ctx.submit_and_wait(|cmd| {
             ts.reset(cmd);
-            unsafe { ctx.device.cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0) };
+            unsafe {
+                ctx.device
+                    .cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0)
+            };
             ctx.barrier(cmd);
-            ts.time(cmd, "generate", || p.dispatch(cmd, "generate", frame, groups));
+            ts.time(cmd, "generate", || {
+                p.dispatch(cmd, "generate", frame, groups)
+            });
             ctx.barrier(cmd);
             let mut f = *frame;
             for bounce in 0..=frame.max_depth {
                 f.bounce = bounce;
                 ts.time(cmd, "queue_args", || p.dispatch(cmd, "queue_args", &f, 1));
                 ctx.barrier(cmd);
-                ts.time(cmd, "extend", || p.dispatch_indirect(cmd, "extend", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ts.time(cmd, "extend", || {
+                    p.dispatch_indirect(cmd, "extend", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                });
                 ctx.barrier(cmd);
-                ts.time(cmd, "shade", || p.dispatch_indirect(cmd, "shade", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ts.time(cmd, "shade", || {
+                    p.dispatch_indirect(cmd, "shade", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                });
                 ctx.barrier(cmd);
                 // Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
-                ts.time(cmd, "connect", || p.dispatch_indirect(cmd, "connect", &f, counters, COUNTERS_DISPATCH_OFFSET));
+                ts.time(cmd, "connect", || {
+                    p.dispatch_indirect(cmd, "connect", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                });
                 ctx.barrier(cmd);
             }
             f.bounce = NO_HIT;
             p.dispatch(cmd, "queue_args", &f, 1);
             ctx.barrier(cmd);
-            ts.time(cmd, "accumulate", || p.dispatch(cmd, "accumulate", frame, groups));
+            ts.time(cmd, "accumulate", || {
+                p.dispatch(cmd, "accumulate", frame, groups)
+            });
             ctx.barrier(cmd);
         })
     }
 
     /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
-    pub fn probe_trace(&mut self, rays: &[crate::bvh::Ray], any_hit: bool) -> Result<Vec<crate::bvh::TraceHit>, Error> {
+    pub fn probe_trace(
+        &mut self,
+        rays: &[crate::bvh::Ray],
+        any_hit: bool,
+    ) -> Result<Vec<crate::bvh::TraceHit>, Error> {
         let n = rays.len() as u32;
         let mut words: Vec<u32> = Vec::with_capacity(rays.len() * 12);
         for r in rays {
-            words.extend([r.origin.x, r.origin.y, r.origin.z, r.tmin, r.dir.x, r.dir.y, r.dir.z, r.tmax].map(f32::to_bits));
+            words.extend(
+                [
+                    r.origin.x, r.origin.y, r.origin.z, r.tmin, r.dir.x, r.dir.y, r.dir.z, r.tmax,
+                ]
+                .map(f32::to_bits),
+            );
         }
         words.resize(rays.len() * 12, 0);
-        let out = self.run_probe("probe_trace", &words, Frame { path_count: n, bounce: any_hit as u32, ..Default::default() })?;
+        let out = self.run_probe(
+            "probe_trace",
+            &words,
+            Frame {
+                path_count: n,
+                bounce: any_hit as u32,
+                ..Default::default()
+            },
+        )?;
         Ok((0..rays.len())
             .map(|k| {
                 let b = 8 * rays.len() + 4 * k;
@@ -379,7 +472,16 @@ impl Renderer {
     /// The light shade would pick for each of `n` samples (first bounce, sample index `sample`).
     pub fn probe_light_pick(&mut self, n: u32, sample: u32, seed: u32) -> Result<Vec<u32>, Error> {
         let words = vec![0u32; n as usize];
-        let mut out = self.run_probe("probe_light_pick", &words, Frame { path_count: n, sample_index: sample, seed, ..Default::default() })?;
+        let mut out = self.run_probe(
+            "probe_light_pick",
+            &words,
+            Frame {
+                path_count: n,
+                sample_index: sample,
+                seed,
+                ..Default::default()
+            },
+        )?;
         out.truncate(n as usize);
         Ok(out)
     }
@@ -387,10 +489,24 @@ impl Renderer {
     fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let mut probe = Buffer::new(ctx, "probe", words.len() as u64 * 4, storage, MemoryLocation::CpuToGpu)?;
+        let mut probe = Buffer::new(
+            ctx,
+            "probe",
+            words.len() as u64 * 4,
+            storage,
+            MemoryLocation::CpuToGpu,
+        )?;
         probe.upload(ctx, bytemuck::cast_slice(words))?;
         let dummy: Vec<Buffer> = (0..4)
-            .map(|i| Buffer::new(ctx, &format!("probe dummy {i}"), 16, storage, MemoryLocation::GpuOnly))
+            .map(|i| {
+                Buffer::new(
+                    ctx,
+                    &format!("probe dummy {i}"),
+                    16,
+                    storage,
+                    MemoryLocation::GpuOnly,
+                )
+            })
             .collect::<Result<_, _>>()?;
         self.bind_scene(&[
             (BINDING_PATHS, &dummy[0]),
@@ -399,7 +515,10 @@ impl Renderer {
             (BINDING_FILM, &dummy[3]),
             (BINDING_PROBE, &probe),
         ]);
-        let frame = Frame { light_count: self.light_count, ..frame };
+        let frame = Frame {
+            light_count: self.light_count,
+            ..frame
+        };
         let n = frame.path_count;
         let p = &self.pipelines;
         ctx.submit_and_wait(|cmd| {

@@ -29,7 +29,10 @@ impl Camera {
     }
     /// Right, up and forward unit vectors; glTF cameras look down -Z with +Y up.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
-        let forward = self.world_from_camera.transform_vector3(-Vec3::Z).normalize();
+        let forward = self
+            .world_from_camera
+            .transform_vector3(-Vec3::Z)
+            .normalize();
         let up0 = self.world_from_camera.transform_vector3(Vec3::Y);
         let right = forward.cross(up0).normalize();
         let up = right.cross(forward);
@@ -70,16 +73,26 @@ impl Scene {
         if let Some(c) = self.camera {
             return c;
         }
-        let (lo, hi) = if self.triangles.is_empty() { (Vec3::splat(-1.0), Vec3::splat(1.0)) } else { self.bounds() };
+        let (lo, hi) = if self.triangles.is_empty() {
+            (Vec3::splat(-1.0), Vec3::splat(1.0))
+        } else {
+            self.bounds()
+        };
         let center = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(1e-3);
         let yfov = 45f32.to_radians();
         let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
-        Camera { world_from_camera: Mat4::from_translation(center + Vec3::Z * distance), yfov }
+        Camera {
+            world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
+            yfov,
+        }
     }
 
     pub fn emissive_triangle_count(&self) -> usize {
-        self.material_of.iter().filter(|&&m| self.materials[m as usize].emission.max_element() > 0.0).count()
+        self.material_of
+            .iter()
+            .filter(|&&m| self.materials[m as usize].emission.max_element() > 0.0)
+            .count()
     }
 }
 
@@ -87,7 +100,10 @@ impl Scene {
 pub const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {
-    Error::Scene { path: path.to_path_buf(), message: message.into() }
+    Error::Scene {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
 }
 
 /// Loads a .gltf or .glb. `camera` picks the Nth camera in node order (default: the first).
@@ -95,21 +111,37 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     if !path.exists() {
         return Err(scene_err(path, "file not found"));
     }
-    let bytes = std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
     // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
-    if bytes.starts_with(b"glTF") && bytes.get(8..12).is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12) {
+    if bytes.starts_with(b"glTF")
+        && bytes
+            .get(8..12)
+            .is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12)
+    {
         return Err(scene_err(path, "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes"));
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
     let json = gltf.document.into_json();
     pre_validate(path, &json)?;
-    let document = gltf::Document::from_json(json).map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    let document = gltf::Document::from_json(json)
+        .map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     check_buffer_uris(path, base, &document)?;
     let buffers = gltf::import_buffers(&document, Some(base), gltf.blob)
         .map_err(|e| scene_err(path, format!("cannot load buffer data: {e}")))?;
-    let mut scene = Scene { path: path.to_path_buf(), ..Default::default() };
-    Loader { path, buffers: &buffers, scene: &mut scene, cameras: Vec::new() }.run(&document, camera)?;
+    let mut scene = Scene {
+        path: path.to_path_buf(),
+        ..Default::default()
+    };
+    Loader {
+        path,
+        buffers: &buffers,
+        scene: &mut scene,
+        cameras: Vec::new(),
+    }
+    .run(&document, camera)?;
     Ok(scene)
 }
 
@@ -118,13 +150,20 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
 fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
     for ext in &json.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
-            return Err(scene_err(path, format!("requires extension {ext}, which pathwave does not support")));
+            return Err(scene_err(
+                path,
+                format!("requires extension {ext}, which pathwave does not support"),
+            ));
         }
     }
     let positions = gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
-            if let Some(i) = prim.attributes.get(&positions).filter(|i| i.value() >= json.accessors.len()) {
+            if let Some(i) = prim
+                .attributes
+                .get(&positions)
+                .filter(|i| i.value() >= json.accessors.len())
+            {
                 return Err(scene_err(
                     path,
                     format!("mesh {m} primitive {p}: POSITION refers to accessor {}, which does not exist", i.value()),
@@ -139,14 +178,20 @@ fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
 /// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO).
 fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document) -> Result<(), Error> {
     for buffer in doc.buffers() {
-        let gltf::buffer::Source::Uri(uri) = buffer.source() else { continue };
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else {
+            continue;
+        };
         let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
-        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+        let file = if let Some(rest) = uri
+            .strip_prefix("file://")
+            .or_else(|| uri.strip_prefix("file:"))
+        {
             PathBuf::from(rest)
         } else if uri.contains(':') {
             continue; // data: URIs are decoded in memory; other schemes are refused by gltf
         } else {
-            let decoded = percent_decode(uri).ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
+            let decoded = percent_decode(uri)
+                .ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
             base.join(decoded)
         };
         if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
@@ -162,7 +207,9 @@ fn percent_decode(uri: &str) -> Option<String> {
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
-        let hex = b.get(i + 1..i + 3).filter(|h| h.iter().all(u8::is_ascii_hexdigit));
+        let hex = b
+            .get(i + 1..i + 3)
+            .filter(|h| h.iter().all(u8::is_ascii_hexdigit));
         let hex = hex.and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
         match (b[i], hex) {
             (b'%', Some(v)) => {
@@ -195,7 +242,9 @@ impl Loader<'_> {
     fn run(&mut self, doc: &gltf::Document, camera: Option<usize>) -> Result<(), Error> {
         for ext in doc.extensions_used() {
             if !SUPPORTED_EXTENSIONS.contains(&ext) {
-                self.warn(format!("extension {ext} is not supported yet and is ignored"));
+                self.warn(format!(
+                    "extension {ext} is not supported yet and is ignored"
+                ));
             }
         }
         if doc.animations().next().is_some() {
@@ -218,13 +267,22 @@ impl Loader<'_> {
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => s.nodes().collect(),
             None => {
-                let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-                doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+                let children: HashSet<usize> = doc
+                    .nodes()
+                    .flat_map(|n| n.children().map(|c| c.index()))
+                    .collect();
+                doc.nodes()
+                    .filter(|n| !children.contains(&n.index()))
+                    .collect()
             }
         };
         let mut visited = HashSet::new();
         // Depth-first in node order, on an explicit stack so a deep hierarchy cannot overflow the thread's stack.
-        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
+        let mut stack: Vec<(gltf::Node, Mat4)> = roots
+            .into_iter()
+            .rev()
+            .map(|n| (n, Mat4::IDENTITY))
+            .collect();
         while let Some((node, parent)) = stack.pop() {
             let world = self.node(&node, parent, default_material, &mut visited)?;
             let children: Vec<gltf::Node> = node.children().collect();
@@ -234,7 +292,13 @@ impl Loader<'_> {
         self.scene.camera = match camera {
             None => self.cameras.first().copied(),
             Some(i) => Some(*self.cameras.get(i).ok_or_else(|| {
-                scene_err(self.path, format!("--camera {i}: the file has {} perspective camera(s)", self.cameras.len()))
+                scene_err(
+                    self.path,
+                    format!(
+                        "--camera {i}: the file has {} perspective camera(s)",
+                        self.cameras.len()
+                    ),
+                )
             })?),
         };
         if self.scene.camera.is_none() {
@@ -247,13 +311,19 @@ impl Loader<'_> {
     }
 
     fn material(&mut self, m: &gltf::Material) -> Result<(), Error> {
-        let name = m.name().map(str::to_string).unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
         let pbr = m.pbr_metallic_roughness();
         let c = pbr.base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
         let emission = Vec3::from(m.emissive_factor()) * strength;
         if !emission.is_finite() {
-            return Err(scene_err(self.path, format!("material '{name}': the emission {emission} is not finite")));
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': the emission {emission} is not finite"),
+            ));
         }
         if pbr.metallic_factor() > 0.0 {
             self.warn(format!(
@@ -263,16 +333,24 @@ impl Loader<'_> {
         }
         for (what, present) in [
             ("baseColorTexture", pbr.base_color_texture().is_some()),
-            ("metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
+            (
+                "metallicRoughnessTexture",
+                pbr.metallic_roughness_texture().is_some(),
+            ),
             ("normalTexture", m.normal_texture().is_some()),
             ("emissiveTexture", m.emissive_texture().is_some()),
         ] {
             if present {
-                self.warn(format!("material '{name}': {what} is ignored (textures are not supported yet)"));
+                self.warn(format!(
+                    "material '{name}': {what} is ignored (textures are not supported yet)"
+                ));
             }
         }
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            self.warn(format!("material '{name}': alphaMode {:?} is ignored; rendered opaque", m.alpha_mode()));
+            self.warn(format!(
+                "material '{name}': alphaMode {:?} is ignored; rendered opaque",
+                m.alpha_mode()
+            ));
         }
         self.scene.materials.push(Material {
             name,
@@ -294,27 +372,40 @@ impl Loader<'_> {
         if !visited.insert(node.index()) {
             return Err(scene_err(
                 self.path,
-                format!("node {} appears twice in the hierarchy (a cycle or a shared child)", node.index()),
+                format!(
+                    "node {} appears twice in the hierarchy (a cycle or a shared child)",
+                    node.index()
+                ),
             ));
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
         if !world.is_finite() {
-            return Err(scene_err(self.path, format!("node {} has a non-finite transform", node.index())));
+            return Err(scene_err(
+                self.path,
+                format!("node {} has a non-finite transform", node.index()),
+            ));
         }
         if let Some(cam) = node.camera() {
             match cam.projection() {
                 gltf::camera::Projection::Perspective(p) => {
                     let yfov = p.yfov();
                     if yfov > 0.0 && yfov < std::f32::consts::PI {
-                        self.cameras.push(Camera { world_from_camera: world, yfov });
+                        self.cameras.push(Camera {
+                            world_from_camera: world,
+                            yfov,
+                        });
                     } else {
-                        self.warn(format!("camera {}: yfov {yfov} is out of range and the camera is ignored", cam.index()));
+                        self.warn(format!(
+                            "camera {}: yfov {yfov} is out of range and the camera is ignored",
+                            cam.index()
+                        ));
                     }
                 }
-                gltf::camera::Projection::Orthographic(_) => {
-                    self.warn(format!("camera {}: orthographic cameras are not supported and it is ignored", cam.index()))
-                }
+                gltf::camera::Projection::Orthographic(_) => self.warn(format!(
+                    "camera {}: orthographic cameras are not supported and it is ignored",
+                    cam.index()
+                )),
             }
         }
         if let Some(mesh) = node.mesh() {
@@ -329,8 +420,15 @@ impl Loader<'_> {
     }
 
     /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.
-    fn check_accessor(&self, acc: &gltf::Accessor, what: &str, types: &[DataType], dims: Dimensions) -> Result<(), Error> {
-        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
+    fn check_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        what: &str,
+        types: &[DataType],
+        dims: Dimensions,
+    ) -> Result<(), Error> {
+        let err =
+            |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
         if acc.count() == 0 {
             return Err(err("count is 0".into()));
         }
@@ -339,7 +437,11 @@ impl Loader<'_> {
                 "expected {dims:?} of {types:?}, found {:?} of {:?}{}",
                 acc.dimensions(),
                 acc.data_type(),
-                if acc.normalized() { " (normalized)" } else { "" }
+                if acc.normalized() {
+                    " (normalized)"
+                } else {
+                    ""
+                }
             )));
         }
         if acc.sparse().is_some() {
@@ -349,24 +451,51 @@ impl Loader<'_> {
         let size = acc.size();
         let stride = view.stride().unwrap_or(size);
         if stride < size {
-            return Err(err(format!("byteStride {stride} is smaller than the element size {size}")));
+            return Err(err(format!(
+                "byteStride {stride} is smaller than the element size {size}"
+            )));
         }
-        let buffer_len = self.buffers.get(view.buffer().index()).map(|b| b.len()).unwrap_or(0);
+        let buffer_len = self
+            .buffers
+            .get(view.buffer().index())
+            .map(|b| b.len())
+            .unwrap_or(0);
         let view_end = view.offset().checked_add(view.length());
         if view_end.is_none_or(|e| e > buffer_len) {
-            return Err(err(format!("bufferView {} runs past the end of its buffer", view.index())));
+            return Err(err(format!(
+                "bufferView {} runs past the end of its buffer",
+                view.index()
+            )));
         }
-        let end = (acc.count() - 1).checked_mul(stride).and_then(|x| x.checked_add(size)).and_then(|x| x.checked_add(acc.offset()));
+        let end = (acc.count() - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(size))
+            .and_then(|x| x.checked_add(acc.offset()));
         if end.is_none_or(|e| e > view.length()) {
-            return Err(err(format!("runs past the end of bufferView {}", view.index())));
+            return Err(err(format!(
+                "runs past the end of bufferView {}",
+                view.index()
+            )));
         }
         Ok(())
     }
 
-    fn primitive(&mut self, mesh: &gltf::Mesh, prim: &gltf::Primitive, world: Mat4, default_material: u32) -> Result<(), Error> {
-        let mesh_name = mesh.name().map(str::to_string).unwrap_or_else(|| format!("#{}", mesh.index()));
+    fn primitive(
+        &mut self,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+        world: Mat4,
+        default_material: u32,
+    ) -> Result<(), Error> {
+        let mesh_name = mesh
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("#{}", mesh.index()));
         let mode = prim.mode();
-        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
             self.warn(format!("mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"));
             return Ok(());
         }
@@ -374,7 +503,9 @@ impl Loader<'_> {
             self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
         }
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-            self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
+            self.warn(format!(
+                "mesh '{mesh_name}': a primitive without POSITION is skipped"
+            ));
             return Ok(());
         };
         self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
@@ -383,41 +514,79 @@ impl Loader<'_> {
             self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)?;
         }
         if let Some(i) = prim.indices() {
-            self.check_accessor(&i, "indices", &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)?;
+            self.check_accessor(
+                &i,
+                "indices",
+                &[DataType::U8, DataType::U16, DataType::U32],
+                Dimensions::Scalar,
+            )?;
         }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
         let positions: Vec<Vec3> = reader
             .read_positions()
-            .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
+            .ok_or_else(|| {
+                scene_err(
+                    self.path,
+                    format!("mesh '{mesh_name}': cannot read POSITION"),
+                )
+            })?
             .map(Vec3::from)
             .collect();
-        let normals: Option<Vec<Vec3>> = if normal_acc.is_some() { reader.read_normals().map(|n| n.map(Vec3::from).collect()) } else { None };
+        let normals: Option<Vec<Vec3>> = if normal_acc.is_some() {
+            reader.read_normals().map(|n| n.map(Vec3::from).collect())
+        } else {
+            None
+        };
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
         };
         if normals.as_ref().is_some_and(|n| n.len() != positions.len()) {
-            return Err(scene_err(self.path, format!("mesh '{mesh_name}': NORMAL and POSITION have different counts")));
+            return Err(scene_err(
+                self.path,
+                format!("mesh '{mesh_name}': NORMAL and POSITION have different counts"),
+            ));
         }
         if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
             return Err(scene_err(
                 self.path,
-                format!("mesh '{mesh_name}': index {bad} is out of range ({} vertices)", positions.len()),
+                format!(
+                    "mesh '{mesh_name}': index {bad} is out of range ({} vertices)",
+                    positions.len()
+                ),
             ));
         }
         if positions.iter().any(|p| !p.is_finite()) {
-            return Err(scene_err(self.path, format!("mesh '{mesh_name}': POSITION holds a non-finite value")));
+            return Err(scene_err(
+                self.path,
+                format!("mesh '{mesh_name}': POSITION holds a non-finite value"),
+            ));
         }
         let triangles: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            Mode::Triangles => indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect(),
             // Strips alternate winding; swapping odd triangles keeps every front face counter-clockwise.
             Mode::TriangleStrip => (2..indices.len())
-                .map(|i| if i % 2 == 0 { [indices[i - 2], indices[i - 1], indices[i]] } else { [indices[i - 1], indices[i - 2], indices[i]] })
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [indices[i - 2], indices[i - 1], indices[i]]
+                    } else {
+                        [indices[i - 1], indices[i - 2], indices[i]]
+                    }
+                })
                 .collect(),
-            _ => (2..indices.len()).map(|i| [indices[0], indices[i - 1], indices[i]]).collect(),
+            _ => (2..indices.len())
+                .map(|i| [indices[0], indices[i - 1], indices[i]])
+                .collect(),
         };
-        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let material = prim
+            .material()
+            .index()
+            .map(|i| i as u32)
+            .unwrap_or(default_material);
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         // A mirroring transform turns counter-clockwise into clockwise; swap two vertices to keep the front face.
         let flip = Mat3::from_mat4(world).determinant() < 0.0;
@@ -432,7 +601,11 @@ impl Loader<'_> {
             let n = match &normals {
                 Some(ns) => [a, b, c].map(|i| {
                     let n = normal_matrix * ns[i as usize];
-                    if n.is_finite() && n.length_squared() > 0.0 { n.normalize() } else { face_n }
+                    if n.is_finite() && n.length_squared() > 0.0 {
+                        n.normalize()
+                    } else {
+                        face_n
+                    }
                 }),
                 None => [face_n; 3],
             };

@@ -49,15 +49,34 @@ impl Buffer {
                 unsafe { ctx.device.destroy_buffer(raw, None) };
                 alloc_err(format!("{name} ({size} bytes): {e}"))
             })?;
-        unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }?;
+        unsafe {
+            ctx.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        }?;
         ctx.set_name(raw, name);
-        Ok(Buffer { raw, size, allocation: Some(allocation), device: ctx.device.clone(), allocator: (*ctx.allocator).clone() })
+        Ok(Buffer {
+            raw,
+            size,
+            allocation: Some(allocation),
+            device: ctx.device.clone(),
+            allocator: (*ctx.allocator).clone(),
+        })
     }
 
     /// A device-local storage buffer holding `data`.
-    pub fn with_data<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Self, Error> {
+    pub fn with_data<T: bytemuck::Pod>(
+        ctx: &Context,
+        name: &str,
+        data: &[T],
+    ) -> Result<Self, Error> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let mut b = Buffer::new(ctx, name, bytes.len() as u64, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)?;
+        let mut b = Buffer::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
         b.upload(ctx, bytes)?;
         Ok(b)
     }
@@ -81,7 +100,10 @@ impl Buffer {
         )?;
         staging.upload(ctx, bytes)?;
         let region = [vk::BufferCopy::default().size(bytes.len() as u64)];
-        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, self.raw, &region) })
+        ctx.submit_and_wait(|cmd| unsafe {
+            ctx.device
+                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
+        })
     }
 
     /// Reads the whole buffer back as `T`s (the device must be idle with respect to it).
@@ -101,7 +123,10 @@ impl Buffer {
             MemoryLocation::GpuToCpu,
         )?;
         let region = [vk::BufferCopy::default().size(self.size)];
-        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, self.raw, staging.raw, &region) })?;
+        ctx.submit_and_wait(|cmd| unsafe {
+            ctx.device
+                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
+        })?;
         staging.download(ctx)
     }
 }

@@ -83,7 +83,9 @@ unsafe extern "system" fn debug_callback(
     let msg = if data.is_null() || (*data).p_message.is_null() {
         "(no message)".to_string()
     } else {
-        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+        CStr::from_ptr((*data).p_message)
+            .to_string_lossy()
+            .into_owned()
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         eprintln!("validation error: {msg}");
@@ -167,7 +169,8 @@ fn create_instance(entry: &ash::Entry, validation: Validation) -> Result<ash::In
         vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
         vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
     ];
-    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables[..1]);
+    let mut features =
+        vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables[..1]);
     let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layers)
@@ -182,7 +185,10 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
     let p = unsafe { instance.get_physical_device_properties(pd) };
     DeviceInfo {
         index,
-        name: p.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        name: p
+            .device_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
         kind: kind_name(p.device_type).to_string(),
         api_version: format!(
             "{}.{}.{}",
@@ -207,7 +213,11 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>, Error> {
     let entry = load_entry()?;
     let instance = create_instance(&entry, Validation::Off)?;
     let devices = unsafe { instance.enumerate_physical_devices() }?;
-    let infos = devices.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect();
+    let infos = devices
+        .iter()
+        .enumerate()
+        .map(|(i, &pd)| describe(&instance, i, pd))
+        .collect();
     unsafe { instance.destroy_instance(None) };
     Ok(infos)
 }
@@ -221,7 +231,8 @@ impl Context {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
                 .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
                 )
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -245,17 +256,32 @@ impl Context {
         let picked = match choice {
             DeviceChoice::Best => usable
                 .iter()
-                .min_by_key(|(i, pd)| (kind_rank(unsafe { instance.get_physical_device_properties(*pd) }.device_type), *i))
+                .min_by_key(|(i, pd)| {
+                    (
+                        kind_rank(
+                            unsafe { instance.get_physical_device_properties(*pd) }.device_type,
+                        ),
+                        *i,
+                    )
+                })
                 .copied(),
             DeviceChoice::Index(n) => usable.iter().find(|(i, _)| i == n).copied(),
             DeviceChoice::Name(name) => usable
                 .iter()
-                .find(|(i, pd)| describe(&instance, *i, *pd).name.to_lowercase().contains(&name.to_lowercase()))
+                .find(|(i, pd)| {
+                    describe(&instance, *i, *pd)
+                        .name
+                        .to_lowercase()
+                        .contains(&name.to_lowercase())
+                })
                 .copied(),
         };
         let Some((_, physical)) = picked else {
-            let names: Vec<String> =
-                devices.iter().enumerate().map(|(i, &pd)| format!("{i}: {}", describe(&instance, i, pd).name)).collect();
+            let names: Vec<String> = devices
+                .iter()
+                .enumerate()
+                .map(|(i, &pd)| format!("{i}: {}", describe(&instance, i, pd).name))
+                .collect();
             unsafe { instance.destroy_instance(None) };
             return Err(Error::Vulkan(match choice {
                 DeviceChoice::Best => "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into(),
@@ -265,10 +291,12 @@ impl Context {
         let properties = unsafe { instance.get_physical_device_properties(physical) };
         let queue_family = compute_queue_family(&instance, physical).expect("filtered above");
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let timestamps_valid =
-            families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
+        let timestamps_valid = families[queue_family as usize].timestamp_valid_bits > 0
+            && properties.limits.timestamp_period > 0.0;
         let priorities = [1.0];
-        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
         let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
         let device = unsafe { instance.create_device(physical, &device_info, None) }?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -289,9 +317,14 @@ impl Context {
                 None,
             )
         }?;
-        let debug_device = debug.as_ref().map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let debug_device = debug
+            .as_ref()
+            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
         let fence_timeout = Duration::from_secs(
-            std::env::var("PATHWAVE_GPU_TIMEOUT_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(300),
+            std::env::var("PATHWAVE_GPU_TIMEOUT_SECS")
+                .ok()
+                .and_then(|s| s.parse().ok())
+                .unwrap_or(300),
         );
         Ok(Context {
             instance,
@@ -312,19 +345,28 @@ impl Context {
     }
 
     pub fn device_name(&self) -> String {
-        self.properties.device_name_as_c_str().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+        self.properties
+            .device_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default()
     }
 
     /// Validation errors reported since the context was made.
     pub fn validation_errors(&self) -> Vec<String> {
-        self.log.errors.lock().map(|e| e.clone()).unwrap_or_default()
+        self.log
+            .errors
+            .lock()
+            .map(|e| e.clone())
+            .unwrap_or_default()
     }
 
     /// Names an object for validation messages and capture tools; a no-op without debug utils.
     pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(du) = &self.debug_device {
             if let Ok(c) = std::ffi::CString::new(name) {
-                let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&c);
+                let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                    .object_handle(handle)
+                    .object_name(&c);
                 let _ = unsafe { du.set_debug_utils_object_name(&info) };
             }
         }
@@ -346,14 +388,17 @@ impl Context {
             unsafe {
                 d.begin_command_buffer(
                     cmd,
-                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )?;
             }
             record(cmd);
             unsafe {
                 // Makes device writes visible to host reads of mapped memory once the fence signals.
                 let to_host = vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+                    .src_access_mask(
+                        vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+                    )
                     .dst_access_mask(vk::AccessFlags::HOST_READ);
                 d.cmd_pipeline_barrier(
                     cmd,
@@ -366,7 +411,11 @@ impl Context {
                 );
                 d.end_command_buffer(cmd)?;
                 let cmds = [cmd];
-                d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence)?;
+                d.queue_submit(
+                    self.queue,
+                    &[vk::SubmitInfo::default().command_buffers(&cmds)],
+                    fence,
+                )?;
                 match d.wait_for_fences(&[fence], true, self.fence_timeout.as_nanos() as u64) {
                     Ok(()) => Ok(()),
                     Err(vk::Result::TIMEOUT) => Err(Error::Vulkan(format!(

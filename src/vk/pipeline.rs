@@ -27,8 +27,12 @@ impl Pipelines {
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
             .collect();
-        let set_layout =
-            unsafe { d.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None) }?;
+        let set_layout = unsafe {
+            d.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )
+        }?;
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
@@ -36,17 +40,38 @@ impl Pipelines {
         let set_layouts = [set_layout];
         let layout = unsafe {
             d.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts).push_constant_ranges(&ranges),
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&ranges),
                 None,
             )
         }?;
-        let sizes = [vk::DescriptorPoolSize::default().ty(vk::DescriptorType::STORAGE_BUFFER).descriptor_count(BINDING_COUNT)];
-        let pool =
-            unsafe { d.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None) }?;
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(BINDING_COUNT)];
+        let pool = unsafe {
+            d.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(1)
+                    .pool_sizes(&sizes),
+                None,
+            )
+        }?;
         let set = unsafe {
-            d.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&set_layouts))
+            d.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool)
+                    .set_layouts(&set_layouts),
+            )
         }?[0];
-        let mut me = Pipelines { set_layout, layout, pool, set, pipelines: HashMap::new(), device: d.clone() };
+        let mut me = Pipelines {
+            set_layout,
+            layout,
+            pool,
+            set,
+            pipelines: HashMap::new(),
+            device: d.clone(),
+        };
         for (name, spv) in stages {
             me.replace(ctx, name, spv)?;
         }
@@ -58,15 +83,20 @@ impl Pipelines {
         let d = &ctx.device;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
-        let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
+        let module = unsafe {
+            d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
+        }?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(self.layout)];
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(self.layout)];
         let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { d.destroy_shader_module(module, None) };
-        let pipeline = result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
+        let pipeline =
+            result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
         ctx.set_name(pipeline, name);
         if let Some(old) = self.pipelines.insert(name.to_string(), pipeline) {
             unsafe { d.destroy_pipeline(old, None) };
@@ -77,7 +107,12 @@ impl Pipelines {
     pub fn bind_buffers(&self, ctx: &Context, buffers: &[(u32, &Buffer)]) {
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
-            .map(|(_, b)| [vk::DescriptorBufferInfo::default().buffer(b.raw).offset(0).range(vk::WHOLE_SIZE)])
+            .map(|(_, b)| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(b.raw)
+                    .offset(0)
+                    .range(vk::WHOLE_SIZE)]
+            })
             .collect();
         let writes: Vec<_> = buffers
             .iter()
@@ -94,10 +129,21 @@ impl Pipelines {
     }
 
     fn bind(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame) {
-        let pipeline = *self.pipelines.get(name).unwrap_or_else(|| panic!("no pipeline named {name}"));
+        let pipeline = *self
+            .pipelines
+            .get(name)
+            .unwrap_or_else(|| panic!("no pipeline named {name}"));
         unsafe {
-            self.device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            self.device.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            self.device
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+            self.device.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            );
             self.device.cmd_push_constants(
                 cmd,
                 self.layout,
@@ -113,7 +159,14 @@ impl Pipelines {
         unsafe { self.device.cmd_dispatch(cmd, groups, 1, 1) };
     }
 
-    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, args: &Buffer, offset: u64) {
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        name: &str,
+        frame: &Frame,
+        args: &Buffer,
+        offset: u64,
+    ) {
         self.bind(cmd, name, frame);
         unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
     }
@@ -127,7 +180,8 @@ impl Drop for Pipelines {
             }
             self.device.destroy_descriptor_pool(self.pool, None);
             self.device.destroy_pipeline_layout(self.layout, None);
-            self.device.destroy_descriptor_set_layout(self.set_layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
@@ -146,7 +200,9 @@ impl Timestamps {
     pub fn new(ctx: &Context, capacity: u32) -> Result<Self, Error> {
         let pool = unsafe {
             ctx.device.create_query_pool(
-                &vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity),
+                &vk::QueryPoolCreateInfo::default()
+                    .query_type(vk::QueryType::TIMESTAMP)
+                    .query_count(capacity),
                 None,
             )
         }?;
@@ -163,7 +219,10 @@ impl Timestamps {
     pub fn reset(&mut self, cmd: vk::CommandBuffer) {
         self.labels.clear();
         if self.enabled {
-            unsafe { self.device.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
+            unsafe {
+                self.device
+                    .cmd_reset_query_pool(cmd, self.pool, 0, self.capacity)
+            };
         }
     }
 
@@ -174,9 +233,19 @@ impl Timestamps {
             f();
             return;
         }
-        unsafe { self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, q) };
+        unsafe {
+            self.device
+                .cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, q)
+        };
         f();
-        unsafe { self.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
+        unsafe {
+            self.device.cmd_write_timestamp(
+                cmd,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                self.pool,
+                q + 1,
+            )
+        };
         self.labels.push(label);
     }
 
@@ -187,7 +256,12 @@ impl Timestamps {
         }
         let mut raw = vec![0u64; 2 * self.labels.len()];
         unsafe {
-            self.device.get_query_pool_results(self.pool, 0, &mut raw, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+            self.device.get_query_pool_results(
+                self.pool,
+                0,
+                &mut raw,
+                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+            )
         }?;
         let mut sums: Vec<(&'static str, f64)> = Vec::new();
         for (i, label) in self.labels.iter().enumerate() {

@@ -21,7 +21,13 @@ impl GltfBuilder {
     }
 
     /// A Lambertian material; emission is radiance (W sr^-1 m^-2), written with KHR_materials_emissive_strength past 1.
-    pub fn material(&mut self, name: &str, base: [f32; 3], emission: [f32; 3], double_sided: bool) -> usize {
+    pub fn material(
+        &mut self,
+        name: &str,
+        base: [f32; 3],
+        emission: [f32; 3],
+        double_sided: bool,
+    ) -> usize {
         let peak = emission.iter().cloned().fold(0.0f32, f32::max);
         let mut m = json!({
             "name": name,
@@ -32,7 +38,8 @@ impl GltfBuilder {
             let scale = peak.max(1.0);
             m["emissiveFactor"] = json!(emission.map(|e| e / scale));
             if scale > 1.0 {
-                m["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": scale } });
+                m["extensions"] =
+                    json!({ "KHR_materials_emissive_strength": { "emissiveStrength": scale } });
                 if !self.extensions.contains(&"KHR_materials_emissive_strength") {
                     self.extensions.push("KHR_materials_emissive_strength");
                 }
@@ -43,7 +50,7 @@ impl GltfBuilder {
     }
 
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();
@@ -54,7 +61,11 @@ impl GltfBuilder {
 
     /// An indexed triangle mesh on its own node; front faces wind counter-clockwise.
     pub fn mesh(&mut self, name: &str, positions: &[[f32; 3]], indices: &[u32], material: usize) {
-        let pos_bytes: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let pos_bytes: Vec<u8> = positions
+            .iter()
+            .flatten()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
         let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let pv = self.push_view(&pos_bytes, 34962);
         let iv = self.push_view(&idx_bytes, 34963);
@@ -71,15 +82,26 @@ impl GltfBuilder {
         self.accessors.push(json!({ "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR" }));
         let ia = self.accessors.len() - 1;
         self.meshes.push(json!({ "name": name, "primitives": [{ "attributes": { "POSITION": pa }, "indices": ia, "material": material }] }));
-        self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
+        self.nodes
+            .push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
     }
 
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
-    pub fn quad(&mut self, name: &str, corners: [[f32; 3]; 4], material: usize, facing: Option<[f32; 3]>) {
+    pub fn quad(
+        &mut self,
+        name: &str,
+        corners: [[f32; 3]; 4],
+        material: usize,
+        facing: Option<[f32; 3]>,
+    ) {
         let c = corners.map(Vec3::from);
         let n = (c[1] - c[0]).cross(c[2] - c[0]);
         let flip = facing.is_some_and(|f| n.dot(Vec3::from(f)) < 0.0);
-        let idx: &[u32] = if flip { &[0, 2, 1, 0, 3, 2] } else { &[0, 1, 2, 0, 2, 3] };
+        let idx: &[u32] = if flip {
+            &[0, 2, 1, 0, 3, 2]
+        } else {
+            &[0, 1, 2, 0, 2, 3]
+        };
         self.mesh(name, &corners, idx, material);
     }
 
@@ -89,12 +111,42 @@ impl GltfBuilder {
         let center = (l + h) * 0.5;
         let v = |x: f32, y: f32, z: f32| [x, y, z];
         let faces = [
-            [v(l.x, l.y, l.z), v(l.x, h.y, l.z), v(l.x, h.y, h.z), v(l.x, l.y, h.z)],
-            [v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(h.x, l.y, h.z)],
-            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, l.y, h.z), v(l.x, l.y, h.z)],
-            [v(l.x, h.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
-            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(l.x, h.y, l.z)],
-            [v(l.x, l.y, h.z), v(h.x, l.y, h.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
+            [
+                v(l.x, l.y, l.z),
+                v(l.x, h.y, l.z),
+                v(l.x, h.y, h.z),
+                v(l.x, l.y, h.z),
+            ],
+            [
+                v(h.x, l.y, l.z),
+                v(h.x, h.y, l.z),
+                v(h.x, h.y, h.z),
+                v(h.x, l.y, h.z),
+            ],
+            [
+                v(l.x, l.y, l.z),
+                v(h.x, l.y, l.z),
+                v(h.x, l.y, h.z),
+                v(l.x, l.y, h.z),
+            ],
+            [
+                v(l.x, h.y, l.z),
+                v(h.x, h.y, l.z),
+                v(h.x, h.y, h.z),
+                v(l.x, h.y, h.z),
+            ],
+            [
+                v(l.x, l.y, l.z),
+                v(h.x, l.y, l.z),
+                v(h.x, h.y, l.z),
+                v(l.x, h.y, l.z),
+            ],
+            [
+                v(l.x, l.y, h.z),
+                v(h.x, l.y, h.z),
+                v(h.x, h.y, h.z),
+                v(l.x, h.y, h.z),
+            ],
         ];
         for (i, f) in faces.iter().enumerate() {
             let fc = f.iter().map(|p| Vec3::from(*p)).sum::<Vec3>() / 4.0;

@@ -15,7 +15,9 @@ pub fn validation() -> pathwave::vk::Validation {
         Ok("sync") => Validation::Sync,
         _ if validation_layer_installed() => Validation::On,
         _ => {
-            eprintln!("note: VK_LAYER_KHRONOS_validation is not installed; running without validation");
+            eprintln!(
+                "note: VK_LAYER_KHRONOS_validation is not installed; running without validation"
+            );
             Validation::Off
         }
     }
@@ -24,23 +26,39 @@ pub fn validation() -> pathwave::vk::Validation {
 /// A renderer for a scene file on the best device, with the tests' validation setting.
 pub fn renderer(path: &std::path::Path) -> pathwave::Renderer {
     let scene = pathwave::scene::load(path, None).unwrap_or_else(|e| panic!("{e}"));
-    pathwave::Renderer::with_validation(&scene, &pathwave::vk::DeviceChoice::Best, validation()).unwrap_or_else(|e| panic!("{e}"))
+    pathwave::Renderer::with_validation(&scene, &pathwave::vk::DeviceChoice::Best, validation())
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> pathwave::RenderSettings {
-    pathwave::RenderSettings { width, height, spp, seed, ..Default::default() }
+    pathwave::RenderSettings {
+        width,
+        height,
+        spp,
+        seed,
+        ..Default::default()
+    }
 }
 
 pub fn render(r: &mut pathwave::Renderer, s: &pathwave::RenderSettings) -> pathwave::Film {
     let (film, stats) = r.render(s, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!("{}x{} {} spp: {}", s.width, s.height, s.spp, stats.summary());
+    eprintln!(
+        "{}x{} {} spp: {}",
+        s.width,
+        s.height,
+        s.spp,
+        stats.summary()
+    );
     film
 }
 
 pub fn validation_layer_installed() -> bool {
-    ["/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json", "/etc/vulkan/explicit_layer.d/VkLayer_khronos_validation.json"]
-        .iter()
-        .any(|p| std::path::Path::new(p).exists())
+    [
+        "/usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json",
+        "/etc/vulkan/explicit_layer.d/VkLayer_khronos_validation.json",
+    ]
+    .iter()
+    .any(|p| std::path::Path::new(p).exists())
 }
 
 pub fn scenes_dir() -> PathBuf {

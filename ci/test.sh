@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# The README's test command: set up the machine if needed, then check formatting, lints and run every test on lavapipe.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash ci/setup.sh
+export PATH="$HOME/.cargo/bin:$PATH"
+# Prefer lavapipe when several drivers exist, so results match CI; any device works when this is unset.
+if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ] && [ -f /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] && [ "${CI:-}" = "true" ]; then
+  export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json
+fi
+if rustup component list --installed 2>/dev/null | grep -q rustfmt; then
+  cargo fmt --check
+fi
+if rustup component list --installed 2>/dev/null | grep -q clippy; then
+  cargo clippy --all-targets --locked -- -D warnings
+fi
+cargo test --locked

@@ -1,0 +1,313 @@
+//! BVH correctness: the CPU traversal of the GPU layout and the device traversal both match a brute force.
+mod common;
+
+use glam::Vec3;
+use pathwave::bvh::{self, brute_force, intersect_triangle, Ray, TraceHit};
+use pathwave::constants::NO_HIT;
+use pathwave::layout::TriVerts;
+use pathwave::render::gpu_scene;
+use pathwave::scene::{Material, Scene};
+
+/// A small deterministic generator (SplitMix64) so the rays are the same on every run.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+    fn vec(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
+        Vec3::new(
+            self.range(lo.x, hi.x),
+            self.range(lo.y, hi.y),
+            self.range(lo.z, hi.z),
+        )
+    }
+    fn dir(&mut self) -> Vec3 {
+        loop {
+            let v = self.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
+            if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
+                return v.normalize();
+            }
+        }
+    }
+}
+
+fn scene_of(triangles: Vec<[Vec3; 3]>) -> Scene {
+    let n = triangles.len();
+    Scene {
+        normals: triangles
+            .iter()
+            .map(|t| [(t[1] - t[0]).cross(t[2] - t[0]).normalize(); 3])
+            .collect(),
+        triangles,
+        material_of: vec![0; n],
+        materials: vec![Material {
+            name: "white".into(),
+            base_color: Vec3::ONE,
+            emission: Vec3::ZERO,
+            double_sided: false,
+        }],
+        ..Default::default()
+    }
+}
+
+fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+    (0..n)
+        .map(|_| {
+            let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
+            let s = rng.range(0.02, 0.3);
+            [c + rng.dir() * s, c + rng.dir() * s, c + rng.dir() * s]
+        })
+        .collect()
+}
+
+/// A UV sphere over a large ground quad: shared edges, many coplanar neighbours, a long thin box.
+fn sphere_and_plane() -> Vec<[Vec3; 3]> {
+    let (rings, segs) = (24, 48);
+    let p = |i: usize, j: usize| {
+        let th = std::f32::consts::PI * i as f32 / rings as f32;
+        let ph = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
+        Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * 0.7
+            + Vec3::new(0.0, 0.8, 0.0)
+    };
+    let mut t = Vec::new();
+    for i in 0..rings {
+        for j in 0..segs {
+            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
+            if i != 0 {
+                t.push([a, b, d]);
+            }
+            if i + 1 != rings {
+                t.push([b, c, d]);
+            }
+        }
+    }
+    let g = 5.0;
+    t.push([
+        Vec3::new(-g, 0.0, -g),
+        Vec3::new(-g, 0.0, g),
+        Vec3::new(g, 0.0, g),
+    ]);
+    t.push([
+        Vec3::new(-g, 0.0, -g),
+        Vec3::new(g, 0.0, g),
+        Vec3::new(g, 0.0, -g),
+    ]);
+    t
+}
+
+/// 10k+ rays: a third random, a third along the axes, a third leaving a point on a triangle.
+fn rays(rng: &mut Rng, tris: &[[Vec3; 3]], lo: Vec3, hi: Vec3, n: usize) -> Vec<Ray> {
+    let pad = (hi - lo) * 0.2;
+    let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    (0..n)
+        .map(|i| match i % 3 {
+            0 => Ray {
+                origin: rng.vec(lo - pad, hi + pad),
+                dir: rng.dir(),
+                tmin: 0.0,
+                tmax: f32::MAX,
+            },
+            1 => Ray {
+                origin: rng.vec(lo - pad, hi + pad),
+                dir: axes[i / 3 % 6],
+                tmin: 0.0,
+                tmax: f32::MAX,
+            },
+            _ => {
+                let t = tris[(rng.next() * tris.len() as f32) as usize % tris.len()];
+                let (mut u, mut v) = (rng.next(), rng.next());
+                if u + v > 1.0 {
+                    (u, v) = (1.0 - u, 1.0 - v);
+                }
+                let origin = t[0] + u * (t[1] - t[0]) + v * (t[2] - t[0]);
+                Ray {
+                    origin,
+                    dir: rng.dir(),
+                    tmin: 0.0,
+                    tmax: f32::MAX,
+                }
+            }
+        })
+        .collect()
+}
+
+/// Is `h` an acceptable closest hit given the reference `r`? Differences are allowed only where rounding
+/// legitimately decides: equal distances (shared edges), hits on an edge, or a hit at the ray's own origin.
+fn agrees(tris: &[TriVerts], ray: &Ray, h: &TraceHit, r: &TraceHit) -> Result<bool, String> {
+    let tol = |t: f32| 1e-4 * (1.0 + t.abs());
+    if h.tri == r.tri && (h.tri == NO_HIT || (h.t - r.t).abs() <= tol(r.t)) {
+        return Ok(false);
+    }
+    let near_edge = |h: &TraceHit| {
+        let w = 1.0 - h.uv.x - h.uv.y;
+        h.uv.x.min(h.uv.y).min(w) < 1e-4
+    };
+    let self_hit = |h: &TraceHit| h.tri != NO_HIT && h.t < 1e-4;
+    let ambiguous = match (h.tri == NO_HIT, r.tri == NO_HIT) {
+        (false, false) => {
+            (h.t - r.t).abs() <= tol(r.t)
+                || self_hit(h)
+                || self_hit(r)
+                || near_edge(h)
+                || near_edge(r)
+        }
+        (true, false) => near_edge(r) || self_hit(r),
+        (false, true) => near_edge(h) || self_hit(h),
+        (true, true) => unreachable!(),
+    };
+    if !ambiguous {
+        // Describe it fully: what the device says against what the reference says.
+        let check = (h.tri != NO_HIT).then(|| {
+            intersect_triangle(&tris[h.tri as usize], ray.origin, ray.dir, -1.0, f32::MAX)
+        });
+        return Err(format!("ray {ray:?}: got {h:?}, reference {r:?}; the got-triangle re-tested on the CPU: {check:?}"));
+    }
+    Ok(true)
+}
+
+fn check_mesh(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64) {
+    let mut rng = Rng(seed);
+    let scene = scene_of(triangles);
+    let packed = gpu_scene::pack(&scene);
+    let (lo, hi) = scene.bounds();
+    let rays = rays(&mut rng, &scene.triangles, lo, hi, 12_000);
+    let reference: Vec<TraceHit> = rays
+        .iter()
+        .map(|r| brute_force(&packed.tri_verts, r))
+        .collect();
+
+    // The CPU traversal of the exact GPU layout does the same arithmetic as the brute force: the distance must
+    // match bit for bit (the triangle may differ only on an exact tie, where both are right).
+    for (ray, r) in rays.iter().zip(&reference) {
+        let h = bvh::trace(&packed.bvh.nodes, &packed.tri_verts, ray, false);
+        assert!(
+            h.t == r.t,
+            "{name}: CPU BVH {h:?} vs brute force {r:?} for {ray:?}"
+        );
+        assert_eq!(
+            h.tri == NO_HIT,
+            r.tri == NO_HIT,
+            "{name}: CPU BVH hit/miss differs for {ray:?}"
+        );
+    }
+
+    let mut renderer =
+        pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation())
+            .unwrap();
+    let device = renderer.probe_trace(&rays, false).unwrap();
+    let mut ambiguous = 0;
+    let mut hits = 0;
+    for ((ray, h), r) in rays.iter().zip(&device).zip(&reference) {
+        hits += (r.tri != NO_HIT) as usize;
+        match agrees(&packed.tri_verts, ray, h, r) {
+            Ok(a) => ambiguous += a as usize,
+            Err(e) => panic!("{name}: device closest hit disagrees with brute force: {e}"),
+        }
+    }
+    eprintln!(
+        "{name}: {} triangles, {} rays, {hits} hits, {ambiguous} decided by rounding",
+        scene.triangles.len(),
+        rays.len()
+    );
+    assert!(
+        hits > rays.len() / 4,
+        "{name}: too few rays hit anything for the test to mean much"
+    );
+    assert!(
+        ambiguous * 200 < rays.len(),
+        "{name}: {ambiguous} rounding-decided rays is more than 0.5 %"
+    );
+
+    // Any-hit (shadow rays) with finite lengths: occluded or not must match the brute force.
+    let shadow: Vec<Ray> = rays
+        .iter()
+        .map(|r| Ray {
+            tmax: rng.range(0.05, 3.0),
+            ..*r
+        })
+        .collect();
+    let any = renderer.probe_trace(&shadow, true).unwrap();
+    let mut occluded = 0;
+    for (ray, h) in shadow.iter().zip(&any) {
+        let r = brute_force(&packed.tri_verts, ray);
+        occluded += (r.tri != NO_HIT) as usize;
+        if (h.tri == NO_HIT) != (r.tri == NO_HIT) {
+            let edge = |x: &TraceHit| {
+                x.tri != NO_HIT
+                    && (x.t < 1e-4
+                        || (ray.tmax - x.t) < 1e-4 * ray.tmax
+                        || x.uv.min_element() < 1e-4
+                        || 1.0 - x.uv.x - x.uv.y < 1e-4)
+            };
+            assert!(
+                edge(h) || edge(&r),
+                "{name}: any-hit {h:?} vs brute force {r:?} for {ray:?}"
+            );
+        }
+        if h.tri != NO_HIT {
+            assert!(
+                h.t > ray.tmin && h.t < ray.tmax,
+                "{name}: any-hit outside the ray's interval: {h:?}"
+            );
+        }
+    }
+    assert!(
+        occluded > 0 && occluded < shadow.len(),
+        "{name}: shadow rays must be a mix of occluded and free"
+    );
+}
+
+#[test]
+fn random_triangle_soup() {
+    let mut rng = Rng(1);
+    check_mesh("soup", soup(&mut rng, 3000), 2);
+}
+
+#[test]
+fn sphere_over_plane() {
+    check_mesh("sphere", sphere_and_plane(), 3);
+}
+
+#[test]
+fn cornell_box() {
+    let scene =
+        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    check_mesh("cornell", scene.triangles, 4);
+}
+
+#[test]
+fn empty_scene_misses_everything() {
+    let b = bvh::build(&[]);
+    let ray = Ray {
+        origin: Vec3::ZERO,
+        dir: Vec3::X,
+        tmin: 0.0,
+        tmax: f32::MAX,
+    };
+    assert_eq!(bvh::trace(&b.nodes, &[], &ray, false).tri, NO_HIT);
+}
+
+#[test]
+fn build_respects_leaf_size_and_stack_depth() {
+    let mut rng = Rng(9);
+    // Many coincident triangles force the median fallback.
+    let mut tris = soup(&mut rng, 2000);
+    tris.extend(std::iter::repeat_n([Vec3::ZERO, Vec3::X, Vec3::Y], 500));
+    let b = bvh::build(&tris);
+    assert!(b.stats.max_leaf_tris <= pathwave::constants::BVH_MAX_LEAF_TRIS);
+    assert!(b.stats.depth < pathwave::constants::BVH_STACK_SIZE);
+    let mut seen = b.order.clone();
+    seen.sort();
+    assert_eq!(
+        seen,
+        (0..tris.len() as u32).collect::<Vec<_>>(),
+        "the order must be a permutation"
+    );
+}

@@ -1,0 +1,307 @@
+//! The command line as a user meets it: renders, determinism of the written file, and every kind of bad input.
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn pathwave(args: &[&str]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    c.args(args);
+    if common::validation() == pathwave::vk::Validation::On {
+        c.env("PATHWAVE_VALIDATION", "1");
+    }
+    c.output().expect("the pathwave binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn cornell() -> String {
+    common::scenes_dir()
+        .join("cornell-box.gltf")
+        .display()
+        .to_string()
+}
+
+/// Runs a render that must fail: non-zero exit, no panic, a message containing `needle`, and no output file.
+fn assert_refused(args: &[&str], out: &Path, needle: &str) {
+    let o = pathwave(args);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{args:?} succeeded; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    assert!(
+        err.contains(needle),
+        "{args:?}: message should mention {needle:?}, got: {err}"
+    );
+    assert!(!out.exists(), "{args:?} left an output file behind");
+    let leftovers: Vec<PathBuf> = match std::fs::read_dir(out.parent().unwrap()) {
+        Ok(dir) => dir
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.to_string_lossy().contains(".pathwave-"))
+            .collect(),
+        Err(_) => Vec::new(), // the directory itself does not exist
+    };
+    assert!(
+        leftovers.is_empty(),
+        "temporary files left behind: {leftovers:?}"
+    );
+}
+
+#[test]
+fn renders_the_cornell_box_to_exr_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("cb.exr");
+    let o = pathwave(&[
+        "render",
+        &cornell(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--size",
+        "40x30",
+        "--spp",
+        "8",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary = stderr(&o);
+    for word in [
+        "samples/s",
+        "Mrays/s",
+        "GPU ms",
+        "extend",
+        "shade",
+        "connect",
+    ] {
+        assert!(
+            summary.contains(word),
+            "the summary line lacks {word}: {summary}"
+        );
+    }
+    let (w, h, px) = pathwave::output::read_exr(&exr).unwrap();
+    assert_eq!((w, h), (40, 30));
+    let mean: f64 = px
+        .iter()
+        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+        .sum::<f64>()
+        / px.len() as f64;
+    // The box's walls are lit to roughly 0.1-1 W sr^-1 m^-2 and the light itself is ~11: a mean in [0.05, 2] is plausible.
+    assert!(
+        (0.05..2.0).contains(&mean),
+        "implausible Cornell box mean {mean}"
+    );
+    assert!(px
+        .iter()
+        .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+    // Row 0 is the top: the light is on the ceiling, so the brightest pixel is in the top fifth.
+    let brightest = px
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1[0].total_cmp(&b.1[0]))
+        .unwrap()
+        .0;
+    assert!(
+        brightest / 40 < 6,
+        "brightest pixel is in row {}; the image is upside down?",
+        brightest / 40
+    );
+
+    let png = dir.path().join("cb.png");
+    let o = pathwave(&[
+        "render",
+        &cornell(),
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "16x16",
+        "--spp",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
+    let info = decoder.read_info().unwrap().info().clone();
+    assert_eq!((info.width, info.height), (16, 16));
+}
+
+#[test]
+fn same_seed_same_bytes_other_seed_other_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, seed: &str| {
+        let p = dir.path().join(name);
+        let o = pathwave(&[
+            "render",
+            &cornell(),
+            "-o",
+            p.to_str().unwrap(),
+            "--size",
+            "32x32",
+            "--spp",
+            "4",
+            "--seed",
+            seed,
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(p).unwrap()
+    };
+    let a = run("a.exr", "1");
+    let b = run("b.exr", "1");
+    let c = run("c.exr", "2");
+    assert!(a == b, "the same seed gave different bytes");
+    assert!(a != c, "a different seed gave the same bytes");
+}
+
+#[test]
+fn bad_inputs_are_refused_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out.exr");
+    let o = out.to_str().unwrap();
+
+    let missing = d.join("missing.gltf");
+    assert_refused(
+        &["render", missing.to_str().unwrap(), "-o", o],
+        &out,
+        "missing.gltf: file not found",
+    );
+
+    let not_gltf = d.join("notes.gltf");
+    std::fs::write(&not_gltf, "these are not the droids").unwrap();
+    assert_refused(
+        &["render", not_gltf.to_str().unwrap(), "-o", o],
+        &out,
+        "notes.gltf: not a valid glTF",
+    );
+
+    let truncated = d.join("truncated.gltf");
+    let text = std::fs::read_to_string(cornell()).unwrap();
+    std::fs::write(&truncated, &text[..text.len() / 2]).unwrap();
+    assert_refused(
+        &["render", truncated.to_str().unwrap(), "-o", o],
+        &out,
+        "truncated.gltf: not a valid glTF",
+    );
+
+    let no_bin = d.join("no-bin.gltf");
+    let start = text.find("data:application/octet-stream;base64,").unwrap();
+    let end = start + text[start..].find('"').unwrap();
+    std::fs::write(
+        &no_bin,
+        format!("{}missing.bin{}", &text[..start], &text[end..]),
+    )
+    .unwrap();
+    assert_refused(
+        &["render", no_bin.to_str().unwrap(), "-o", o],
+        &out,
+        "no-bin.gltf: cannot load buffer data",
+    );
+
+    let no_tris = d.join("no-triangles.gltf");
+    std::fs::write(
+        &no_tris,
+        r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"name":"empty"}]}"#,
+    )
+    .unwrap();
+    assert_refused(
+        &["render", no_tris.to_str().unwrap(), "-o", o],
+        &out,
+        "no-triangles.gltf: the scene has no triangles",
+    );
+
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--size", "0x0"],
+        &out,
+        "--size",
+    );
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--spp", "-1"],
+        &out,
+        "--spp",
+    );
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--size", "big"],
+        &out,
+        "WIDTHxHEIGHT",
+    );
+    let txt = d.join("out.txt");
+    assert_refused(
+        &["render", &cornell(), "-o", txt.to_str().unwrap()],
+        &txt,
+        ".exr or .png",
+    );
+    let nodir = d.join("no/such/dir/out.exr");
+    assert_refused(
+        &[
+            "render",
+            &cornell(),
+            "-o",
+            nodir.to_str().unwrap(),
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+        ],
+        &nodir,
+        "does not exist",
+    );
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--device", "no-such-gpu"],
+        &out,
+        "no device matches",
+    );
+}
+
+#[test]
+fn a_scene_without_lights_renders_black_with_a_warning() {
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let m = b.material("grey", [0.5; 3], [0.0; 3], false);
+    b.quad(
+        "floor",
+        [
+            [-1.0, 0.0, -1.0],
+            [1.0, 0.0, -1.0],
+            [1.0, 0.0, 1.0],
+            [-1.0, 0.0, 1.0],
+        ],
+        m,
+        Some([0.0, 1.0, 0.0]),
+    );
+    let (dir, path) = common::write_temp(&b, "dark.gltf");
+    let out = dir.path().join("dark.exr");
+    let o = pathwave(&[
+        "render",
+        path.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "8x8",
+        "--spp",
+        "2",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("no emissive surface"),
+        "missing the no-light warning: {err}"
+    );
+    assert!(
+        err.contains("no perspective camera"),
+        "missing the no-camera warning: {err}"
+    );
+    let (_, _, px) = pathwave::output::read_exr(&out).unwrap();
+    assert!(px.iter().all(|p| *p == [0.0; 3]));
+}
+
+#[test]
+fn info_describes_scene_and_devices() {
+    let o = pathwave(&["info", &cornell()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(text.contains("triangles   32"), "{text}");
+    assert!(text.contains("lights      2 emissive triangles"), "{text}");
+    assert!(text.contains("SAH cost"), "{text}");
+    let o = pathwave(&["info", "--devices"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("0: "),
+        "no device listed"
+    );
+}
