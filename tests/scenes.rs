@@ -61,3 +61,49 @@ fn cornell_box_has_the_classic_layout() {
         assert!(n.y < 0.0, "the light's front face points up");
     }
 }
+
+#[test]
+fn gltf_with_external_bin_and_glb_load_the_same_scene() {
+    let b = common::scenes::cornell_box();
+    let dir = tempfile::tempdir().unwrap();
+    let (json, bin) = b.to_json_and_bin("cornell.bin");
+    std::fs::write(dir.path().join("cornell.gltf"), json).unwrap();
+    std::fs::write(dir.path().join("cornell.bin"), bin).unwrap();
+    std::fs::write(dir.path().join("cornell.glb"), b.to_glb()).unwrap();
+    let embedded =
+        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    for name in ["cornell.gltf", "cornell.glb"] {
+        let s =
+            pathwave::scene::load(&dir.path().join(name), None).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.triangles, embedded.triangles, "{name}");
+        assert_eq!(s.materials, embedded.materials, "{name}");
+        assert_eq!(s.camera, embedded.camera, "{name}");
+    }
+}
+
+#[test]
+fn node_transforms_compose_and_mirroring_keeps_front_faces() {
+    // A triangle under a parent (translate) and a child (mirror in x, scale 2): world = parent * child.
+    let json = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+      "nodes":[{"translation":[1,0,0],"children":[1]},{"scale":[-2,2,2],"mesh":0}],
+      "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+      "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+      "bufferViews":[{"buffer":0,"byteLength":36}],
+      "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}]}"#;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mirror.gltf");
+    std::fs::write(&path, json).unwrap();
+    let s = pathwave::scene::load(&path, None).unwrap();
+    let t = s.triangles[0];
+    let mut xs: Vec<f32> = t.iter().map(|v| v.x).collect();
+    xs.sort_by(f32::total_cmp);
+    assert_eq!(
+        xs,
+        vec![-1.0, 1.0, 1.0],
+        "vertices (0,0,0),(1,0,0),(0,1,0) under x -> 1 - 2x"
+    );
+    assert!(t.iter().any(|v| v.y == 2.0), "scale 2 applies to y");
+    // The file's triangle faces +z (counter-clockwise seen from +z); a mirror must not turn it around.
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    assert!(n.z > 0.0, "mirroring flipped the front face: {n}");
+}

@@ -168,6 +168,48 @@ impl GltfBuilder {
     }
 
     pub fn to_json(&self) -> String {
+        let uri = format!("data:application/octet-stream;base64,{}", base64(&self.bin));
+        serde_json::to_string_pretty(&self.document(Some(&uri))).unwrap() + "\n"
+    }
+
+    /// The same scene with its buffer in a separate file named `bin_name` (returns the JSON and the bytes).
+    pub fn to_json_and_bin(&self, bin_name: &str) -> (String, Vec<u8>) {
+        (
+            serde_json::to_string_pretty(&self.document(Some(bin_name))).unwrap(),
+            self.bin.clone(),
+        )
+    }
+
+    /// The same scene as a binary .glb: a JSON chunk and a BIN chunk, each padded to 4 bytes.
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut json = serde_json::to_vec(&self.document(None)).unwrap();
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let mut bin = self.bin.clone();
+        while !bin.len().is_multiple_of(4) {
+            bin.push(0);
+        }
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+
+    /// The glTF JSON; `uri` None means the buffer is the GLB's BIN chunk.
+    fn document(&self, uri: Option<&str>) -> Value {
+        let buffer = match uri {
+            Some(u) => json!({ "byteLength": self.bin.len(), "uri": u }),
+            None => json!({ "byteLength": self.bin.len() }),
+        };
         let mut doc = json!({
             "asset": { "version": "2.0", "generator": "pathwave tests/common/gltf_builder.rs" },
             "scene": 0,
@@ -177,7 +219,7 @@ impl GltfBuilder {
             "materials": self.materials,
             "accessors": self.accessors,
             "bufferViews": self.views,
-            "buffers": [{ "byteLength": self.bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64(&self.bin)) }],
+            "buffers": [buffer],
         });
         if !self.cameras.is_empty() {
             doc["cameras"] = json!(self.cameras);
@@ -185,7 +227,7 @@ impl GltfBuilder {
         if !self.extensions.is_empty() {
             doc["extensionsUsed"] = json!(self.extensions);
         }
-        serde_json::to_string_pretty(&doc).unwrap() + "\n"
+        doc
     }
 
     pub fn write(&self, path: &std::path::Path) {
