@@ -4,9 +4,11 @@ mod common;
 use common::stats::{chi2_p_value, chi2_statistic, image_mean_and_stderr};
 use pathwave::{Estimator, Film};
 
+/// Each estimator gets its own seed: with shared random numbers the renders would be correlated, and the
+/// comparisons below, which assume independent estimates, would be blind.
 fn render_with(path: &std::path::Path, estimator: Estimator, spp: u32) -> Film {
     let mut r = common::renderer(path);
-    let mut s = common::settings(24, 24, spp, 5);
+    let mut s = common::settings(24, 24, spp, 5 + estimator as u32);
     s.estimator = estimator;
     common::render(&mut r, &s)
 }
@@ -48,6 +50,39 @@ fn estimators_agree_and_mis_has_least_variance() {
             );
         }
     }
+    // Per pixel, MIS and light sampling must agree too (a bias confined to some geometry would hide in the
+    // image mean): the sum of squared z-scores over pixels is chi-square with one degree of freedom per pixel.
+    let (mis, light) = (&films[0].1, &films[1].1);
+    let (mm, mv, lm, lv) = (
+        mis.mean(),
+        mis.sample_variance(),
+        light.mean(),
+        light.sample_variance(),
+    );
+    let (mut chi2, mut dof) = (0.0, 0usize);
+    for i in 0..mm.len() {
+        let a = (mm[i][0] + mm[i][1] + mm[i][2]) as f64 / 3.0;
+        let b = (lm[i][0] + lm[i][1] + lm[i][2]) as f64 / 3.0;
+        let var = ((mv[i][0] + mv[i][1] + mv[i][2]) as f64 / 3.0
+            + (lv[i][0] + lv[i][1] + lv[i][2]) as f64 / 3.0)
+            / mis.spp as f64;
+        if var > 0.0 {
+            chi2 += (a - b) * (a - b) / var;
+            dof += 1;
+        } else {
+            assert_eq!(
+                a, b,
+                "pixel {i} has no variance in either estimator but different values"
+            );
+        }
+    }
+    let p = chi2_p_value(chi2, dof);
+    eprintln!("per-pixel MIS vs light: chi2 {chi2:.1} over {dof} pixels, p = {p:.4}");
+    assert!(
+        p > 1e-4,
+        "MIS and light sampling disagree per pixel: chi2 {chi2:.1}, dof {dof}, p = {p}"
+    );
+
     let (_, _, _, v_mis) = stats[0];
     let (_, _, _, v_light) = stats[1];
     let (_, _, _, v_bsdf) = stats[2];

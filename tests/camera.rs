@@ -1,0 +1,92 @@
+//! Camera and emission conventions, checked exactly with max depth 0 (only the emission the camera sees).
+mod common;
+
+use common::gltf_builder::GltfBuilder;
+
+fn render_direct(b: &GltfBuilder, width: u32, height: u32) -> Vec<[f32; 3]> {
+    let (_dir, path) = common::write_temp(b, "scene.gltf");
+    let mut r = common::renderer(&path);
+    let mut s = common::settings(width, height, 4, 0);
+    s.max_depth = Some(0);
+    common::render(&mut r, &s).mean()
+}
+
+#[test]
+fn emission_leaves_the_front_face_only_unless_double_sided() {
+    for (double_sided, eye_z, expected) in [
+        (false, 2.0, 2.0),
+        (false, -2.0, 0.0),
+        (true, 2.0, 2.0),
+        (true, -2.0, 2.0),
+    ] {
+        let mut b = GltfBuilder::new();
+        let m = b.material("emitter", [0.5; 3], [2.0; 3], double_sided);
+        b.quad(
+            "emitter",
+            [
+                [-5.0, -5.0, 0.0],
+                [5.0, -5.0, 0.0],
+                [5.0, 5.0, 0.0],
+                [-5.0, 5.0, 0.0],
+            ],
+            m,
+            Some([0.0, 0.0, 1.0]),
+        );
+        b.camera([0.0, 0.0, eye_z], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 30.0);
+        let px = render_direct(&b, 8, 8);
+        assert!(
+            px.iter().all(|p| *p == [expected as f32; 3]),
+            "double-sided {double_sided}, seen from z = {eye_z}: expected {expected}, got {:?}",
+            px[0]
+        );
+    }
+}
+
+#[test]
+fn yfov_is_vertical_and_the_width_follows_the_aspect_ratio() {
+    // Camera at the origin looking down -z with yfov 90 degrees: at z = -1 the image spans y in [-1, 1] and,
+    // at 40x20 (aspect 2), x in [-2, 2]. An emitter strip x in [-0.5, 0.5] covers exactly columns 15..25.
+    // A second emitter only above y = 0.5 lights the top quarter of the rows: row 0 is the top.
+    let mut b = GltfBuilder::new();
+    let strip = b.material("strip", [0.0; 3], [1.0; 3], false);
+    let top = b.material("top", [0.0; 3], [3.0; 3], false);
+    b.quad(
+        "strip",
+        [
+            [-0.5, -0.4, -1.0],
+            [0.5, -0.4, -1.0],
+            [0.5, 0.4, -1.0],
+            [-0.5, 0.4, -1.0],
+        ],
+        strip,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.quad(
+        "top",
+        [
+            [-9.0, 0.5, -1.0],
+            [9.0, 0.5, -1.0],
+            [9.0, 9.0, -1.0],
+            [-9.0, 9.0, -1.0],
+        ],
+        top,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 90.0);
+    let (w, h) = (40usize, 20usize);
+    let px = render_direct(&b, w as u32, h as u32);
+    let at = |x: usize, y: usize| px[y * w + x][0];
+    // Rows 0..5 are y in [0.5, 1]: the top emitter everywhere.
+    for y in 0..5 {
+        for x in 0..w {
+            assert_eq!(at(x, y), 3.0, "pixel ({x}, {y}) should see the top emitter");
+        }
+    }
+    // Rows 6..14 (y in [-0.4, 0.4] fully inside) see the strip in columns 15..25 and nothing elsewhere.
+    for y in 6..14 {
+        for x in 0..w {
+            let expected = if (15..25).contains(&x) { 1.0 } else { 0.0 };
+            assert_eq!(at(x, y), expected, "pixel ({x}, {y})");
+        }
+    }
+}
