@@ -76,8 +76,12 @@ void main() {
         return;
     }
 
-    vec3 albedo = m.base_color.rgb;
+    Bsdf bsdf = bsdf_from_material(m);
     vec3 p_off = offset_ray(p, n_in);
+    // The shading frame: z along the shading normal on the incoming side.
+    vec3 tx, ty;
+    basis(ns, tx, ty);
+    vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
     if (frame.estimator != ESTIMATOR_BSDF && frame.light_count > 0u) {
         uint li = pick_light(rand2(pixel, s, bounce, DIM_LIGHT_PICK).x);
@@ -93,27 +97,33 @@ void main() {
         float cos_l = dot(lng, -wi);
         Material lm = materials[floatBitsToUint(lv.v0.w)];
         bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
-        float cos_s = dot(ns, wi);
-        if (faces && cos_s > 0.0 && dot(n_in, wi) > 0.0 && dist > 0.0) {
+        vec3 wi_local = vec3(dot(wi, tx), dot(wi, ty), dot(wi, ns));
+        if (faces && wi_local.z > 0.0 && dot(n_in, wi) > 0.0 && dist > 0.0) {
             float pdf_light = l.prob / l.area * dist2 / abs(cos_l);
-            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(pdf_light, lambert_pdf(ns, wi)) : 1.0;
-            vec3 contribution = beta * lambert_eval(albedo, ns, wi) * cos_s * lm.emission.rgb * (w / pdf_light);
-            uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
-            queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
-            // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
-            path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, dist * (1.0 - 1e-4)));
-            path_set(PATH_SHADOW_DIR, path, vec4(wi, 0.0));
-            path_set(PATH_SHADOW_RADIANCE, path, vec4(contribution, 0.0));
+            vec3 f = bsdf_eval(bsdf, wo, wi_local);
+            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(pdf_light, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
+            vec3 contribution = beta * f * wi_local.z * lm.emission.rgb * (w / pdf_light);
+            if (any(greaterThan(contribution, vec3(0.0)))) {
+                uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
+                queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
+                // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
+                path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, dist * (1.0 - 1e-4)));
+                path_set(PATH_SHADOW_DIR, path, vec4(wi, 0.0));
+                path_set(PATH_SHADOW_RADIANCE, path, vec4(contribution, 0.0));
+            }
         }
     }
 
-    vec3 wi = lambert_sample(ns, rand2(pixel, s, bounce, DIM_BSDF));
-    float pdf = lambert_pdf(ns, wi);
-    if (pdf <= 0.0 || dot(n_in, wi) <= 0.0) {
+    vec2 u_dir = rand2(pixel, s, bounce, DIM_BSDF);
+    BsdfSample bs;
+    bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
+    vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
+    // A direction the shading normal allows but the true surface does not (below it) carries no light.
+    if (!ok || dot(n_in, wi) <= 0.0) {
         finish(path, radiance);
         return;
     }
-    beta *= lambert_eval(albedo, ns, wi) * (dot(ns, wi) / pdf);
+    beta *= bs.weight;
     if (bounce >= RR_START_BOUNCE) {
         float survive = min(max(beta.r, max(beta.g, beta.b)), 0.95);
         if (rand2(pixel, s, bounce, DIM_RR).x >= survive) {
@@ -122,7 +132,8 @@ void main() {
         }
         beta /= survive;
     }
-    path_set(PATH_ORIGIN, path, vec4(p_off, pdf));
+    // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
+    path_set(PATH_ORIGIN, path, vec4(p_off, bs.delta ? 0.0 : bs.pdf));
     path_set(PATH_DIR, path, vec4(wi, 0.0));
     path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
     finish(path, radiance);

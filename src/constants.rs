@@ -35,6 +35,7 @@ pub const DIM_PIXEL: u32 = 0;
 pub const DIM_LIGHT_PICK: u32 = 2;
 pub const DIM_LIGHT_POINT: u32 = 3;
 pub const DIM_BSDF: u32 = 5;
+pub const DIM_BSDF_LOBE: u32 = 6;
 pub const DIM_RR: u32 = 7;
 
 /// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue.

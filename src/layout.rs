@@ -40,12 +40,15 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 32 bytes: base colour, and emitted radiance with `emission[3]` = 1 when double-sided.
+/// 64 bytes. See `Material` in layout.glsl: base colour, emission (w: double-sided),
+/// params (metallic, roughness, IOR, specular weight), specular colour.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
     pub base_color: [f32; 4],
     pub emission: [f32; 4],
+    pub params: [f32; 4],
+    pub specular_color: [f32; 4],
 }
 
 /// 16 bytes, one per emissive triangle.
@@ -95,7 +98,7 @@ pub struct Frame {
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<Counters>() == 48);
 const _: () = assert!(std::mem::size_of::<Frame>() == 128);

@@ -47,12 +47,7 @@ fn scene_of(triangles: Vec<[Vec3; 3]>) -> Scene {
             .collect(),
         triangles,
         material_of: vec![0; n],
-        materials: vec![Material {
-            name: "white".into(),
-            base_color: Vec3::ONE,
-            emission: Vec3::ZERO,
-            double_sided: false,
-        }],
+        materials: vec![Material::default()],
         ..Default::default()
     }
 }

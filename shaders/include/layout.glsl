@@ -27,10 +27,12 @@ struct TriShading {
     vec4 n2;
 };
 
-// 32 bytes. base_color.w unused; emission rgb = radiance (W sr^-1 m^-2), emission.w = 1 if double-sided.
+// 64 bytes, the glTF material as the BSDF reads it.
 struct Material {
-    vec4 base_color;
-    vec4 emission;
+    vec4 base_color;     // rgb linear albedo / metal F0, w: alpha (opacity; not used yet)
+    vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
+    vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
+    vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
 };
 
 // 16 bytes, one per emissive triangle, sorted by the host; cdf is the inclusive upper end.

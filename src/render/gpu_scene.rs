@@ -78,8 +78,10 @@ pub fn pack(scene: &Scene) -> PackedScene {
         .materials
         .iter()
         .map(|m| GpuMaterial {
-            base_color: v4(m.base_color, 0.0),
+            base_color: v4(m.base_color, 1.0),
             emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
+            params: [m.metallic, m.roughness, m.ior, m.specular],
+            specular_color: v4(m.specular_color, 0.0),
         })
         .collect();
     PackedScene {

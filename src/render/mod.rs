@@ -155,6 +155,31 @@ impl RenderStats {
     }
 }
 
+/// One BSDF query for `Renderer::probe_bsdf`, in the shading frame (z = normal).
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfQuery {
+    pub material: u32,
+    pub wo: glam::Vec3,
+    /// Three uniforms in [0, 1) when sampling; the direction wi when evaluating.
+    pub x: glam::Vec3,
+}
+
+/// What the device BSDF answered for one query.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BsdfProbe {
+    pub wi: glam::Vec3,
+    /// f cos / pdf of the sample.
+    pub weight: glam::Vec3,
+    pub pdf: f32,
+    pub delta: bool,
+    /// Sampling produced a direction (false: absorbed or below the horizon).
+    pub ok: bool,
+    /// f(wo, wi), pdf(wo, wi) and f(wi, wo) evaluated at the returned or given direction.
+    pub eval: glam::Vec3,
+    pub pdf_wi: f32,
+    pub eval_reverse: glam::Vec3,
+}
+
 /// A scene uploaded to one device, ready to render any number of images.
 pub struct Renderer {
     // Field order is drop order: everything device-owned goes before the context.
@@ -484,6 +509,44 @@ impl Renderer {
         )?;
         out.truncate(n as usize);
         Ok(out)
+    }
+
+    /// Runs the device BSDF on `queries`: sampling (x = three uniforms) or evaluation (x = wi).
+    pub fn probe_bsdf(
+        &mut self,
+        queries: &[BsdfQuery],
+        evaluate: bool,
+    ) -> Result<Vec<BsdfProbe>, Error> {
+        let n = queries.len();
+        let mut words: Vec<u32> = Vec::with_capacity(24 * n);
+        for q in queries {
+            words.push(q.material);
+            words.extend([q.wo.x, q.wo.y, q.wo.z, q.x.x, q.x.y, q.x.z, 0.0].map(f32::to_bits));
+        }
+        words.resize(24 * n, 0);
+        let frame = Frame {
+            path_count: n as u32,
+            bounce: evaluate as u32,
+            ..Default::default()
+        };
+        let out = self.run_probe("probe_bsdf", &words, frame)?;
+        let f = |i: usize| f32::from_bits(out[i]);
+        let v = |i: usize| glam::Vec3::new(f(i), f(i + 1), f(i + 2));
+        Ok((0..n)
+            .map(|k| {
+                let o = 8 * n + 16 * k;
+                BsdfProbe {
+                    wi: v(o),
+                    weight: v(o + 3),
+                    pdf: f(o + 6),
+                    delta: out[o + 7] & 1 != 0,
+                    ok: out[o + 7] & 2 != 0,
+                    eval: v(o + 8),
+                    pdf_wi: f(o + 11),
+                    eval_reverse: v(o + 12),
+                }
+            })
+            .collect())
     }
 
     fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {

@@ -6,7 +6,7 @@ use gltf::mesh::Mode;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-/// A Lambertian material with emission (radiance in linear RGB, W sr^-1 m^-2).
+/// A glTF metallic-roughness material with emission (radiance in linear RGB, W sr^-1 m^-2).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -14,6 +14,31 @@ pub struct Material {
     pub emission: Vec3,
     /// Emission leaves both faces; otherwise only the counter-clockwise (front) face emits.
     pub double_sided: bool,
+    pub metallic: f32,
+    /// Perceptual roughness; the GGX alpha is its square.
+    pub roughness: f32,
+    /// KHR_materials_ior (1.5 by default: F0 = 0.04).
+    pub ior: f32,
+    /// KHR_materials_specular: weight of the dielectric coat (0 makes a pure Lambertian) and its F0 colour.
+    pub specular: f32,
+    pub specular_color: Vec3,
+}
+
+impl Default for Material {
+    /// glTF's default material: white, fully metallic, fully rough.
+    fn default() -> Self {
+        Material {
+            name: "(default)".into(),
+            base_color: Vec3::ONE,
+            emission: Vec3::ZERO,
+            double_sided: false,
+            metallic: 1.0,
+            roughness: 1.0,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+        }
+    }
 }
 
 /// A pinhole camera in world space; the vertical field of view is fixed, the horizontal follows the image.
@@ -97,7 +122,11 @@ impl Scene {
 }
 
 /// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
-pub const SUPPORTED_EXTENSIONS: &[&str] = &["KHR_materials_emissive_strength"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+];
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {
     Error::Scene {
@@ -121,15 +150,13 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     {
         return Err(scene_err(path, "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes"));
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
-        .map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
-    let json = gltf.document.into_json();
+    let (json, blob) = parse(path, &bytes)?;
     pre_validate(path, &json)?;
-    let document = gltf::Document::from_json(json)
-        .map_err(|e| scene_err(path, format!("not a valid glTF file: {e}")))?;
+    validate(path, &json)?;
+    let document = gltf::Document::from_json_without_validation(json);
     let base = path.parent().unwrap_or(Path::new("."));
-    check_buffer_uris(path, base, &document)?;
-    let buffers = gltf::import_buffers(&document, Some(base), gltf.blob)
+    check_buffer_uris(path, base, &document, blob.is_some())?;
+    let buffers = gltf::import_buffers(&document, Some(base), blob)
         .map_err(|e| scene_err(path, format!("cannot load buffer data: {e}")))?;
     let mut scene = Scene {
         path: path.to_path_buf(),
@@ -143,6 +170,120 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     }
     .run(&document, camera)?;
     Ok(scene)
+}
+
+/// Parses a .gltf or .glb into its JSON root and the GLB's binary chunk.
+///
+/// An animation channel whose target has no `node` is valid glTF (the channel is ignored, e.g. under
+/// KHR_animation_pointer), but gltf 1.4's schema requires `node`: such channels are dropped before parsing.
+/// pathwave ignores animations anyway; a dropped channel's sampler index is still checked.
+fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Option<Vec<u8>>), Error> {
+    use gltf::json::deserialize::{from_slice, from_value};
+    let invalid =
+        |e: &dyn std::fmt::Display| scene_err(path, format!("not a valid glTF file: {e}"));
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| invalid(&e))?;
+        (glb.json, glb.bin.map(std::borrow::Cow::into_owned))
+    } else {
+        (std::borrow::Cow::Borrowed(bytes), None)
+    };
+    let mut value: Option<gltf::json::Value> = from_slice(&json).ok();
+    let dropped = match value.as_mut() {
+        Some(v) => drop_untargeted_channels(path, v)?,
+        None => 0,
+    };
+    let root = match value {
+        Some(v) if dropped > 0 => from_value(v),
+        // Unchanged JSON is parsed from its bytes, exactly as gltf does (e.g. duplicate keys are refused).
+        _ => from_slice(&json),
+    }
+    .map_err(|e| invalid(&e))?;
+    Ok((root, blob))
+}
+
+/// Removes the animation channels whose target has no `node` and which are otherwise well-formed; returns how many.
+fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result<usize, Error> {
+    use gltf::json::Value;
+    let untargeted = |channel: &Value| {
+        let Some(target) = channel.get("target").and_then(Value::as_object) else {
+            return false;
+        };
+        if target.contains_key("node") {
+            return false;
+        }
+        // Dropped only if a node is all it lacks, so every other defect is still reported by gltf's parser.
+        let mut with_node = channel.clone();
+        with_node["target"]["node"] = Value::from(0);
+        gltf::json::deserialize::from_value::<gltf::json::animation::Channel>(with_node).is_ok()
+    };
+    let Some(animations) = root.get_mut("animations").and_then(Value::as_array_mut) else {
+        return Ok(0);
+    };
+    let mut dropped = 0;
+    for (a, animation) in animations.iter_mut().enumerate() {
+        let samplers = animation
+            .get("samplers")
+            .and_then(Value::as_array)
+            .map_or(0, Vec::len);
+        let Some(channels) = animation.get_mut("channels").and_then(Value::as_array_mut) else {
+            continue;
+        };
+        let mut kept = Vec::with_capacity(channels.len());
+        for (c, channel) in std::mem::take(channels).into_iter().enumerate() {
+            if !untargeted(&channel) {
+                kept.push(channel);
+                continue;
+            }
+            let sampler = channel.get("sampler").and_then(Value::as_u64);
+            if sampler.is_none_or(|s| s >= samplers as u64) {
+                return Err(scene_err(
+                    path,
+                    format!("not a valid glTF file: invalid glTF: animations[{a}].channels[{c}].sampler: Index out of bounds"),
+                ));
+            }
+            dropped += 1;
+        }
+        *channels = kept;
+    }
+    Ok(dropped)
+}
+
+/// gltf 1.4's validation, except where it is stricter than glTF 2.0: an accessor without a bufferView (all
+/// zeros; `check_accessor` handles it) and a texture without a source (pathwave never reads texture sources).
+/// Every other finding refuses the file, listed as gltf would.
+fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
+    use gltf::json::validation::Validate;
+    let mut findings = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |p, error| {
+        let p = p();
+        if !spec_valid(p.as_str(), error) {
+            findings.push(format!("{p}: {error}"));
+        }
+    });
+    if findings.is_empty() {
+        return Ok(());
+    }
+    Err(scene_err(
+        path,
+        format!(
+            "not a valid glTF file: invalid glTF: {}",
+            findings.join("; ")
+        ),
+    ))
+}
+
+/// Whether a finding of gltf 1.4's validator is valid glTF 2.0: exactly `accessors[N].bufferView` or
+/// `textures[N].source` reported missing.
+fn spec_valid(path: &str, error: gltf::json::validation::Error) -> bool {
+    let indexed = |array: &str, field: &str| {
+        path.strip_prefix(array)
+            .and_then(|rest| rest.strip_prefix('['))
+            .and_then(|rest| rest.strip_suffix(field))
+            .and_then(|rest| rest.strip_suffix("]."))
+            .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()))
+    };
+    error == gltf::json::validation::Error::Missing
+        && (indexed("accessors", "bufferView") || indexed("textures", "source"))
 }
 
 /// What gltf 1.4's own validation assumes instead of checking (it indexes the POSITION accessor unchecked),
@@ -175,11 +316,31 @@ fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
 }
 
 /// Refuses external buffer URIs gltf 1.4 would panic on (percent-escapes that decode to invalid UTF-8) or
-/// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO).
-fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document) -> Result<(), Error> {
+/// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO), and buffers without a URI
+/// beyond the GLB's one binary chunk (in a .gltf, the validator cannot see that their data is absent).
+fn check_buffer_uris(
+    path: &Path,
+    base: &Path,
+    doc: &gltf::Document,
+    has_blob: bool,
+) -> Result<(), Error> {
+    let mut blobs_left = usize::from(has_blob);
     for buffer in doc.buffers() {
-        let gltf::buffer::Source::Uri(uri) = buffer.source() else {
-            continue;
+        let uri = match buffer.source() {
+            gltf::buffer::Source::Uri(uri) => uri,
+            gltf::buffer::Source::Bin if blobs_left > 0 => {
+                blobs_left -= 1;
+                continue;
+            }
+            gltf::buffer::Source::Bin => {
+                return Err(scene_err(
+                    path,
+                    format!(
+                        "buffer {} has no uri and no GLB binary chunk is left for it: its data is not in the file",
+                        buffer.index()
+                    ),
+                ))
+            }
         };
         let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
         let file = if let Some(rest) = uri
@@ -225,6 +386,15 @@ fn percent_decode(uri: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
+/// What an accessor accepted by `Loader::check_accessor` holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Contents {
+    /// Elements in a bufferView, which gltf's reader can read.
+    Data,
+    /// No bufferView and no sparse: every element is zero, and there is nothing to read.
+    Zeros,
+}
+
 struct Loader<'a> {
     path: &'a Path,
     buffers: &'a [gltf::buffer::Data],
@@ -257,12 +427,7 @@ impl Loader<'_> {
             self.material(&m)?;
         }
         let default_material = self.scene.materials.len() as u32;
-        self.scene.materials.push(Material {
-            name: "(default)".into(),
-            base_color: Vec3::ONE,
-            emission: Vec3::ZERO,
-            double_sided: false,
-        });
+        self.scene.materials.push(Material::default());
 
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => s.nodes().collect(),
@@ -325,12 +490,6 @@ impl Loader<'_> {
                 format!("material '{name}': the emission {emission} is not finite"),
             ));
         }
-        if pbr.metallic_factor() > 0.0 {
-            self.warn(format!(
-                "material '{name}': metallic {} is not supported yet; rendered as Lambertian with its base colour",
-                pbr.metallic_factor()
-            ));
-        }
         for (what, present) in [
             ("baseColorTexture", pbr.base_color_texture().is_some()),
             (
@@ -352,11 +511,39 @@ impl Loader<'_> {
                 m.alpha_mode()
             ));
         }
+        let ior = m.ior().unwrap_or(1.5);
+        let (specular, specular_color) = match m.specular() {
+            Some(s) => (s.specular_factor(), Vec3::from(s.specular_color_factor())),
+            None => (1.0, Vec3::ONE),
+        };
+        if let Some(s) = m.specular() {
+            if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
+                self.warn(format!("material '{name}': specular textures are ignored (textures are not supported yet)"));
+            }
+        }
+        let finite = [pbr.metallic_factor(), pbr.roughness_factor(), ior, specular]
+            .iter()
+            .all(|x| x.is_finite())
+            && specular_color.is_finite();
+        if !finite {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': a factor is not finite"),
+            ));
+        }
+        // IOR 0 means "F0 = 1" in KHR_materials_ior: 1e30 gives exactly that in ((ior - 1) / (ior + 1))^2 without
+        // the NaN infinity would; other values below 1 are outside the extension's range.
+        let ior = if ior == 0.0 { 1e30 } else { ior.max(1.0) };
         self.scene.materials.push(Material {
             name,
             base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
             emission: emission.max(Vec3::ZERO),
             double_sided: m.double_sided(),
+            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+            ior,
+            specular: specular.clamp(0.0, 1.0),
+            specular_color: specular_color.max(Vec3::ZERO),
         });
         Ok(())
     }
@@ -420,13 +607,14 @@ impl Loader<'_> {
     }
 
     /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.
+    /// An accessor without bufferView and sparse holds zeros (valid glTF); it must not be given to the reader.
     fn check_accessor(
         &self,
         acc: &gltf::Accessor,
         what: &str,
         types: &[DataType],
         dims: Dimensions,
-    ) -> Result<(), Error> {
+    ) -> Result<Contents, Error> {
         let err =
             |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
         if acc.count() == 0 {
@@ -443,6 +631,9 @@ impl Loader<'_> {
                     ""
                 }
             )));
+        }
+        if acc.view().is_none() && acc.sparse().is_none() {
+            return Ok(Contents::Zeros);
         }
         if acc.sparse().is_some() {
             return Err(err("sparse accessors are not supported yet".into()));
@@ -477,7 +668,7 @@ impl Loader<'_> {
                 view.index()
             )));
         }
-        Ok(())
+        Ok(Contents::Data)
     }
 
     fn primitive(
@@ -508,18 +699,42 @@ impl Loader<'_> {
             ));
             return Ok(());
         };
-        self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?;
-        let normal_acc = prim.get(&gltf::Semantic::Normals);
+        // All-zero positions or indices make every triangle degenerate.
+        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?
+            == Contents::Zeros
+        {
+            self.warn(format!(
+                "mesh '{mesh_name}': POSITION accessor {} has no bufferView (all zeros); the primitive is skipped",
+                pos_acc.index()
+            ));
+            return Ok(());
+        }
+        let mut normal_acc = prim.get(&gltf::Semantic::Normals);
         if let Some(n) = &normal_acc {
-            self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)?;
+            if self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)?
+                == Contents::Zeros
+            {
+                self.warn(format!(
+                    "mesh '{mesh_name}': NORMAL accessor {} has no bufferView (all zeros); face normals are used",
+                    n.index()
+                ));
+                normal_acc = None;
+            }
         }
         if let Some(i) = prim.indices() {
-            self.check_accessor(
+            if self.check_accessor(
                 &i,
                 "indices",
                 &[DataType::U8, DataType::U16, DataType::U32],
                 Dimensions::Scalar,
-            )?;
+            )? == Contents::Zeros
+            {
+                self.warn(format!(
+                    "mesh '{mesh_name}': indices accessor {} has no bufferView (all zeros); the primitive is skipped",
+                    i.index()
+                ));
+                return Ok(());
+            }
         }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));

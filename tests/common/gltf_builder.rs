@@ -20,7 +20,14 @@ impl GltfBuilder {
         Self::default()
     }
 
-    /// A Lambertian material; emission is radiance (W sr^-1 m^-2), written with KHR_materials_emissive_strength past 1.
+    fn use_extension(&mut self, ext: &'static str) {
+        if !self.extensions.contains(&ext) {
+            self.extensions.push(ext);
+        }
+    }
+
+    /// A purely diffuse (Lambertian) material: dielectric with KHR_materials_specular's weight 0, so no coat.
+    /// Emission is radiance (W sr^-1 m^-2), written with KHR_materials_emissive_strength past 1.
     pub fn material(
         &mut self,
         name: &str,
@@ -28,21 +35,36 @@ impl GltfBuilder {
         emission: [f32; 3],
         double_sided: bool,
     ) -> usize {
+        let i = self.pbr_material(name, base, 0.0, 1.0, emission, double_sided);
+        self.materials[i]["extensions"]["KHR_materials_specular"] =
+            json!({ "specularFactor": 0.0 });
+        self.use_extension("KHR_materials_specular");
+        i
+    }
+
+    /// A glTF metallic-roughness material.
+    pub fn pbr_material(
+        &mut self,
+        name: &str,
+        base: [f32; 3],
+        metallic: f32,
+        roughness: f32,
+        emission: [f32; 3],
+        double_sided: bool,
+    ) -> usize {
         let peak = emission.iter().cloned().fold(0.0f32, f32::max);
         let mut m = json!({
             "name": name,
-            "pbrMetallicRoughness": { "baseColorFactor": [base[0], base[1], base[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 },
+            "pbrMetallicRoughness": { "baseColorFactor": [base[0], base[1], base[2], 1.0], "metallicFactor": metallic, "roughnessFactor": roughness },
             "doubleSided": double_sided,
         });
         if peak > 0.0 {
             let scale = peak.max(1.0);
             m["emissiveFactor"] = json!(emission.map(|e| e / scale));
             if scale > 1.0 {
-                m["extensions"] =
-                    json!({ "KHR_materials_emissive_strength": { "emissiveStrength": scale } });
-                if !self.extensions.contains(&"KHR_materials_emissive_strength") {
-                    self.extensions.push("KHR_materials_emissive_strength");
-                }
+                m["extensions"]["KHR_materials_emissive_strength"] =
+                    json!({ "emissiveStrength": scale });
+                self.use_extension("KHR_materials_emissive_strength");
             }
         }
         self.materials.push(m);

@@ -1,0 +1,364 @@
+//! The metallic-roughness BSDF on the device: chi-square of sample against pdf, eval/pdf consistency, reciprocity, albedo.
+mod common;
+
+use common::stats::{chi2_p_value, chi2_statistic};
+use glam::Vec3;
+use pathwave::render::{BsdfProbe, BsdfQuery};
+use pathwave::scene::{Material, Scene};
+use pathwave::Renderer;
+
+const ROUGHNESS: [f32; 5] = [0.05, 0.1, 0.3, 0.6, 1.0];
+const METALLIC: [f32; 2] = [0.0, 1.0];
+const INCIDENT_DEG: [f32; 4] = [1.0, 30.0, 60.0, 85.0];
+
+/// SplitMix64 uniforms: fixed seeds, the same every run.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn material(roughness: f32, metallic: f32, base: Vec3) -> Material {
+    Material {
+        roughness,
+        metallic,
+        base_color: base,
+        ..Material::default()
+    }
+}
+
+/// A one-triangle scene whose materials are the ones under test.
+fn renderer_with(materials: Vec<Material>) -> Renderer {
+    let scene = Scene {
+        triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
+        normals: vec![[Vec3::Z; 3]],
+        material_of: vec![0],
+        materials,
+        ..Default::default()
+    };
+    Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap()
+}
+
+fn wo_at(deg: f32) -> Vec3 {
+    let t = deg.to_radians();
+    Vec3::new(t.sin(), 0.0, t.cos())
+}
+
+/// Histogram cells in a frame around the mirror direction, dense near it (theta = pi s^3) so sharp lobes are resolved.
+struct Grid {
+    axis: Vec3,
+    tx: Vec3,
+    ty: Vec3,
+    s_bins: usize,
+    phi_bins: usize,
+}
+
+impl Grid {
+    fn new(wo: Vec3) -> Self {
+        let axis = Vec3::new(-wo.x, -wo.y, wo.z).normalize();
+        let tx = axis.any_orthonormal_vector();
+        let ty = axis.cross(tx);
+        Grid {
+            axis,
+            tx,
+            ty,
+            s_bins: 48,
+            phi_bins: 96,
+        }
+    }
+    fn cell(&self, w: Vec3) -> usize {
+        // f64 and atan2: acos in f32 cannot tell apart angles below ~3e-4 rad, where sharp lobes live.
+        let (w, axis, tx, ty) = (
+            w.as_dvec3().normalize(),
+            self.axis.as_dvec3(),
+            self.tx.as_dvec3(),
+            self.ty.as_dvec3(),
+        );
+        let theta = w.cross(axis).length().atan2(w.dot(axis));
+        let phi = w
+            .dot(ty)
+            .atan2(w.dot(tx))
+            .rem_euclid(2.0 * std::f64::consts::PI);
+        let s = (theta / std::f64::consts::PI).cbrt();
+        let i = ((s * self.s_bins as f64) as usize).min(self.s_bins - 1);
+        let j = ((phi / (2.0 * std::f64::consts::PI) * self.phi_bins as f64) as usize)
+            .min(self.phi_bins - 1);
+        i * self.phi_bins + j
+    }
+    /// Gauss-Legendre nodes (4 per dimension per cell) with their solid-angle weights, for integrating the pdf over
+    /// each cell: exact for polynomials of degree 7, so sharp but smooth lobes integrate accurately.
+    fn quadrature(&self) -> Vec<(usize, Vec3, f32)> {
+        const NODES: [(f64, f64); 4] = [
+            (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+            (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+            (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+            (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+        ];
+        use std::f64::consts::PI as PI64;
+        let (axis, tx, ty) = (self.axis.as_dvec3(), self.tx.as_dvec3(), self.ty.as_dvec3());
+        let (ds, dphi) = (1.0 / self.s_bins as f64, 2.0 * PI64 / self.phi_bins as f64);
+        let mut out = Vec::new();
+        for i in 0..self.s_bins {
+            for (xs, ws) in NODES {
+                let s = (i as f64 + 0.5 + 0.5 * xs) * ds;
+                let theta = PI64 * s * s * s;
+                // d(omega) = sin(theta) d(theta) d(phi), d(theta) = 3 pi s^2 ds; each node covers half its weight of the cell.
+                let w_s = theta.sin() * 3.0 * PI64 * s * s * ds * 0.5 * ws;
+                for j in 0..self.phi_bins {
+                    for (xp, wp) in NODES {
+                        let phi = (j as f64 + 0.5 + 0.5 * xp) * dphi;
+                        let w =
+                            theta.cos() * axis + theta.sin() * (phi.cos() * tx + phi.sin() * ty);
+                        out.push((
+                            i * self.phi_bins + j,
+                            w.as_vec3(),
+                            (w_s * dphi * 0.5 * wp) as f32,
+                        ));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+fn sample_many(r: &mut Renderer, material: u32, wo: Vec3, n: usize, seed: u64) -> Vec<BsdfProbe> {
+    let mut rng = Rng(seed);
+    let queries: Vec<BsdfQuery> = (0..n)
+        .map(|_| BsdfQuery {
+            material,
+            wo,
+            x: Vec3::new(rng.next(), rng.next(), rng.next()),
+        })
+        .collect();
+    r.probe_bsdf(&queries, false).unwrap()
+}
+
+#[test]
+fn sampled_directions_follow_the_pdf() {
+    let mut materials = Vec::new();
+    for &rough in &ROUGHNESS {
+        for &metal in &METALLIC {
+            materials.push(material(rough, metal, Vec3::new(0.8, 0.6, 0.4)));
+        }
+    }
+    let mut r = renderer_with(materials.clone());
+    let tests = materials.len() * INCIDENT_DEG.len();
+    // Significance 1 % over the whole family of tests (Sidak correction), as Mitsuba's chi2 tests do.
+    let threshold = 1.0 - 0.99f64.powf(1.0 / tests as f64);
+    let n = 200_000;
+    let mut failures = Vec::new();
+    for (mi, m) in materials.iter().enumerate() {
+        for &deg in &INCIDENT_DEG {
+            let wo = wo_at(deg);
+            let grid = Grid::new(wo);
+            let cells = grid.s_bins * grid.phi_bins;
+            let samples = sample_many(&mut r, mi as u32, wo, n, 17 + mi as u64 * 101 + deg as u64);
+            // Samples that leave no direction (reflected below the horizon) are the pdf's missing mass; they are
+            // checked against it below rather than binned, as quadrature error dwarfs that mass for sharp lobes.
+            let mut observed = vec![0f64; cells];
+            let mut failed = 0usize;
+            for s in &samples {
+                if s.ok {
+                    observed[grid.cell(s.wi)] += 1.0;
+                } else {
+                    failed += 1;
+                }
+            }
+            let quad = grid.quadrature();
+            let queries: Vec<BsdfQuery> = quad
+                .iter()
+                .map(|(_, w, _)| BsdfQuery {
+                    material: mi as u32,
+                    wo,
+                    x: *w,
+                })
+                .collect();
+            let pdfs = r.probe_bsdf(&queries, true).unwrap();
+            let mut expected = vec![0f64; cells];
+            for ((cell, _, weight), p) in quad.iter().zip(&pdfs) {
+                expected[*cell] += (p.pdf * weight) as f64;
+            }
+            let mass: f64 = expected.iter().sum();
+            let what = format!(
+                "roughness {} metallic {} at {deg} deg",
+                m.roughness, m.metallic
+            );
+            assert!(mass <= 1.0 + 2e-3, "{what}: pdf integrates to {mass}");
+            let failed_fraction = failed as f64 / n as f64;
+            assert!(
+                failed_fraction <= (1.0 - mass).max(0.0) + 2e-3,
+                "{what}: {failed_fraction} of samples failed but the pdf only misses {}",
+                1.0 - mass
+            );
+            let expected: Vec<f64> = expected.iter().map(|e| e * n as f64).collect();
+            if std::env::var_os("BSDF_DEBUG").is_some() {
+                let mut worst: Vec<(f64, usize)> = (0..cells)
+                    .map(|c| {
+                        (
+                            (observed[c] - expected[c]).powi(2) / expected[c].max(1e-9),
+                            c,
+                        )
+                    })
+                    .collect();
+                worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+                for (x, c) in worst.iter().take(6) {
+                    eprintln!(
+                        "  cell s={} phi={}: observed {} expected {:.1} ({x:.0})",
+                        c / grid.phi_bins,
+                        c % grid.phi_bins,
+                        observed[*c],
+                        expected[*c]
+                    );
+                }
+            }
+            let (stat, dof) = chi2_statistic(&observed, &expected, 5.0);
+            let p = chi2_p_value(stat, dof);
+            eprintln!(
+                "roughness {:.2} metallic {} at {deg:>2} deg: chi2 {stat:8.1} dof {dof:4} p {p:.4} (pdf mass {mass:.4}, failed {failed})",
+                m.roughness, m.metallic
+            );
+            if p < threshold {
+                failures.push(format!(
+                    "roughness {} metallic {} at {deg} deg: p = {p:.2e}",
+                    m.roughness, m.metallic
+                ));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "chi-square rejects (threshold {threshold:.2e}): {failures:#?}"
+    );
+}
+
+#[test]
+fn eval_pdf_and_sample_agree_and_reflection_is_reciprocal() {
+    let mut materials = Vec::new();
+    for &rough in &ROUGHNESS {
+        for &metal in &[0.0, 0.5, 1.0] {
+            materials.push(material(rough, metal, Vec3::new(0.9, 0.5, 0.2)));
+        }
+    }
+    let mut r = renderer_with(materials.clone());
+    let close = |a: f32, b: f32| (a - b).abs() <= 2e-3 * a.abs().max(b.abs()) + 1e-6;
+    for (mi, m) in materials.iter().enumerate() {
+        for &deg in &INCIDENT_DEG {
+            let wo = wo_at(deg);
+            for s in sample_many(&mut r, mi as u32, wo, 4000, 5 + mi as u64) {
+                if !s.ok {
+                    continue;
+                }
+                let what = format!(
+                    "roughness {} metallic {} wo {wo} wi {}",
+                    m.roughness, m.metallic, s.wi
+                );
+                assert!(
+                    s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(),
+                    "{what}: non-finite sample {s:?}"
+                );
+                assert!(s.weight.min_element() >= 0.0, "{what}: negative weight");
+                assert!(
+                    close(s.pdf, s.pdf_wi),
+                    "{what}: sample pdf {} but pdf() says {}",
+                    s.pdf,
+                    s.pdf_wi
+                );
+                let expect = s.eval * s.wi.z / s.pdf;
+                for c in 0..3 {
+                    assert!(
+                        close(s.weight[c], expect[c]),
+                        "{what}: weight {} but eval cos / pdf = {}",
+                        s.weight,
+                        expect
+                    );
+                    assert!(
+                        close(s.eval[c], s.eval_reverse[c]),
+                        "{what}: f(wo, wi) {} != f(wi, wo) {}",
+                        s.eval,
+                        s.eval_reverse
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn directional_albedo_never_exceeds_one() {
+    let mut materials = Vec::new();
+    for &rough in &ROUGHNESS {
+        for &metal in &[0.0, 1.0] {
+            materials.push(material(rough, metal, Vec3::ONE));
+        }
+    }
+    let mut r = renderer_with(materials.clone());
+    let n = 100_000;
+    for (mi, m) in materials.iter().enumerate() {
+        for &deg in &INCIDENT_DEG {
+            let samples = sample_many(&mut r, mi as u32, wo_at(deg), n, 99 + mi as u64);
+            for c in 0..3 {
+                let w: Vec<f64> = samples
+                    .iter()
+                    .map(|s| if s.ok { s.weight[c] as f64 } else { 0.0 })
+                    .collect();
+                let mean = w.iter().sum::<f64>() / n as f64;
+                let var = w.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1) as f64;
+                let se = (var / n as f64).sqrt();
+                assert!(
+                    mean <= 1.0 + 4.0 * se + 1e-6,
+                    "white roughness {} metallic {} at {deg} deg: albedo {mean} +- {se} exceeds 1",
+                    m.roughness,
+                    m.metallic
+                );
+                if c == 0 {
+                    eprintln!("white roughness {:.2} metallic {} at {deg:>2} deg: albedo {mean:.4} +- {se:.4}", m.roughness, m.metallic);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_smooth_mirror_is_a_delta_without_nans() {
+    let mut r = renderer_with(vec![
+        material(0.0, 1.0, Vec3::ONE),
+        material(0.0, 0.0, Vec3::splat(0.5)),
+    ]);
+    for &deg in &INCIDENT_DEG {
+        let wo = wo_at(deg);
+        for s in sample_many(&mut r, 0, wo, 256, 3) {
+            assert!(
+                s.ok && s.delta,
+                "a white metal mirror always reflects: {s:?}"
+            );
+            assert!(
+                (s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-5,
+                "mirror direction: {}",
+                s.wi
+            );
+            assert!(
+                (s.weight - Vec3::ONE).abs().max_element() < 1e-5,
+                "a white mirror reflects everything: {}",
+                s.weight
+            );
+            assert_eq!(
+                s.eval,
+                Vec3::ZERO,
+                "a delta lobe has no density to evaluate"
+            );
+        }
+        // A smooth dielectric: the delta coat or the diffuse base, never a NaN.
+        for s in sample_many(&mut r, 1, wo, 256, 4) {
+            assert!(
+                s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(),
+                "{s:?}"
+            );
+        }
+    }
+}
