@@ -11,6 +11,7 @@ fn main() {
         ("furnace.gltf", scenes::furnace(0.5, 0.5)),
         ("two-lights.gltf", scenes::two_lights()),
         ("unequal-lights.gltf", scenes::unequal_lights()),
+        ("material-grid.gltf", scenes::material_grid()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

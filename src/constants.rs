@@ -15,7 +15,19 @@ pub const BINDING_QUEUES: u32 = 6;
 pub const BINDING_COUNTERS: u32 = 7;
 pub const BINDING_FILM: u32 = 8;
 pub const BINDING_PROBE: u32 = 9;
-pub const BINDING_COUNT: u32 = 10;
+pub const BINDING_ENERGY: u32 = 10;
+pub const BINDING_COUNT: u32 = 11;
+
+/// Microfacet energy tables: ENERGY_RES x ENERGY_RES cells over (cos theta, perceptual roughness), each the mean of
+/// ENERGY_SAMPLES visible-normal samples. Layout of the energy buffer, in floats: E1 grid, E2 grid (roughness-major),
+/// then the hemispherical averages E1avg and E2avg per roughness. E1 is the GGX lobe's albedo with F = 1, E2 its
+/// albedo weighted by Schlick's (1 - cos)^5, so a Schlick coat's albedo is F0 E1 + (1 - F0) E2.
+pub const ENERGY_RES: u32 = 32;
+pub const ENERGY_SAMPLES: u32 = 4096;
+pub const ENERGY_TABLE_FLOATS: u32 = 2 * ENERGY_RES * ENERGY_RES + 2 * ENERGY_RES;
+
+/// Frame.flags bits.
+pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
 
 /// Estimator selection (push constant `estimator`).
 pub const ESTIMATOR_MIS: u32 = 0;

@@ -92,7 +92,8 @@ pub struct Frame {
     pub path_count: u32,
     pub path_capacity: u32,
     pub light_count: u32,
-    pub pad: [u32; 5],
+    pub flags: u32,
+    pub pad: [u32; 4],
 }
 
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);

@@ -63,6 +63,9 @@ struct RenderArgs {
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
     estimator: Estimator,
+    /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
+    #[arg(long)]
+    no_energy_compensation: bool,
 }
 
 fn positive(s: &str) -> Result<u32, String> {
@@ -112,6 +115,7 @@ fn render(args: RenderArgs) -> Result<()> {
         max_depth: args.max_depth,
         seed: args.seed,
         estimator: args.estimator,
+        energy_compensation: !args.no_energy_compensation,
     };
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(
@@ -125,11 +129,7 @@ fn render(args: RenderArgs) -> Result<()> {
     for out in &args.output {
         output::write_image(out, film.width, film.height, &pixels, args.exposure)?;
     }
-    let names: Vec<String> = args
-        .output
-        .iter()
-        .map(|p| p.display().to_string())
-        .collect();
+    let names: Vec<String> = args.output.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
         names.join(", "),

@@ -22,11 +22,7 @@ impl Rng {
         lo + (hi - lo) * self.next()
     }
     fn vec(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
-        Vec3::new(
-            self.range(lo.x, hi.x),
-            self.range(lo.y, hi.y),
-            self.range(lo.z, hi.z),
-        )
+        Vec3::new(self.range(lo.x, hi.x), self.range(lo.y, hi.y), self.range(lo.z, hi.z))
     }
     fn dir(&mut self) -> Vec3 {
         loop {
@@ -68,8 +64,7 @@ fn sphere_and_plane() -> Vec<[Vec3; 3]> {
     let p = |i: usize, j: usize| {
         let th = std::f32::consts::PI * i as f32 / rings as f32;
         let ph = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
-        Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * 0.7
-            + Vec3::new(0.0, 0.8, 0.0)
+        Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()) * 0.7 + Vec3::new(0.0, 0.8, 0.0)
     };
     let mut t = Vec::new();
     for i in 0..rings {
@@ -84,16 +79,8 @@ fn sphere_and_plane() -> Vec<[Vec3; 3]> {
         }
     }
     let g = 5.0;
-    t.push([
-        Vec3::new(-g, 0.0, -g),
-        Vec3::new(-g, 0.0, g),
-        Vec3::new(g, 0.0, g),
-    ]);
-    t.push([
-        Vec3::new(-g, 0.0, -g),
-        Vec3::new(g, 0.0, g),
-        Vec3::new(g, 0.0, -g),
-    ]);
+    t.push([Vec3::new(-g, 0.0, -g), Vec3::new(-g, 0.0, g), Vec3::new(g, 0.0, g)]);
+    t.push([Vec3::new(-g, 0.0, -g), Vec3::new(g, 0.0, g), Vec3::new(g, 0.0, -g)]);
     t
 }
 
@@ -146,23 +133,18 @@ fn agrees(tris: &[TriVerts], ray: &Ray, h: &TraceHit, r: &TraceHit) -> Result<bo
     };
     let self_hit = |h: &TraceHit| h.tri != NO_HIT && h.t < 1e-4;
     let ambiguous = match (h.tri == NO_HIT, r.tri == NO_HIT) {
-        (false, false) => {
-            (h.t - r.t).abs() <= tol(r.t)
-                || self_hit(h)
-                || self_hit(r)
-                || near_edge(h)
-                || near_edge(r)
-        }
+        (false, false) => (h.t - r.t).abs() <= tol(r.t) || self_hit(h) || self_hit(r) || near_edge(h) || near_edge(r),
         (true, false) => near_edge(r) || self_hit(r),
         (false, true) => near_edge(h) || self_hit(h),
         (true, true) => unreachable!(),
     };
     if !ambiguous {
         // Describe it fully: what the device says against what the reference says.
-        let check = (h.tri != NO_HIT).then(|| {
-            intersect_triangle(&tris[h.tri as usize], ray.origin, ray.dir, -1.0, f32::MAX)
-        });
-        return Err(format!("ray {ray:?}: got {h:?}, reference {r:?}; the got-triangle re-tested on the CPU: {check:?}"));
+        let check =
+            (h.tri != NO_HIT).then(|| intersect_triangle(&tris[h.tri as usize], ray.origin, ray.dir, -1.0, f32::MAX));
+        return Err(format!(
+            "ray {ray:?}: got {h:?}, reference {r:?}; the got-triangle re-tested on the CPU: {check:?}"
+        ));
     }
     Ok(true)
 }
@@ -173,19 +155,13 @@ fn check_mesh(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64) {
     let packed = gpu_scene::pack(&scene);
     let (lo, hi) = scene.bounds();
     let rays = rays(&mut rng, &scene.triangles, lo, hi, 12_000);
-    let reference: Vec<TraceHit> = rays
-        .iter()
-        .map(|r| brute_force(&packed.tri_verts, r))
-        .collect();
+    let reference: Vec<TraceHit> = rays.iter().map(|r| brute_force(&packed.tri_verts, r)).collect();
 
     // The CPU traversal of the exact GPU layout does the same arithmetic as the brute force: the distance must
     // match bit for bit (the triangle may differ only on an exact tie, where both are right).
     for (ray, r) in rays.iter().zip(&reference) {
         let h = bvh::trace(&packed.bvh.nodes, &packed.tri_verts, ray, false);
-        assert!(
-            h.t == r.t,
-            "{name}: CPU BVH {h:?} vs brute force {r:?} for {ray:?}"
-        );
+        assert!(h.t == r.t, "{name}: CPU BVH {h:?} vs brute force {r:?} for {ray:?}");
         assert_eq!(
             h.tri == NO_HIT,
             r.tri == NO_HIT,
@@ -193,9 +169,7 @@ fn check_mesh(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64) {
         );
     }
 
-    let mut renderer =
-        pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation())
-            .unwrap();
+    let mut renderer = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     let device = renderer.probe_trace(&rays, false).unwrap();
     let mut ambiguous = 0;
     let mut hits = 0;
@@ -272,8 +246,7 @@ fn sphere_over_plane() {
 
 #[test]
 fn cornell_box() {
-    let scene =
-        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     check_mesh("cornell", scene.triangles, 4);
 }
 

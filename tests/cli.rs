@@ -18,10 +18,7 @@ fn stderr(o: &Output) -> String {
 }
 
 fn cornell() -> String {
-    common::scenes_dir()
-        .join("cornell-box.gltf")
-        .display()
-        .to_string()
+    common::scenes_dir().join("cornell-box.gltf").display().to_string()
 }
 
 /// Runs a render that must fail: non-zero exit, no panic, a message containing `needle`, and no output file.
@@ -42,10 +39,7 @@ fn assert_refused(args: &[&str], out: &Path, needle: &str) {
             .collect(),
         Err(_) => Vec::new(), // the directory itself does not exist
     };
-    assert!(
-        leftovers.is_empty(),
-        "temporary files left behind: {leftovers:?}"
-    );
+    assert!(leftovers.is_empty(), "temporary files left behind: {leftovers:?}");
 }
 
 #[test]
@@ -64,34 +58,15 @@ fn renders_the_cornell_box_to_exr_and_png() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary = stderr(&o);
-    for word in [
-        "samples/s",
-        "Mrays/s",
-        "GPU ms",
-        "extend",
-        "shade",
-        "connect",
-    ] {
-        assert!(
-            summary.contains(word),
-            "the summary line lacks {word}: {summary}"
-        );
+    for word in ["samples/s", "Mrays/s", "GPU ms", "extend", "shade", "connect"] {
+        assert!(summary.contains(word), "the summary line lacks {word}: {summary}");
     }
     let (w, h, px) = pathwave::output::read_exr(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
-    let mean: f64 = px
-        .iter()
-        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
-        .sum::<f64>()
-        / px.len() as f64;
+    let mean: f64 = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).sum::<f64>() / px.len() as f64;
     // The box's walls are lit to roughly 0.1-1 W sr^-1 m^-2 and the light itself is ~11: a mean in [0.05, 2] is plausible.
-    assert!(
-        (0.05..2.0).contains(&mean),
-        "implausible Cornell box mean {mean}"
-    );
-    assert!(px
-        .iter()
-        .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+    assert!((0.05..2.0).contains(&mean), "implausible Cornell box mean {mean}");
+    assert!(px.iter().all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
     // Row 0 is the top: the light is on the ceiling, so the brightest pixel is in the top fifth.
     let brightest = px
         .iter()
@@ -183,11 +158,7 @@ fn bad_inputs_are_refused_cleanly() {
     let no_bin = d.join("no-bin.gltf");
     let start = text.find("data:application/octet-stream;base64,").unwrap();
     let end = start + text[start..].find('"').unwrap();
-    std::fs::write(
-        &no_bin,
-        format!("{}missing.bin{}", &text[..start], &text[end..]),
-    )
-    .unwrap();
+    std::fs::write(&no_bin, format!("{}missing.bin{}", &text[..start], &text[end..])).unwrap();
     assert_refused(
         &["render", no_bin.to_str().unwrap(), "-o", o],
         &out,
@@ -206,21 +177,9 @@ fn bad_inputs_are_refused_cleanly() {
         "no-triangles.gltf: the scene has no triangles",
     );
 
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--size", "0x0"],
-        &out,
-        "--size",
-    );
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--spp", "-1"],
-        &out,
-        "--spp",
-    );
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--size", "big"],
-        &out,
-        "WIDTHxHEIGHT",
-    );
+    assert_refused(&["render", &cornell(), "-o", o, "--size", "0x0"], &out, "--size");
+    assert_refused(&["render", &cornell(), "-o", o, "--spp", "-1"], &out, "--spp");
+    assert_refused(&["render", &cornell(), "-o", o, "--size", "big"], &out, "WIDTHxHEIGHT");
     let txt = d.join("out.txt");
     assert_refused(
         &["render", &cornell(), "-o", txt.to_str().unwrap()],
@@ -255,12 +214,7 @@ fn a_scene_without_lights_renders_black_with_a_warning() {
     let m = b.material("grey", [0.5; 3], [0.0; 3], false);
     b.quad(
         "floor",
-        [
-            [-1.0, 0.0, -1.0],
-            [1.0, 0.0, -1.0],
-            [1.0, 0.0, 1.0],
-            [-1.0, 0.0, 1.0],
-        ],
+        [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]],
         m,
         Some([0.0, 1.0, 0.0]),
     );
@@ -300,8 +254,5 @@ fn info_describes_scene_and_devices() {
     assert!(text.contains("SAH cost"), "{text}");
     let o = pathwave(&["info", "--devices"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(
-        String::from_utf8_lossy(&o.stdout).contains("0: "),
-        "no device listed"
-    );
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0: "), "no device listed");
 }

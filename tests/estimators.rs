@@ -14,10 +14,7 @@ fn render_with(path: &std::path::Path, estimator: Estimator, spp: u32) -> Film {
 }
 
 fn total_variance(film: &Film) -> f64 {
-    film.sample_variance()
-        .iter()
-        .map(|v| (v[0] + v[1] + v[2]) as f64)
-        .sum()
+    film.sample_variance().iter().map(|v| (v[0] + v[1] + v[2]) as f64).sum()
 }
 
 #[test]
@@ -53,18 +50,12 @@ fn estimators_agree_and_mis_has_least_variance() {
     // Per pixel, MIS and light sampling must agree too (a bias confined to some geometry would hide in the
     // image mean): the sum of squared z-scores over pixels is chi-square with one degree of freedom per pixel.
     let (mis, light) = (&films[0].1, &films[1].1);
-    let (mm, mv, lm, lv) = (
-        mis.mean(),
-        mis.sample_variance(),
-        light.mean(),
-        light.sample_variance(),
-    );
+    let (mm, mv, lm, lv) = (mis.mean(), mis.sample_variance(), light.mean(), light.sample_variance());
     let (mut chi2, mut dof) = (0.0, 0usize);
     for i in 0..mm.len() {
         let a = (mm[i][0] + mm[i][1] + mm[i][2]) as f64 / 3.0;
         let b = (lm[i][0] + lm[i][1] + lm[i][2]) as f64 / 3.0;
-        let var = ((mv[i][0] + mv[i][1] + mv[i][2]) as f64 / 3.0
-            + (lv[i][0] + lv[i][1] + lv[i][2]) as f64 / 3.0)
+        let var = ((mv[i][0] + mv[i][1] + mv[i][2]) as f64 / 3.0 + (lv[i][0] + lv[i][1] + lv[i][2]) as f64 / 3.0)
             / mis.spp as f64;
         if var > 0.0 {
             chi2 += (a - b) * (a - b) / var;
@@ -126,13 +117,8 @@ fn lights_are_picked_in_proportion_to_power() {
     let expected: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
     let (stat, dof) = chi2_statistic(&counts, &expected, 5.0);
     let p = chi2_p_value(stat, dof);
-    eprintln!(
-        "light picks {counts:?}, expected {expected:?}: chi2 {stat:.2}, dof {dof}, p = {p:.4}"
-    );
-    assert!(
-        p > 1e-3,
-        "light selection frequencies do not follow power (p = {p})"
-    );
+    eprintln!("light picks {counts:?}, expected {expected:?}: chi2 {stat:.2}, dof {dof}, p = {p:.4}");
+    assert!(p > 1e-3, "light selection frequencies do not follow power (p = {p})");
     // The bright quad has 12x the dim one's power.
     let bright: f64 = counts
         .iter()
@@ -141,10 +127,7 @@ fn lights_are_picked_in_proportion_to_power() {
         .map(|(c, _)| c)
         .sum();
     let ratio = bright / (n as f64 - bright);
-    assert!(
-        (ratio - 12.0).abs() < 0.5,
-        "bright/dim pick ratio {ratio}, expected 12"
-    );
+    assert!((ratio - 12.0).abs() < 0.5, "bright/dim pick ratio {ratio}, expected 12");
 }
 
 #[test]

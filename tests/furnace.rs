@@ -25,7 +25,10 @@ fn assert_pixels_near(film: &Film, expected: f64, z: f64) {
         );
     }
     let (img_mean, img_se) = common::stats::image_mean_and_stderr(film);
-    eprintln!("image mean {img_mean:.5} +- {img_se:.5} (expected {expected}); worst pixel {} at {:.2} sigma", worst.1, worst.0);
+    eprintln!(
+        "image mean {img_mean:.5} +- {img_se:.5} (expected {expected}); worst pixel {} at {:.2} sigma",
+        worst.1, worst.0
+    );
     assert!(
         worst.0 < z,
         "pixel {} is {:.2} standard errors from {expected} (mean {:?})",
@@ -72,9 +75,7 @@ fn furnace_with_max_depth_sums_exactly_that_many_bounces() {
         if depth == 0 {
             // Only the emission seen by the camera: exact, no noise.
             assert!(
-                film.mean()
-                    .iter()
-                    .all(|m| (m[0] as f64 - expected).abs() < 1e-6),
+                film.mean().iter().all(|m| (m[0] as f64 - expected).abs() < 1e-6),
                 "depth 0 must be exactly Le"
             );
         } else {

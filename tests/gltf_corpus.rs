@@ -4,10 +4,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-const CORPUS: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../shared/gltf-validator-corpus"
-);
+const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
 const TIMEOUT: Duration = Duration::from_secs(20);
 
 /// Why a file the validator finds error-free may still be refused: pathwave's documented limits, and where
@@ -16,20 +13,14 @@ const TIMEOUT: Duration = Duration::from_secs(20);
 /// animation targets without a node), so those files must load.
 const DOCUMENTED_REFUSALS: &[(&str, &str)] = &[
     ("has no triangles to render", "no triangles"),
-    (
-        "which pathwave does not support",
-        "unsupported required extension",
-    ),
+    ("which pathwave does not support", "unsupported required extension"),
     // A buffer without uri outside a GLB: the validator assumes the application supplies its data; pathwave has none.
     (
         "has no uri and no GLB binary chunk",
         "buffer data not in the file (no uri, no GLB chunk)",
     ),
     // An integer written as `1.0` is valid glTF; gltf 1.4's schema refuses it.
-    (
-        "invalid type: floating point",
-        "gltf 1.4: integer written as a float",
-    ),
+    ("invalid type: floating point", "gltf 1.4: integer written as a float"),
     // A primitive without POSITION is valid glTF (pathwave would skip it); gltf 1.4's validation refuses it.
     (
         "attributes[\"POSITION\"]: Missing data",
@@ -38,10 +29,7 @@ const DOCUMENTED_REFUSALS: &[(&str, &str)] = &[
 ];
 
 fn corpus_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
     entries.sort();
     for p in entries {
         if p.is_dir() {
@@ -56,8 +44,7 @@ fn corpus_files(dir: &Path, out: &mut Vec<PathBuf>) {
 fn report(path: &Path) -> Option<(u64, u64)> {
     let mut name = path.as_os_str().to_owned();
     name.push(".report.json");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(name).ok()?).ok()?;
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(name).ok()?).ok()?;
     let errors = json["issues"]["numErrors"].as_u64()?;
     let triangles = json["info"]["totalTriangleCount"].as_u64().unwrap_or(0);
     Some((errors, triangles))
@@ -65,28 +52,16 @@ fn report(path: &Path) -> Option<(u64, u64)> {
 
 /// A short label for a refusal, for the tally.
 fn reason(message: &str) -> &'static str {
-    if let Some((_, label)) = DOCUMENTED_REFUSALS
-        .iter()
-        .find(|(needle, _)| message.contains(needle))
-    {
+    if let Some((_, label)) = DOCUMENTED_REFUSALS.iter().find(|(needle, _)| message.contains(needle)) {
         return label;
     }
     [
-        (
-            "invalid glTF:",
-            "fails gltf's validation (bad index, missing property)",
-        ),
+        ("invalid glTF:", "fails gltf's validation (bad index, missing property)"),
         ("not a valid glTF file", "not parseable as glTF JSON/GLB"),
-        (
-            "cannot load buffer data",
-            "buffer data missing or unreadable",
-        ),
+        ("cannot load buffer data", "buffer data missing or unreadable"),
         ("does not exist", "dangling index"),
         ("accessor", "accessor unusable"),
-        (
-            "appears twice in the hierarchy",
-            "node cycle or shared child",
-        ),
+        ("appears twice in the hierarchy", "node cycle or shared child"),
     ]
     .iter()
     .find(|(needle, _)| message.contains(needle))
@@ -95,11 +70,7 @@ fn reason(message: &str) -> &'static str {
 
 /// Whether a refusal is for documented reasons only: each of gltf's validation findings, or else the message.
 fn documented(message: &str) -> bool {
-    let is_documented = |m: &str| {
-        DOCUMENTED_REFUSALS
-            .iter()
-            .any(|(needle, _)| m.contains(needle))
-    };
+    let is_documented = |m: &str| DOCUMENTED_REFUSALS.iter().any(|(needle, _)| m.contains(needle));
     match message.split_once("invalid glTF: ") {
         Some((_, findings)) => findings
             .split(';')
@@ -145,30 +116,19 @@ fn load_guarded(path: &Path) -> Option<Outcome> {
 fn gltf_validator_corpus_never_panics_or_hangs() {
     let corpus = Path::new(CORPUS);
     if !corpus.is_dir() {
-        eprintln!(
-            "skipping: the glTF-Validator corpus is not at {}",
-            corpus.display()
-        );
+        eprintln!("skipping: the glTF-Validator corpus is not at {}", corpus.display());
         return;
     }
     let mut files = Vec::new();
     corpus_files(corpus, &mut files);
-    assert!(
-        !files.is_empty(),
-        "no .gltf/.glb files under {}",
-        corpus.display()
-    );
+    assert!(!files.is_empty(), "no .gltf/.glb files under {}", corpus.display());
 
     let start = Instant::now();
     let mut failures = Vec::new();
     let mut loaded = 0;
     let mut reasons: BTreeMap<&str, usize> = BTreeMap::new();
     for path in &files {
-        let rel = path
-            .strip_prefix(corpus)
-            .unwrap_or(path)
-            .display()
-            .to_string();
+        let rel = path.strip_prefix(corpus).unwrap_or(path).display().to_string();
         let expected = report(path);
         match load_guarded(path) {
             None => failures.push(format!("{rel}: hung (no result within {TIMEOUT:?})")),
@@ -178,8 +138,7 @@ fn gltf_validator_corpus_never_panics_or_hangs() {
                 if !m.contains(&path.display().to_string()) {
                     failures.push(format!("{rel}: the error does not name the file: {m}"));
                 }
-                let valid_with_triangles =
-                    expected.is_some_and(|(errors, triangles)| errors == 0 && triangles > 0);
+                let valid_with_triangles = expected.is_some_and(|(errors, triangles)| errors == 0 && triangles > 0);
                 if valid_with_triangles && !documented(&m) {
                     failures.push(format!("{rel}: valid per the validator but refused: {m}"));
                 }
@@ -240,11 +199,7 @@ fn spec_valid_but_strict_for_gltf() -> serde_json::Value {
     })
 }
 
-fn load_json(
-    dir: &Path,
-    name: &str,
-    json: &serde_json::Value,
-) -> (PathBuf, Result<pathwave::Scene, pathwave::Error>) {
+fn load_json(dir: &Path, name: &str, json: &serde_json::Value) -> (PathBuf, Result<pathwave::Scene, pathwave::Error>) {
     let path = dir.join(name);
     std::fs::write(&path, serde_json::to_vec(json).unwrap()).unwrap();
     let scene = pathwave::scene::load(&path, None);
@@ -255,20 +210,12 @@ fn load_json(
 fn what_gltf_refuses_but_gltf_2_allows_loads() {
     let dir = tempfile::tempdir().unwrap();
     let vertices: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    let bytes: Vec<u8> = vertices
-        .iter()
-        .flatten()
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
+    let bytes: Vec<u8> = vertices.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(dir.path().join("tri.bin"), bytes).unwrap();
 
     let (_, scene) = load_json(dir.path(), "ok.gltf", &spec_valid_but_strict_for_gltf());
     let scene = scene.unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(
-        scene.triangles.len(),
-        1,
-        "only the first primitive has area"
-    );
+    assert_eq!(scene.triangles.len(), 1, "only the first primitive has area");
     assert!(scene.normals[0].iter().all(|n| *n == glam::Vec3::Z));
     for expected in [
         "mesh 'm': NORMAL accessor 1 has no bufferView (all zeros); face normals are used",

@@ -48,7 +48,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
-            max_depth, estimator, pixel_offset, path_count, path_capacity, light_count, pad,
+            max_depth, estimator, pixel_offset, path_count, path_capacity, light_count, flags, pad,
         ]),
     ]
 }
@@ -82,7 +82,9 @@ fn compare(m: &Mirror, members: &[(String, u32, u32)], span: u32, errors: &mut V
     for (name, offset, size) in members {
         let (offset, size) = (*offset as usize, *size as usize);
         let Some(field) = fields.peek() else {
-            errors.push(format!("{at}: GLSL member `{name}` (offset {offset}) has no Rust field; GLSL has more members"));
+            errors.push(format!(
+                "{at}: GLSL member `{name}` (offset {offset}) has no Rust field; GLSL has more members"
+            ));
             continue;
         };
         let split = consumed > 0
@@ -103,11 +105,7 @@ fn compare(m: &Mirror, members: &[(String, u32, u32)], span: u32, errors: &mut V
             errors.push(format!(
                 "{at}.{name}: offset is {offset} in GLSL, {expected} in Rust (`{}`{})",
                 field.name,
-                if split {
-                    format!(" + {consumed}")
-                } else {
-                    String::new()
-                }
+                if split { format!(" + {consumed}") } else { String::new() }
             ));
         }
         if split {
@@ -124,10 +122,7 @@ fn compare(m: &Mirror, members: &[(String, u32, u32)], span: u32, errors: &mut V
             }
         } else {
             if size != field.size {
-                errors.push(format!(
-                    "{at}.{name}: size is {size} in GLSL, {} in Rust",
-                    field.size
-                ));
+                errors.push(format!("{at}.{name}: size is {size} in GLSL, {} in Rust", field.size));
             }
             fields.next();
         }
@@ -155,9 +150,7 @@ fn buffer_types(module: &naga::Module) -> Vec<naga::Handle<naga::Type>> {
         .filter(|(_, g)| {
             matches!(
                 g.space,
-                naga::AddressSpace::Storage { .. }
-                    | naga::AddressSpace::Uniform
-                    | naga::AddressSpace::Immediate
+                naga::AddressSpace::Storage { .. } | naga::AddressSpace::Uniform | naga::AddressSpace::Immediate
             )
         })
         .map(|(_, g)| g.ty)
@@ -170,9 +163,7 @@ fn buffer_types(module: &naga::Module) -> Vec<naga::Handle<naga::Type>> {
         seen.push(h);
         match &module.types[h].inner {
             naga::TypeInner::Struct { members, .. } => stack.extend(members.iter().map(|m| m.ty)),
-            naga::TypeInner::Array { base, .. } | naga::TypeInner::BindingArray { base, .. } => {
-                stack.push(*base)
-            }
+            naga::TypeInner::Array { base, .. } | naga::TypeInner::BindingArray { base, .. } => stack.push(*base),
             _ => {}
         }
     }
@@ -215,7 +206,10 @@ fn rust_mirrors_match_spirv_layouts() {
             }
         }
         if found_in.is_empty() {
-            let e = format!("struct {} (Rust {}) is in no stage's SPIR-V buffer or push constants: renamed or unused?", m.glsl, m.rust);
+            let e = format!(
+                "struct {} (Rust {}) is in no stage's SPIR-V buffer or push constants: renamed or unused?",
+                m.glsl, m.rust
+            );
             errors.push((e, Vec::new()));
         }
         eprintln!(
@@ -230,11 +224,7 @@ fn rust_mirrors_match_spirv_layouts() {
         .iter()
         .map(|(e, stages)| format!("{e}  [stages: {}]", stages.join(", ")))
         .collect();
-    assert!(
-        errors.is_empty(),
-        "layout mismatches:\n{}",
-        report.join("\n")
-    );
+    assert!(errors.is_empty(), "layout mismatches:\n{}", report.join("\n"));
 }
 
 #[test]
@@ -261,7 +251,9 @@ fn push_constants_fit_the_guaranteed_budget() {
         let ty = &module.types[block.ty];
         let size = ty.inner.size(module.to_ctx()) as usize;
         if size > PUSH_CONSTANT_BUDGET {
-            errors.push(format!("{stage}: push-constant block is {size} bytes, over the {PUSH_CONSTANT_BUDGET}-byte budget"));
+            errors.push(format!(
+                "{stage}: push-constant block is {size} bytes, over the {PUSH_CONSTANT_BUDGET}-byte budget"
+            ));
         }
         // The block wraps a single `Frame frame;` member at offset 0.
         match &ty.inner {
@@ -272,7 +264,9 @@ fn push_constants_fit_the_guaranteed_budget() {
             {
                 let frame = module.types[members[0].ty].inner.size(module.to_ctx()) as usize;
                 if frame != PUSH_CONSTANT_BUDGET {
-                    errors.push(format!("{stage}: GLSL Frame is {frame} bytes, must be exactly {PUSH_CONSTANT_BUDGET}"));
+                    errors.push(format!(
+                        "{stage}: GLSL Frame is {frame} bytes, must be exactly {PUSH_CONSTANT_BUDGET}"
+                    ));
                 }
             }
             other => errors.push(format!(

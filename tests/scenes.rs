@@ -8,6 +8,7 @@ fn scene_files_match_their_generator() {
         ("furnace.gltf", common::scenes::furnace(0.5, 0.5)),
         ("two-lights.gltf", common::scenes::two_lights()),
         ("unequal-lights.gltf", common::scenes::unequal_lights()),
+        ("material-grid.gltf", common::scenes::material_grid()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(
@@ -26,15 +27,11 @@ fn scene_files_match_their_generator() {
 
 #[test]
 fn cornell_box_has_the_classic_layout() {
-    let scene =
-        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     let (lo, hi) = scene.bounds();
     // 556 x 548.8 x 559.2 mm.
     assert!(
-        (hi - lo - glam::Vec3::new(0.556, 0.5488, 0.5592))
-            .abs()
-            .max_element()
-            < 1e-4,
+        (hi - lo - glam::Vec3::new(0.556, 0.5488, 0.5592)).abs().max_element() < 1e-4,
         "{lo} {hi}"
     );
     assert_eq!(scene.triangles.len(), 32);
@@ -46,11 +43,7 @@ fn cornell_box_has_the_classic_layout() {
         "the camera looks into the box along +z"
     );
     // The light faces down: its emission must leave its front face towards the floor.
-    let light = scene
-        .materials
-        .iter()
-        .position(|m| m.name == "light")
-        .unwrap() as u32;
+    let light = scene.materials.iter().position(|m| m.name == "light").unwrap() as u32;
     for (t, _) in scene
         .triangles
         .iter()
@@ -70,11 +63,9 @@ fn gltf_with_external_bin_and_glb_load_the_same_scene() {
     std::fs::write(dir.path().join("cornell.gltf"), json).unwrap();
     std::fs::write(dir.path().join("cornell.bin"), bin).unwrap();
     std::fs::write(dir.path().join("cornell.glb"), b.to_glb()).unwrap();
-    let embedded =
-        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let embedded = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     for name in ["cornell.gltf", "cornell.glb"] {
-        let s =
-            pathwave::scene::load(&dir.path().join(name), None).unwrap_or_else(|e| panic!("{e}"));
+        let s = pathwave::scene::load(&dir.path().join(name), None).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(s.triangles, embedded.triangles, "{name}");
         assert_eq!(s.materials, embedded.materials, "{name}");
         assert_eq!(s.camera, embedded.camera, "{name}");

@@ -30,10 +30,8 @@ fn a_render_passes_synchronization_validation() {
         eprintln!("skipped: VK_LAYER_KHRONOS_validation is not installed");
         return;
     }
-    let scene =
-        pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
-    let mut r =
-        pathwave::Renderer::with_validation(&scene, &DeviceChoice::Best, Validation::Sync).unwrap();
+    let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let mut r = pathwave::Renderer::with_validation(&scene, &DeviceChoice::Best, Validation::Sync).unwrap();
     // Two chunks' worth of paths is not possible at this size, but several passes and all bounces are.
     let (film, _) = r
         .render(&common::settings(16, 16, 3, 0), &mut |_| {})

@@ -11,20 +11,24 @@ const float DELTA_ALPHA = 1e-4;
 struct Bsdf {
     vec3 base_color;
     float metallic;
+    float roughness;      // perceptual, for the energy tables
     float alpha;          // GGX alpha = roughness^2
     float specular;       // KHR_materials_specular weight of the dielectric layer
     vec3 specular_f0;     // dielectric F0 = min(((ior - 1) / (ior + 1))^2 * specularColor, 1)
+    bool compensate;      // add the metal's multiple scattering (Kulla-Conty)
 };
 
 Bsdf bsdf_from_material(Material m) {
     Bsdf b;
     b.base_color = m.base_color.rgb;
     b.metallic = m.params.x;
+    b.roughness = m.params.y;
     b.alpha = m.params.y * m.params.y;
     float ior = m.params.z;
     float r = (ior - 1.0) / (ior + 1.0);
     b.specular = m.params.w;
     b.specular_f0 = min(vec3(r * r) * m.specular_color.rgb, vec3(1.0));
+    b.compensate = (frame.flags & FLAG_ENERGY_COMPENSATION) != 0u;
     return b;
 }
 
@@ -67,19 +71,68 @@ vec3 metal_fresnel(Bsdf b, float c) {
     return b.base_color + (vec3(1.0) - b.base_color) * schlick_weight(c);
 }
 
-// How much of the light the dielectric coat passes to the diffuse base, going in at cos_i and out at cos_o.
-// glTF's reference weights the base by 1 - F(VdotH), which can reflect more than arrives (1.025 for a
-// white, nearly smooth plastic at 60 degrees); the product of the two macro-surface transmittances is
-// reciprocal and keeps the base within what the coat lets through.
-float coat_transmittance(Bsdf b, float cos_o, float cos_i) {
-    return (1.0 - b.specular * max3(dielectric_fresnel(b, cos_o))) * (1.0 - b.specular * max3(dielectric_fresnel(b, cos_i)));
+// Bilinear lookup in one of the energy tables (table 0: E1, 1: E2) at (cos theta, roughness).
+float energy_lookup(uint table, float mu, float roughness) {
+    float x = clamp(mu, 0.0, 1.0) * float(ENERGY_RES - 1u);
+    float y = clamp(roughness, 0.0, 1.0) * float(ENERGY_RES - 1u);
+    uint x0 = min(uint(x), ENERGY_RES - 2u);
+    uint y0 = min(uint(y), ENERGY_RES - 2u);
+    float fx = x - float(x0);
+    float fy = y - float(y0);
+    uint base = table * ENERGY_RES * ENERGY_RES + y0 * ENERGY_RES + x0;
+    float a = mix(energy[base], energy[base + 1u], fx);
+    float c = mix(energy[base + ENERGY_RES], energy[base + ENERGY_RES + 1u], fx);
+    return mix(a, c, fy);
+}
+
+// Hemispherical average 2 int E(mu) mu dmu of table 0 or 1, interpolated in roughness.
+float energy_average(uint table, float roughness) {
+    float y = clamp(roughness, 0.0, 1.0) * float(ENERGY_RES - 1u);
+    uint y0 = min(uint(y), ENERGY_RES - 2u);
+    uint base = 2u * ENERGY_RES * ENERGY_RES + table * ENERGY_RES + y0;
+    return mix(energy[base], energy[base + 1u], y - float(y0));
+}
+
+// Directional albedo of the dielectric coat's single scattering, per channel (Schlick is linear in F0).
+vec3 coat_albedo(Bsdf b, float mu) {
+    if (bsdf_is_delta(b)) return b.specular * dielectric_fresnel(b, mu);
+    return b.specular * (b.specular_f0 * energy_lookup(0u, mu, b.roughness) + (vec3(1.0) - b.specular_f0) * energy_lookup(1u, mu, b.roughness));
+}
+
+vec3 coat_average(Bsdf b) {
+    // For a mirror, E1 = 1 and the average of (1 - mu)^5 over the projected hemisphere is 1/21.
+    if (bsdf_is_delta(b)) return b.specular * (b.specular_f0 + (vec3(1.0) - b.specular_f0) / 21.0);
+    return b.specular * (b.specular_f0 * energy_average(0u, b.roughness) + (vec3(1.0) - b.specular_f0) * energy_average(1u, b.roughness));
+}
+
+// The diffuse base under the coat: light enters through the coat at cos_i and leaves at cos_o, and is scaled so a white
+// base returns exactly what the coat does not reflect. glTF's reference weights the base by 1 - F(VdotH), which can
+// reflect more than arrives (1.025 for a white, nearly smooth plastic at 60 degrees); this form is reciprocal and
+// conserves energy.
+vec3 coat_transmittance(Bsdf b, float cos_o, float cos_i) {
+    vec3 avg = coat_average(b);
+    return (vec3(1.0) - coat_albedo(b, cos_o)) * (vec3(1.0) - coat_albedo(b, cos_i)) / max(vec3(1.0) - avg, vec3(1e-6));
+}
+
+// Kulla-Conty multiple scattering of the metal lobe: the energy single scattering loses, returned in a diffuse-like
+// lobe coloured by the average Fresnel. Zero for a mirror (it loses nothing).
+vec3 metal_multiple_scattering(Bsdf b, float cos_o, float cos_i) {
+    if (!b.compensate || bsdf_is_delta(b)) return vec3(0.0);
+    float e_avg = energy_average(0u, b.roughness);
+    if (e_avg >= 1.0) return vec3(0.0);
+    vec3 f_avg = b.base_color + (vec3(1.0) - b.base_color) / 21.0;
+    vec3 f_ms = f_avg * f_avg * e_avg / (vec3(1.0) - f_avg * (1.0 - e_avg));
+    float lobe = (1.0 - energy_lookup(0u, cos_o, b.roughness)) * (1.0 - energy_lookup(0u, cos_i, b.roughness)) / (PI * (1.0 - e_avg));
+    return f_ms * lobe;
 }
 
 // The weight of the specular lobe against the diffuse one, as the probability of sampling it.
 float specular_probability(Bsdf b, vec3 wo) {
     vec3 fd = dielectric_fresnel(b, wo.z);
     float spec = (1.0 - b.metallic) * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
+    // Everything diffuse-like (the base under the coat, the metal's multiple scattering) is sampled by the cosine lobe.
     float diff = (1.0 - b.metallic) * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
+    if (b.compensate && !bsdf_is_delta(b)) diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
     if (spec + diff <= 0.0) return 1.0;
     return spec / (spec + diff);
 }
@@ -90,7 +143,8 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     vec3 fd = dielectric_fresnel(b, c);
-    vec3 diffuse = (1.0 - b.metallic) * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI;
+    vec3 diffuse = (1.0 - b.metallic) * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI
+        + b.metallic * metal_multiple_scattering(b, wo.z, wi.z);
     if (bsdf_is_delta(b)) return diffuse;
     float a2 = b.alpha * b.alpha;
     float g = 1.0 / (1.0 + smith_lambda(a2, wo) + smith_lambda(a2, wi));

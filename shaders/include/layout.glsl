@@ -71,11 +71,11 @@ struct Frame {
     uint path_count;
     uint path_capacity;
     uint light_count;
+    uint flags;        // FLAG_* bits
     uint pad0;
     uint pad1;
     uint pad2;
     uint pad3;
-    uint pad4;
 };
 
 layout(push_constant) uniform PushConstants { Frame frame; };
@@ -92,6 +92,8 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer CountersBuf { Counter
 layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
 // Scratch for probe kernels that test device functions from Rust.
 layout(std430, set = 0, binding = BINDING_PROBE) buffer Probe { uint probe[]; };
+// Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.
+layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]; };
 
 vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
 void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }

@@ -84,11 +84,7 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         // first = 0 and count = 0 marks the empty tree; both traversals return at once.
         nodes[0] = node(&Aabb::EMPTY, 0, 0);
         stats.nodes = 1;
-        return Bvh {
-            nodes,
-            order,
-            stats,
-        };
+        return Bvh { nodes, order, stats };
     }
     let bounds_of = |range: &[u32]| {
         let mut b = Aabb::EMPTY;
@@ -128,21 +124,11 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         }
     }
     stats.nodes = nodes.len();
-    Bvh {
-        nodes,
-        order,
-        stats,
-    }
+    Bvh { nodes, order, stats }
 }
 
 /// Partitions `idx` and returns the size of the left part, or None to make a leaf.
-fn choose_split(
-    idx: &mut [u32],
-    centroids: &[Vec3],
-    boxes: &[Aabb],
-    bounds: &Aabb,
-    depth: u32,
-) -> Option<usize> {
+fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aabb, depth: u32) -> Option<usize> {
     let count = idx.len();
     let mut cb = Aabb::EMPTY;
     idx.iter().for_each(|&i| cb.grow(centroids[i as usize]));
@@ -172,8 +158,7 @@ fn choose_split(
             continue;
         }
         let scale = BINS as f32 / extent[ax];
-        let bin_of =
-            |i: u32| (((centroids[i as usize][ax] - cb.lo[ax]) * scale) as usize).min(BINS - 1);
+        let bin_of = |i: u32| (((centroids[i as usize][ax] - cb.lo[ax]) * scale) as usize).min(BINS - 1);
         let mut bin_box = [Aabb::EMPTY; BINS];
         let mut bin_count = [0usize; BINS];
         for &i in idx.iter() {

@@ -24,13 +24,7 @@ fn v3(a: [f32; 4]) -> Vec3 {
 }
 
 /// Moller-Trumbore, identical to the GLSL: returns t in (tmin, tmax) or None.
-pub fn intersect_triangle(
-    tv: &TriVerts,
-    o: Vec3,
-    d: Vec3,
-    tmin: f32,
-    tmax: f32,
-) -> Option<(f32, Vec2)> {
+pub fn intersect_triangle(tv: &TriVerts, o: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<(f32, Vec2)> {
     let (v0, e1, e2) = (v3(tv.v0), v3(tv.e1), v3(tv.e2));
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
@@ -93,8 +87,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
         let n = &nodes[node as usize];
         if n.is_leaf() {
             for i in n.first()..n.first() + n.count() {
-                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t)
-                {
+                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
                     hit = TraceHit { t, tri: i, uv };
                     if any_hit {
                         return hit;
@@ -149,11 +142,7 @@ pub fn brute_force(tris: &[TriVerts], ray: &Ray) -> TraceHit {
     };
     for (i, tv) in tris.iter().enumerate() {
         if let Some((t, uv)) = intersect_triangle(tv, ray.origin, ray.dir, ray.tmin, hit.t) {
-            hit = TraceHit {
-                t,
-                tri: i as u32,
-                uv,
-            };
+            hit = TraceHit { t, tri: i as u32, uv };
         }
     }
     hit

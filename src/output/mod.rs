@@ -35,13 +35,7 @@ pub fn srgb_encode(x: f32) -> f32 {
 }
 
 /// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
-pub fn write_image(
-    path: &Path,
-    width: u32,
-    height: u32,
-    rgb: &[[f32; 3]],
-    exposure: f32,
-) -> Result<(), Error> {
+pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
     let format = format_of(path)?;
     assert_eq!(rgb.len(), width as usize * height as usize);
     let err = |message: String| Error::Output {
@@ -55,11 +49,7 @@ pub fn write_image(
     if !dir.is_dir() {
         return Err(err(format!("directory {} does not exist", dir.display())));
     }
-    let suffix = if format == Format::Exr {
-        ".exr"
-    } else {
-        ".png"
-    };
+    let suffix = if format == Format::Exr { ".exr" } else { ".png" };
     let tmp = tempfile::Builder::new()
         .prefix(".pathwave-")
         .suffix(suffix)
@@ -77,9 +67,7 @@ pub fn write_image(
             let scale = 2f32.powf(exposure);
             let bytes: Vec<u8> = rgb
                 .iter()
-                .flat_map(|p| {
-                    p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
-                })
+                .flat_map(|p| p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8))
                 .collect();
             let file = std::io::BufWriter::new(tmp.as_file());
             let mut enc = png::Encoder::new(file, width, height);
@@ -91,16 +79,11 @@ pub fn write_image(
                 .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
             w.write_image_data(&bytes)
                 .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
-            w.finish()
-                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
         }
     }
-    tmp.persist(path).map_err(|e| {
-        err(format!(
-            "cannot move the finished file into place: {}",
-            e.error
-        ))
-    })?;
+    tmp.persist(path)
+        .map_err(|e| err(format!("cannot move the finished file into place: {}", e.error)))?;
     Ok(())
 }
 

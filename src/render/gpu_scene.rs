@@ -66,12 +66,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
         } else {
             (acc / total) as f32
         };
-        lights.push(GpuLight {
-            tri,
-            cdf,
-            prob,
-            area,
-        });
+        lights.push(GpuLight { tri, cdf, prob, area });
         tri_shading[tri as usize].n0[3] = prob / area;
     }
     let materials = scene

@@ -44,6 +44,8 @@ pub struct RenderSettings {
     pub max_depth: Option<u32>,
     pub seed: u32,
     pub estimator: Estimator,
+    /// Return the energy rough metals lose to single scattering (Kulla-Conty); on by default.
+    pub energy_compensation: bool,
 }
 
 impl Default for RenderSettings {
@@ -55,6 +57,7 @@ impl Default for RenderSettings {
             max_depth: None,
             seed: 0,
             estimator: Estimator::Mis,
+            energy_compensation: true,
         }
     }
 }
@@ -73,10 +76,7 @@ impl Film {
     /// Per-pixel mean radiance (linear RGB), row 0 at the top.
     pub fn mean(&self) -> Vec<[f32; 3]> {
         let inv = 1.0 / self.spp.max(1) as f32;
-        self.sum
-            .iter()
-            .map(|s| [s[0] * inv, s[1] * inv, s[2] * inv])
-            .collect()
+        self.sum.iter().map(|s| [s[0] * inv, s[1] * inv, s[2] * inv]).collect()
     }
 
     /// Unbiased per-pixel variance of one sample, per channel.
@@ -127,21 +127,14 @@ impl RenderStats {
     fn steady_counts(&self, total: u64) -> (f64, f64) {
         if self.passes > 1 && !self.steady().is_zero() {
             let per_pass = total as f64 / self.passes as f64;
-            (
-                per_pass * (self.passes - 1) as f64,
-                self.steady().as_secs_f64(),
-            )
+            (per_pass * (self.passes - 1) as f64, self.steady().as_secs_f64())
         } else {
             (total as f64, self.wall.as_secs_f64().max(1e-9))
         }
     }
     /// The one-line summary every render ends with.
     pub fn summary(&self) -> String {
-        let stages: Vec<String> = self
-            .stage_ms
-            .iter()
-            .map(|(n, ms)| format!("{n} {ms:.1}"))
-            .collect();
+        let stages: Vec<String> = self.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
         format!(
             "{:.2} s (first pass {:.2} s), {:.0} samples/s, {:.2} Mrays/s ({} extension + {} shadow rays), GPU ms: {}",
             self.wall.as_secs_f64(),
@@ -150,7 +143,11 @@ impl RenderStats {
             self.rays_per_sec() / 1e6,
             self.extension_rays,
             self.shadow_rays,
-            if stages.is_empty() { "n/a".to_string() } else { stages.join(", ") }
+            if stages.is_empty() {
+                "n/a".to_string()
+            } else {
+                stages.join(", ")
+            }
         )
     }
 }
@@ -199,10 +196,7 @@ mod spirv {
 
 /// The SPIR-V of a built-in stage, by name (e.g. "shade").
 pub fn builtin_spirv(name: &str) -> Option<&'static [u8]> {
-    spirv::STAGES
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, s)| *s)
+    spirv::STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
 }
 
 pub fn builtin_stage_names() -> impl Iterator<Item = &'static str> {
@@ -214,19 +208,12 @@ impl Renderer {
         Self::with_validation(scene, device, Validation::from_env())
     }
 
-    pub fn with_validation(
-        scene: &Scene,
-        device: &DeviceChoice,
-        validation: Validation,
-    ) -> Result<Self, Error> {
+    pub fn with_validation(scene: &Scene, device: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
         let ctx = Context::new(device, validation)?;
         let packed = gpu_scene::pack(scene);
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
-            warnings.push(
-                "the scene has no emissive surface, so nothing lights it and the image is black"
-                    .into(),
-            );
+            warnings.push("the scene has no emissive surface, so nothing lights it and the image is black".into());
         }
         let scene_buffers = vec![
             Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
@@ -237,7 +224,7 @@ impl Renderer {
         ];
         let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
         let timestamps = Timestamps::new(&ctx, 2048)?;
-        Ok(Renderer {
+        let mut r = Renderer {
             timestamps,
             pipelines,
             scene_buffers,
@@ -245,7 +232,55 @@ impl Renderer {
             camera: scene.camera_or_default(),
             warnings,
             ctx,
-        })
+        };
+        let energy = r.build_energy_tables()?;
+        r.scene_buffers.push(energy);
+        Ok(r)
+    }
+
+    /// The microfacet energy tables: the grid from the device (the BSDF's own sampling), the averages from the host.
+    fn build_energy_tables(&mut self) -> Result<Buffer, Error> {
+        let n = ENERGY_RES as usize;
+        let floats = ENERGY_TABLE_FLOATS as usize;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let mut energy = Buffer::new(
+            &self.ctx,
+            "energy tables",
+            floats as u64 * 4,
+            storage,
+            MemoryLocation::GpuOnly,
+        )?;
+        let cells = ENERGY_RES * ENERGY_RES;
+        self.run_kernel(
+            "energy_tables",
+            &[(BINDING_ENERGY, &energy)],
+            Frame {
+                path_count: cells,
+                ..Default::default()
+            },
+        )?;
+        let mut table: Vec<f32> = energy.download(&self.ctx)?;
+        table.truncate(floats);
+        let h = 1.0 / (n - 1) as f64;
+        for t in 0..2 {
+            for j in 0..n {
+                // 2 * int_0^1 E(mu) mu dmu by the trapezoid rule on the grid the table was made on.
+                let row = &table[t * n * n + j * n..t * n * n + (j + 1) * n];
+                let integral: f64 = (0..n - 1)
+                    .map(|i| 0.5 * h * (row[i] as f64 * i as f64 * h + row[i + 1] as f64 * (i + 1) as f64 * h))
+                    .sum();
+                table[2 * n * n + t * n + j] = (2.0 * integral) as f32;
+            }
+        }
+        energy.upload(&self.ctx, bytemuck::cast_slice(&table))?;
+        Ok(energy)
+    }
+
+    /// The energy tables as the device uses them: E1 and E2 grids, then their averages (see ENERGY_* constants).
+    pub fn energy_tables(&self) -> Result<Vec<f32>, Error> {
+        let mut t: Vec<f32> = self.scene_buffers[5].download(&self.ctx)?;
+        t.truncate(ENERGY_TABLE_FLOATS as usize);
+        Ok(t)
     }
 
     pub fn context(&self) -> &Context {
@@ -272,6 +307,10 @@ impl Renderer {
             (BINDING_MATERIALS, &b[3]),
             (BINDING_LIGHTS, &b[4]),
         ];
+        // The energy tables join the scene's buffers once built; while they are being built, the caller binds them.
+        if let Some(energy) = b.get(5) {
+            all.push((BINDING_ENERGY, energy));
+        }
         all.extend_from_slice(extra);
         self.pipelines.bind_buffers(&self.ctx, &all);
     }
@@ -287,12 +326,14 @@ impl Renderer {
             width: s.width,
             height: s.height,
             seed: s.seed,
-            max_depth: s
-                .max_depth
-                .unwrap_or(DEPTH_SAFETY_CAP)
-                .min(DEPTH_SAFETY_CAP),
+            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP).min(DEPTH_SAFETY_CAP),
             estimator: s.estimator.code(),
             light_count: self.light_count,
+            flags: if s.energy_compensation {
+                FLAG_ENERGY_COMPENSATION
+            } else {
+                0
+            },
             ..Default::default()
         }
     }
@@ -311,9 +352,7 @@ impl Renderer {
             )));
         }
         if s.spp == 0 {
-            return Err(Error::Settings(
-                "samples per pixel must be at least 1".into(),
-            ));
+            return Err(Error::Settings("samples per pixel must be at least 1".into()));
         }
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
@@ -336,13 +375,7 @@ impl Renderer {
             storage,
             MemoryLocation::GpuOnly,
         )?;
-        let queues = Buffer::new(
-            ctx,
-            "queues",
-            capacity as u64 * 4 * 3,
-            storage,
-            MemoryLocation::GpuOnly,
-        )?;
+        let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
         let counters = Buffer::new(
             ctx,
             "counters",
@@ -359,10 +392,7 @@ impl Renderer {
             (BINDING_FILM, &film),
             (BINDING_PROBE, &probe),
         ]);
-        ctx.submit_and_wait(|cmd| unsafe {
-            ctx.device
-                .cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0)
-        })?;
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })?;
 
         let mut stats = RenderStats::default();
         let start = Instant::now();
@@ -418,14 +448,9 @@ impl Renderer {
         let groups = frame.path_count.div_ceil(WORKGROUP_SIZE);
         ctx.submit_and_wait(|cmd| {
             ts.reset(cmd);
-            unsafe {
-                ctx.device
-                    .cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0)
-            };
+            unsafe { ctx.device.cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0) };
             ctx.barrier(cmd);
-            ts.time(cmd, "generate", || {
-                p.dispatch(cmd, "generate", frame, groups)
-            });
+            ts.time(cmd, "generate", || p.dispatch(cmd, "generate", frame, groups));
             ctx.barrier(cmd);
             let mut f = *frame;
             for bounce in 0..=frame.max_depth {
@@ -449,19 +474,13 @@ impl Renderer {
             f.bounce = NO_HIT;
             p.dispatch(cmd, "queue_args", &f, 1);
             ctx.barrier(cmd);
-            ts.time(cmd, "accumulate", || {
-                p.dispatch(cmd, "accumulate", frame, groups)
-            });
+            ts.time(cmd, "accumulate", || p.dispatch(cmd, "accumulate", frame, groups));
             ctx.barrier(cmd);
         })
     }
 
     /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
-    pub fn probe_trace(
-        &mut self,
-        rays: &[crate::bvh::Ray],
-        any_hit: bool,
-    ) -> Result<Vec<crate::bvh::TraceHit>, Error> {
+    pub fn probe_trace(&mut self, rays: &[crate::bvh::Ray], any_hit: bool) -> Result<Vec<crate::bvh::TraceHit>, Error> {
         let n = rays.len() as u32;
         let mut words: Vec<u32> = Vec::with_capacity(rays.len() * 12);
         for r in rays {
@@ -516,6 +535,7 @@ impl Renderer {
         &mut self,
         queries: &[BsdfQuery],
         evaluate: bool,
+        energy_compensation: bool,
     ) -> Result<Vec<BsdfProbe>, Error> {
         let n = queries.len();
         let mut words: Vec<u32> = Vec::with_capacity(24 * n);
@@ -527,6 +547,11 @@ impl Renderer {
         let frame = Frame {
             path_count: n as u32,
             bounce: evaluate as u32,
+            flags: if energy_compensation {
+                FLAG_ENERGY_COMPENSATION
+            } else {
+                0
+            },
             ..Default::default()
         };
         let out = self.run_probe("probe_bsdf", &words, frame)?;
@@ -550,34 +575,48 @@ impl Renderer {
     }
 
     fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {
-        let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let mut probe = Buffer::new(
-            ctx,
+            &self.ctx,
             "probe",
             words.len() as u64 * 4,
             storage,
             MemoryLocation::CpuToGpu,
         )?;
-        probe.upload(ctx, bytemuck::cast_slice(words))?;
-        let dummy: Vec<Buffer> = (0..4)
-            .map(|i| {
-                Buffer::new(
-                    ctx,
-                    &format!("probe dummy {i}"),
-                    16,
-                    storage,
-                    MemoryLocation::GpuOnly,
-                )
+        probe.upload(&self.ctx, bytemuck::cast_slice(words))?;
+        self.run_kernel(stage, &[(BINDING_PROBE, &probe)], frame)?;
+        probe.download(&self.ctx)
+    }
+
+    /// Runs one kernel over `frame.path_count` invocations with the scene bound, `extra` bindings, and stand-ins for
+    /// the rest; then fails on any validation error.
+    fn run_kernel(&mut self, stage: &str, extra: &[(u32, &Buffer)], frame: Frame) -> Result<(), Error> {
+        let ctx = &self.ctx;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let bound: Vec<u32> = extra.iter().map(|(b, _)| *b).collect();
+        let mut wanted = vec![
+            BINDING_PATHS,
+            BINDING_QUEUES,
+            BINDING_COUNTERS,
+            BINDING_FILM,
+            BINDING_PROBE,
+        ];
+        if self.scene_buffers.len() < 6 {
+            wanted.push(BINDING_ENERGY);
+        }
+        let stand_ins: Vec<(u32, Buffer)> = wanted
+            .iter()
+            .filter(|b| !bound.contains(b))
+            .map(|&b| {
+                Ok((
+                    b,
+                    Buffer::new(ctx, &format!("stand-in {b}"), 16, storage, MemoryLocation::GpuOnly)?,
+                ))
             })
-            .collect::<Result<_, _>>()?;
-        self.bind_scene(&[
-            (BINDING_PATHS, &dummy[0]),
-            (BINDING_QUEUES, &dummy[1]),
-            (BINDING_COUNTERS, &dummy[2]),
-            (BINDING_FILM, &dummy[3]),
-            (BINDING_PROBE, &probe),
-        ]);
+            .collect::<Result<_, Error>>()?;
+        let mut all: Vec<(u32, &Buffer)> = extra.to_vec();
+        all.extend(stand_ins.iter().map(|(b, buf)| (*b, buf)));
+        self.bind_scene(&all);
         let frame = Frame {
             light_count: self.light_count,
             ..frame
@@ -587,8 +626,6 @@ impl Renderer {
         ctx.submit_and_wait(|cmd| {
             p.dispatch(cmd, stage, &frame, n.div_ceil(WORKGROUP_SIZE));
         })?;
-        let out = probe.download(ctx)?;
-        self.check_validation()?;
-        Ok(out)
+        self.check_validation()
     }
 }

@@ -54,10 +54,7 @@ impl Camera {
     }
     /// Right, up and forward unit vectors; glTF cameras look down -Z with +Y up.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
-        let forward = self
-            .world_from_camera
-            .transform_vector3(-Vec3::Z)
-            .normalize();
+        let forward = self.world_from_camera.transform_vector3(-Vec3::Z).normalize();
         let up0 = self.world_from_camera.transform_vector3(Vec3::Y);
         let right = forward.cross(up0).normalize();
         let up = right.cross(forward);
@@ -140,15 +137,17 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     if !path.exists() {
         return Err(scene_err(path, "file not found"));
     }
-    let bytes =
-        std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
     // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
     if bytes.starts_with(b"glTF")
         && bytes
             .get(8..12)
             .is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12)
     {
-        return Err(scene_err(path, "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes"));
+        return Err(scene_err(
+            path,
+            "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes",
+        ));
     }
     let (json, blob) = parse(path, &bytes)?;
     pre_validate(path, &json)?;
@@ -179,8 +178,7 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
 /// pathwave ignores animations anyway; a dropped channel's sampler index is still checked.
 fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Option<Vec<u8>>), Error> {
     use gltf::json::deserialize::{from_slice, from_value};
-    let invalid =
-        |e: &dyn std::fmt::Display| scene_err(path, format!("not a valid glTF file: {e}"));
+    let invalid = |e: &dyn std::fmt::Display| scene_err(path, format!("not a valid glTF file: {e}"));
     let (json, blob) = if bytes.starts_with(b"glTF") {
         let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| invalid(&e))?;
         (glb.json, glb.bin.map(std::borrow::Cow::into_owned))
@@ -221,10 +219,7 @@ fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result
     };
     let mut dropped = 0;
     for (a, animation) in animations.iter_mut().enumerate() {
-        let samplers = animation
-            .get("samplers")
-            .and_then(Value::as_array)
-            .map_or(0, Vec::len);
+        let samplers = animation.get("samplers").and_then(Value::as_array).map_or(0, Vec::len);
         let Some(channels) = animation.get_mut("channels").and_then(Value::as_array_mut) else {
             continue;
         };
@@ -265,10 +260,7 @@ fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
     }
     Err(scene_err(
         path,
-        format!(
-            "not a valid glTF file: invalid glTF: {}",
-            findings.join("; ")
-        ),
+        format!("not a valid glTF file: invalid glTF: {}", findings.join("; ")),
     ))
 }
 
@@ -307,7 +299,10 @@ fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
             {
                 return Err(scene_err(
                     path,
-                    format!("mesh {m} primitive {p}: POSITION refers to accessor {}, which does not exist", i.value()),
+                    format!(
+                        "mesh {m} primitive {p}: POSITION refers to accessor {}, which does not exist",
+                        i.value()
+                    ),
                 ));
             }
         }
@@ -318,12 +313,7 @@ fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
 /// Refuses external buffer URIs gltf 1.4 would panic on (percent-escapes that decode to invalid UTF-8) or
 /// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO), and buffers without a URI
 /// beyond the GLB's one binary chunk (in a .gltf, the validator cannot see that their data is absent).
-fn check_buffer_uris(
-    path: &Path,
-    base: &Path,
-    doc: &gltf::Document,
-    has_blob: bool,
-) -> Result<(), Error> {
+fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document, has_blob: bool) -> Result<(), Error> {
     let mut blobs_left = usize::from(has_blob);
     for buffer in doc.buffers() {
         let uri = match buffer.source() {
@@ -343,16 +333,12 @@ fn check_buffer_uris(
             }
         };
         let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
-        let file = if let Some(rest) = uri
-            .strip_prefix("file://")
-            .or_else(|| uri.strip_prefix("file:"))
-        {
+        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
             PathBuf::from(rest)
         } else if uri.contains(':') {
             continue; // data: URIs are decoded in memory; other schemes are refused by gltf
         } else {
-            let decoded = percent_decode(uri)
-                .ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
+            let decoded = percent_decode(uri).ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
             base.join(decoded)
         };
         if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
@@ -368,9 +354,7 @@ fn percent_decode(uri: &str) -> Option<String> {
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
-        let hex = b
-            .get(i + 1..i + 3)
-            .filter(|h| h.iter().all(u8::is_ascii_hexdigit));
+        let hex = b.get(i + 1..i + 3).filter(|h| h.iter().all(u8::is_ascii_hexdigit));
         let hex = hex.and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
         match (b[i], hex) {
             (b'%', Some(v)) => {
@@ -412,9 +396,7 @@ impl Loader<'_> {
     fn run(&mut self, doc: &gltf::Document, camera: Option<usize>) -> Result<(), Error> {
         for ext in doc.extensions_used() {
             if !SUPPORTED_EXTENSIONS.contains(&ext) {
-                self.warn(format!(
-                    "extension {ext} is not supported yet and is ignored"
-                ));
+                self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }
         }
         if doc.animations().next().is_some() {
@@ -432,22 +414,13 @@ impl Loader<'_> {
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => s.nodes().collect(),
             None => {
-                let children: HashSet<usize> = doc
-                    .nodes()
-                    .flat_map(|n| n.children().map(|c| c.index()))
-                    .collect();
-                doc.nodes()
-                    .filter(|n| !children.contains(&n.index()))
-                    .collect()
+                let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+                doc.nodes().filter(|n| !children.contains(&n.index())).collect()
             }
         };
         let mut visited = HashSet::new();
         // Depth-first in node order, on an explicit stack so a deep hierarchy cannot overflow the thread's stack.
-        let mut stack: Vec<(gltf::Node, Mat4)> = roots
-            .into_iter()
-            .rev()
-            .map(|n| (n, Mat4::IDENTITY))
-            .collect();
+        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             let world = self.node(&node, parent, default_material, &mut visited)?;
             let children: Vec<gltf::Node> = node.children().collect();
@@ -492,10 +465,7 @@ impl Loader<'_> {
         }
         for (what, present) in [
             ("baseColorTexture", pbr.base_color_texture().is_some()),
-            (
-                "metallicRoughnessTexture",
-                pbr.metallic_roughness_texture().is_some(),
-            ),
+            ("metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
             ("normalTexture", m.normal_texture().is_some()),
             ("emissiveTexture", m.emissive_texture().is_some()),
         ] {
@@ -518,7 +488,9 @@ impl Loader<'_> {
         };
         if let Some(s) = m.specular() {
             if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
-                self.warn(format!("material '{name}': specular textures are ignored (textures are not supported yet)"));
+                self.warn(format!(
+                    "material '{name}': specular textures are ignored (textures are not supported yet)"
+                ));
             }
         }
         let finite = [pbr.metallic_factor(), pbr.roughness_factor(), ior, specular]
@@ -615,8 +587,7 @@ impl Loader<'_> {
         types: &[DataType],
         dims: Dimensions,
     ) -> Result<Contents, Error> {
-        let err =
-            |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
+        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
         if acc.count() == 0 {
             return Err(err("count is 0".into()));
         }
@@ -625,11 +596,7 @@ impl Loader<'_> {
                 "expected {dims:?} of {types:?}, found {:?} of {:?}{}",
                 acc.dimensions(),
                 acc.data_type(),
-                if acc.normalized() {
-                    " (normalized)"
-                } else {
-                    ""
-                }
+                if acc.normalized() { " (normalized)" } else { "" }
             )));
         }
         if acc.view().is_none() && acc.sparse().is_none() {
@@ -646,11 +613,7 @@ impl Loader<'_> {
                 "byteStride {stride} is smaller than the element size {size}"
             )));
         }
-        let buffer_len = self
-            .buffers
-            .get(view.buffer().index())
-            .map(|b| b.len())
-            .unwrap_or(0);
+        let buffer_len = self.buffers.get(view.buffer().index()).map(|b| b.len()).unwrap_or(0);
         let view_end = view.offset().checked_add(view.length());
         if view_end.is_none_or(|e| e > buffer_len) {
             return Err(err(format!(
@@ -663,10 +626,7 @@ impl Loader<'_> {
             .and_then(|x| x.checked_add(size))
             .and_then(|x| x.checked_add(acc.offset()));
         if end.is_none_or(|e| e > view.length()) {
-            return Err(err(format!(
-                "runs past the end of bufferView {}",
-                view.index()
-            )));
+            return Err(err(format!("runs past the end of bufferView {}", view.index())));
         }
         Ok(Contents::Data)
     }
@@ -683,26 +643,21 @@ impl Loader<'_> {
             .map(str::to_string)
             .unwrap_or_else(|| format!("#{}", mesh.index()));
         let mode = prim.mode();
-        if !matches!(
-            mode,
-            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-        ) {
-            self.warn(format!("mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"));
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.warn(format!(
+                "mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"
+            ));
             return Ok(());
         }
         if prim.morph_targets().next().is_some() {
             self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
         }
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-            self.warn(format!(
-                "mesh '{mesh_name}': a primitive without POSITION is skipped"
-            ));
+            self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
             return Ok(());
         };
         // All-zero positions or indices make every triangle degenerate.
-        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)?
-            == Contents::Zeros
-        {
+        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)? == Contents::Zeros {
             self.warn(format!(
                 "mesh '{mesh_name}': POSITION accessor {} has no bufferView (all zeros); the primitive is skipped",
                 pos_acc.index()
@@ -711,9 +666,7 @@ impl Loader<'_> {
         }
         let mut normal_acc = prim.get(&gltf::Semantic::Normals);
         if let Some(n) = &normal_acc {
-            if self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)?
-                == Contents::Zeros
-            {
+            if self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)? == Contents::Zeros {
                 self.warn(format!(
                     "mesh '{mesh_name}': NORMAL accessor {} has no bufferView (all zeros); face normals are used",
                     n.index()
@@ -740,12 +693,7 @@ impl Loader<'_> {
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
         let positions: Vec<Vec3> = reader
             .read_positions()
-            .ok_or_else(|| {
-                scene_err(
-                    self.path,
-                    format!("mesh '{mesh_name}': cannot read POSITION"),
-                )
-            })?
+            .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
             .map(Vec3::from)
             .collect();
         let normals: Option<Vec<Vec3>> = if normal_acc.is_some() {
@@ -779,10 +727,7 @@ impl Loader<'_> {
             ));
         }
         let triangles: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
+            Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
             // Strips alternate winding; swapping odd triangles keeps every front face counter-clockwise.
             Mode::TriangleStrip => (2..indices.len())
                 .map(|i| {
@@ -797,11 +742,7 @@ impl Loader<'_> {
                 .map(|i| [indices[0], indices[i - 1], indices[i]])
                 .collect(),
         };
-        let material = prim
-            .material()
-            .index()
-            .map(|i| i as u32)
-            .unwrap_or(default_material);
+        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         // A mirroring transform turns counter-clockwise into clockwise; swap two vertices to keep the front face.
         let flip = Mat3::from_mat4(world).determinant() < 0.0;

@@ -64,11 +64,7 @@ impl Buffer {
     }
 
     /// A device-local storage buffer holding `data`.
-    pub fn with_data<T: bytemuck::Pod>(
-        ctx: &Context,
-        name: &str,
-        data: &[T],
-    ) -> Result<Self, Error> {
+    pub fn with_data<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Self, Error> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let mut b = Buffer::new(
             ctx,
@@ -100,10 +96,7 @@ impl Buffer {
         )?;
         staging.upload(ctx, bytes)?;
         let region = [vk::BufferCopy::default().size(bytes.len() as u64)];
-        ctx.submit_and_wait(|cmd| unsafe {
-            ctx.device
-                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
-        })
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, self.raw, &region) })
     }
 
     /// Reads the whole buffer back as `T`s (the device must be idle with respect to it).
@@ -123,10 +116,7 @@ impl Buffer {
             MemoryLocation::GpuToCpu,
         )?;
         let region = [vk::BufferCopy::default().size(self.size)];
-        ctx.submit_and_wait(|cmd| unsafe {
-            ctx.device
-                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
-        })?;
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, self.raw, staging.raw, &region) })?;
         staging.download(ctx)
     }
 }

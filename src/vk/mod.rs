@@ -83,9 +83,7 @@ unsafe extern "system" fn debug_callback(
     let msg = if data.is_null() || (*data).p_message.is_null() {
         "(no message)".to_string()
     } else {
-        CStr::from_ptr((*data).p_message)
-            .to_string_lossy()
-            .into_owned()
+        CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         eprintln!("validation error: {msg}");
@@ -169,8 +167,7 @@ fn create_instance(entry: &ash::Entry, validation: Validation) -> Result<ash::In
         vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
         vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
     ];
-    let mut features =
-        vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables[..1]);
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables[..1]);
     let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layers)
@@ -231,8 +228,7 @@ impl Context {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
                 .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
                 )
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -258,9 +254,7 @@ impl Context {
                 .iter()
                 .min_by_key(|(i, pd)| {
                     (
-                        kind_rank(
-                            unsafe { instance.get_physical_device_properties(*pd) }.device_type,
-                        ),
+                        kind_rank(unsafe { instance.get_physical_device_properties(*pd) }.device_type),
                         *i,
                     )
                 })
@@ -284,15 +278,17 @@ impl Context {
                 .collect();
             unsafe { instance.destroy_instance(None) };
             return Err(Error::Vulkan(match choice {
-                DeviceChoice::Best => "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into(),
+                DeviceChoice::Best => {
+                    "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into()
+                }
                 other => format!("no device matches {other:?}; devices: [{}]", names.join(", ")),
             }));
         };
         let properties = unsafe { instance.get_physical_device_properties(physical) };
         let queue_family = compute_queue_family(&instance, physical).expect("filtered above");
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let timestamps_valid = families[queue_family as usize].timestamp_valid_bits > 0
-            && properties.limits.timestamp_period > 0.0;
+        let timestamps_valid =
+            families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
         let priorities = [1.0];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
@@ -353,11 +349,7 @@ impl Context {
 
     /// Validation errors reported since the context was made.
     pub fn validation_errors(&self) -> Vec<String> {
-        self.log
-            .errors
-            .lock()
-            .map(|e| e.clone())
-            .unwrap_or_default()
+        self.log.errors.lock().map(|e| e.clone()).unwrap_or_default()
     }
 
     /// Names an object for validation messages and capture tools; a no-op without debug utils.
@@ -388,17 +380,14 @@ impl Context {
             unsafe {
                 d.begin_command_buffer(
                     cmd,
-                    &vk::CommandBufferBeginInfo::default()
-                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )?;
             }
             record(cmd);
             unsafe {
                 // Makes device writes visible to host reads of mapped memory once the fence signals.
                 let to_host = vk::MemoryBarrier::default()
-                    .src_access_mask(
-                        vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
-                    )
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
                     .dst_access_mask(vk::AccessFlags::HOST_READ);
                 d.cmd_pipeline_barrier(
                     cmd,
@@ -411,11 +400,7 @@ impl Context {
                 );
                 d.end_command_buffer(cmd)?;
                 let cmds = [cmd];
-                d.queue_submit(
-                    self.queue,
-                    &[vk::SubmitInfo::default().command_buffers(&cmds)],
-                    fence,
-                )?;
+                d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence)?;
                 match d.wait_for_fences(&[fence], true, self.fence_timeout.as_nanos() as u64) {
                     Ok(()) => Ok(()),
                     Err(vk::Result::TIMEOUT) => Err(Error::Vulkan(format!(

@@ -28,10 +28,7 @@ impl Pipelines {
             })
             .collect();
         let set_layout = unsafe {
-            d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )
+            d.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
         }?;
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -51,9 +48,7 @@ impl Pipelines {
             .descriptor_count(BINDING_COUNT)];
         let pool = unsafe {
             d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(1)
-                    .pool_sizes(&sizes),
+                &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes),
                 None,
             )
         }?;
@@ -83,9 +78,7 @@ impl Pipelines {
         let d = &ctx.device;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
-        let module = unsafe {
-            d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)
-        }?;
+        let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
@@ -95,8 +88,7 @@ impl Pipelines {
             .layout(self.layout)];
         let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { d.destroy_shader_module(module, None) };
-        let pipeline =
-            result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
+        let pipeline = result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
         ctx.set_name(pipeline, name);
         if let Some(old) = self.pipelines.insert(name.to_string(), pipeline) {
             unsafe { d.destroy_pipeline(old, None) };
@@ -136,14 +128,8 @@ impl Pipelines {
         unsafe {
             self.device
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            self.device.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.layout,
-                0,
-                &[self.set],
-                &[],
-            );
+            self.device
+                .cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
             self.device.cmd_push_constants(
                 cmd,
                 self.layout,
@@ -159,14 +145,7 @@ impl Pipelines {
         unsafe { self.device.cmd_dispatch(cmd, groups, 1, 1) };
     }
 
-    pub fn dispatch_indirect(
-        &self,
-        cmd: vk::CommandBuffer,
-        name: &str,
-        frame: &Frame,
-        args: &Buffer,
-        offset: u64,
-    ) {
+    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, args: &Buffer, offset: u64) {
         self.bind(cmd, name, frame);
         unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
     }
@@ -180,8 +159,7 @@ impl Drop for Pipelines {
             }
             self.device.destroy_descriptor_pool(self.pool, None);
             self.device.destroy_pipeline_layout(self.layout, None);
-            self.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
+            self.device.destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
@@ -219,10 +197,7 @@ impl Timestamps {
     pub fn reset(&mut self, cmd: vk::CommandBuffer) {
         self.labels.clear();
         if self.enabled {
-            unsafe {
-                self.device
-                    .cmd_reset_query_pool(cmd, self.pool, 0, self.capacity)
-            };
+            unsafe { self.device.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
         }
     }
 
@@ -239,12 +214,8 @@ impl Timestamps {
         };
         f();
         unsafe {
-            self.device.cmd_write_timestamp(
-                cmd,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                self.pool,
-                q + 1,
-            )
+            self.device
+                .cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1)
         };
         self.labels.push(label);
     }

@@ -28,16 +28,9 @@ impl GltfBuilder {
 
     /// A purely diffuse (Lambertian) material: dielectric with KHR_materials_specular's weight 0, so no coat.
     /// Emission is radiance (W sr^-1 m^-2), written with KHR_materials_emissive_strength past 1.
-    pub fn material(
-        &mut self,
-        name: &str,
-        base: [f32; 3],
-        emission: [f32; 3],
-        double_sided: bool,
-    ) -> usize {
+    pub fn material(&mut self, name: &str, base: [f32; 3], emission: [f32; 3], double_sided: bool) -> usize {
         let i = self.pbr_material(name, base, 0.0, 1.0, emission, double_sided);
-        self.materials[i]["extensions"]["KHR_materials_specular"] =
-            json!({ "specularFactor": 0.0 });
+        self.materials[i]["extensions"]["KHR_materials_specular"] = json!({ "specularFactor": 0.0 });
         self.use_extension("KHR_materials_specular");
         i
     }
@@ -62,8 +55,7 @@ impl GltfBuilder {
             let scale = peak.max(1.0);
             m["emissiveFactor"] = json!(emission.map(|e| e / scale));
             if scale > 1.0 {
-                m["extensions"]["KHR_materials_emissive_strength"] =
-                    json!({ "emissiveStrength": scale });
+                m["extensions"]["KHR_materials_emissive_strength"] = json!({ "emissiveStrength": scale });
                 self.use_extension("KHR_materials_emissive_strength");
             }
         }
@@ -77,17 +69,26 @@ impl GltfBuilder {
         }
         let offset = self.bin.len();
         self.bin.extend_from_slice(bytes);
-        self.views.push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target }));
+        self.views
+            .push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target }));
         self.views.len() - 1
     }
 
     /// An indexed triangle mesh on its own node; front faces wind counter-clockwise.
     pub fn mesh(&mut self, name: &str, positions: &[[f32; 3]], indices: &[u32], material: usize) {
-        let pos_bytes: Vec<u8> = positions
-            .iter()
-            .flatten()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
+        self.mesh_with_normals(name, positions, None, indices, material);
+    }
+
+    /// As `mesh`, with per-vertex normals when given.
+    pub fn mesh_with_normals(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        indices: &[u32],
+        material: usize,
+    ) {
+        let pos_bytes: Vec<u8> = positions.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
         let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let pv = self.push_view(&pos_bytes, 34962);
         let iv = self.push_view(&idx_bytes, 34963);
@@ -101,29 +102,56 @@ impl GltfBuilder {
         }
         self.accessors.push(json!({ "bufferView": pv, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi }));
         let pa = self.accessors.len() - 1;
-        self.accessors.push(json!({ "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR" }));
+        self.accessors
+            .push(json!({ "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR" }));
         let ia = self.accessors.len() - 1;
-        self.meshes.push(json!({ "name": name, "primitives": [{ "attributes": { "POSITION": pa }, "indices": ia, "material": material }] }));
-        self.nodes
-            .push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
+        let mut attributes = json!({ "POSITION": pa });
+        if let Some(normals) = normals {
+            let bytes: Vec<u8> = normals.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+            let nv = self.push_view(&bytes, 34962);
+            self.accessors
+                .push(json!({ "bufferView": nv, "componentType": 5126, "count": normals.len(), "type": "VEC3" }));
+            attributes["NORMAL"] = json!(self.accessors.len() - 1);
+        }
+        self.meshes.push(
+            json!({ "name": name, "primitives": [{ "attributes": attributes, "indices": ia, "material": material }] }),
+        );
+        self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
+    }
+
+    /// A UV sphere with smooth vertex normals, front faces outwards.
+    pub fn sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize) {
+        let (rings, segments) = (32u32, 64u32);
+        let c = Vec3::from(center);
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        for i in 0..=rings {
+            let theta = std::f32::consts::PI * i as f32 / rings as f32;
+            for j in 0..=segments {
+                let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+                let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+                positions.push((c + n * radius).to_array());
+                normals.push(n.to_array());
+            }
+        }
+        let at = |i: u32, j: u32| i * (segments + 1) + j;
+        let mut indices = Vec::new();
+        for i in 0..rings {
+            for j in 0..segments {
+                // Counter-clockwise seen from outside.
+                indices.extend([at(i, j), at(i, j + 1), at(i + 1, j)]);
+                indices.extend([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
+            }
+        }
+        self.mesh_with_normals(name, &positions, Some(&normals), &indices, material);
     }
 
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
-    pub fn quad(
-        &mut self,
-        name: &str,
-        corners: [[f32; 3]; 4],
-        material: usize,
-        facing: Option<[f32; 3]>,
-    ) {
+    pub fn quad(&mut self, name: &str, corners: [[f32; 3]; 4], material: usize, facing: Option<[f32; 3]>) {
         let c = corners.map(Vec3::from);
         let n = (c[1] - c[0]).cross(c[2] - c[0]);
         let flip = facing.is_some_and(|f| n.dot(Vec3::from(f)) < 0.0);
-        let idx: &[u32] = if flip {
-            &[0, 2, 1, 0, 3, 2]
-        } else {
-            &[0, 1, 2, 0, 2, 3]
-        };
+        let idx: &[u32] = if flip { &[0, 2, 1, 0, 3, 2] } else { &[0, 1, 2, 0, 2, 3] };
         self.mesh(name, &corners, idx, material);
     }
 
@@ -133,42 +161,12 @@ impl GltfBuilder {
         let center = (l + h) * 0.5;
         let v = |x: f32, y: f32, z: f32| [x, y, z];
         let faces = [
-            [
-                v(l.x, l.y, l.z),
-                v(l.x, h.y, l.z),
-                v(l.x, h.y, h.z),
-                v(l.x, l.y, h.z),
-            ],
-            [
-                v(h.x, l.y, l.z),
-                v(h.x, h.y, l.z),
-                v(h.x, h.y, h.z),
-                v(h.x, l.y, h.z),
-            ],
-            [
-                v(l.x, l.y, l.z),
-                v(h.x, l.y, l.z),
-                v(h.x, l.y, h.z),
-                v(l.x, l.y, h.z),
-            ],
-            [
-                v(l.x, h.y, l.z),
-                v(h.x, h.y, l.z),
-                v(h.x, h.y, h.z),
-                v(l.x, h.y, h.z),
-            ],
-            [
-                v(l.x, l.y, l.z),
-                v(h.x, l.y, l.z),
-                v(h.x, h.y, l.z),
-                v(l.x, h.y, l.z),
-            ],
-            [
-                v(l.x, l.y, h.z),
-                v(h.x, l.y, h.z),
-                v(h.x, h.y, h.z),
-                v(l.x, h.y, h.z),
-            ],
+            [v(l.x, l.y, l.z), v(l.x, h.y, l.z), v(l.x, h.y, h.z), v(l.x, l.y, h.z)],
+            [v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(h.x, l.y, h.z)],
+            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, l.y, h.z), v(l.x, l.y, h.z)],
+            [v(l.x, h.y, l.z), v(h.x, h.y, l.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
+            [v(l.x, l.y, l.z), v(h.x, l.y, l.z), v(h.x, h.y, l.z), v(l.x, h.y, l.z)],
+            [v(l.x, l.y, h.z), v(h.x, l.y, h.z), v(h.x, h.y, h.z), v(l.x, h.y, h.z)],
         ];
         for (i, f) in faces.iter().enumerate() {
             let fc = f.iter().map(|p| Vec3::from(*p)).sum::<Vec3>() / 4.0;

@@ -15,9 +15,7 @@ pub fn validation() -> pathwave::vk::Validation {
         Ok("sync") => Validation::Sync,
         _ if validation_layer_installed() => Validation::On,
         _ => {
-            eprintln!(
-                "note: VK_LAYER_KHRONOS_validation is not installed; running without validation"
-            );
+            eprintln!("note: VK_LAYER_KHRONOS_validation is not installed; running without validation");
             Validation::Off
         }
     }
@@ -42,13 +40,7 @@ pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> pathwave::Rende
 
 pub fn render(r: &mut pathwave::Renderer, s: &pathwave::RenderSettings) -> pathwave::Film {
     let (film, stats) = r.render(s, &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "{}x{} {} spp: {}",
-        s.width,
-        s.height,
-        s.spp,
-        stats.summary()
-    );
+    eprintln!("{}x{} {} spp: {}", s.width, s.height, s.spp, stats.summary());
     film
 }
 

@@ -12,10 +12,9 @@ pub fn cornell_box() -> GltfBuilder {
     let green = b.material("green", [0.14, 0.45, 0.091], [0.0; 3], false);
     let light = b.material("light", [0.78, 0.78, 0.78], [17.0, 12.0, 4.0], false);
     let inward = |c: [f32; 3]| Some([278.0 - c[0], 274.4 - c[1], 279.6 - c[2]]);
-    let quad =
-        |b: &mut GltfBuilder, name: &str, q: [[f32; 3]; 4], m: usize, facing: Option<[f32; 3]>| {
-            b.quad(name, q.map(p), m, facing)
-        };
+    let quad = |b: &mut GltfBuilder, name: &str, q: [[f32; 3]; 4], m: usize, facing: Option<[f32; 3]>| {
+        b.quad(name, q.map(p), m, facing)
+    };
     quad(
         &mut b,
         "floor",
@@ -154,34 +153,19 @@ pub fn two_lights() -> GltfBuilder {
     let small = b.material("small light", [0.0; 3], [100.0; 3], false);
     b.quad(
         "floor",
-        [
-            [-2.0, 0.0, -2.0],
-            [2.0, 0.0, -2.0],
-            [2.0, 0.0, 2.0],
-            [-2.0, 0.0, 2.0],
-        ],
+        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
         floor,
         Some([0.0, 1.0, 0.0]),
     );
     b.quad(
         "big light",
-        [
-            [-1.8, 1.0, -1.0],
-            [-0.2, 1.0, -1.0],
-            [-0.2, 1.0, 1.0],
-            [-1.8, 1.0, 1.0],
-        ],
+        [[-1.8, 1.0, -1.0], [-0.2, 1.0, -1.0], [-0.2, 1.0, 1.0], [-1.8, 1.0, 1.0]],
         big,
         Some([0.0, -1.0, 0.0]),
     );
     b.quad(
         "small light",
-        [
-            [0.9, 0.6, -0.16],
-            [1.1, 0.6, -0.16],
-            [1.1, 0.6, 0.16],
-            [0.9, 0.6, 0.16],
-        ],
+        [[0.9, 0.6, -0.16], [1.1, 0.6, -0.16], [1.1, 0.6, 0.16], [0.9, 0.6, 0.16]],
         small,
         Some([0.0, -1.0, 0.0]),
     );
@@ -197,37 +181,57 @@ pub fn unequal_lights() -> GltfBuilder {
     let c = b.material("dim", [0.0; 3], [1.0; 3], false);
     b.quad(
         "floor",
-        [
-            [-2.0, 0.0, -2.0],
-            [2.0, 0.0, -2.0],
-            [2.0, 0.0, 2.0],
-            [-2.0, 0.0, 2.0],
-        ],
+        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
         floor,
         Some([0.0, 1.0, 0.0]),
     );
     b.quad(
         "bright",
-        [
-            [-1.5, 1.0, -0.5],
-            [-0.5, 1.0, -0.5],
-            [-0.5, 1.0, 0.5],
-            [-1.5, 1.0, 0.5],
-        ],
+        [[-1.5, 1.0, -0.5], [-0.5, 1.0, -0.5], [-0.5, 1.0, 0.5], [-1.5, 1.0, 0.5]],
         a,
         Some([0.0, -1.0, 0.0]),
     );
     b.quad(
         "dim",
-        [
-            [0.5, 1.0, -0.25],
-            [1.0, 1.0, -0.25],
-            [1.0, 1.0, 0.25],
-            [0.5, 1.0, 0.25],
-        ],
+        [[0.5, 1.0, -0.25], [1.0, 1.0, -0.25], [1.0, 1.0, 0.25], [0.5, 1.0, 0.25]],
         c,
         Some([0.0, -1.0, 0.0]),
     );
     b.camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    b
+}
+
+/// Spheres of glTF metallic-roughness materials: roughness 0 to 1 across, dielectric (top row) and metal (bottom row),
+/// over a grey floor under one large area light.
+pub fn material_grid() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
+    let light = b.material("light", [0.0; 3], [6.0; 3], false);
+    b.quad(
+        "floor",
+        [[-6.0, 0.0, -4.0], [6.0, 0.0, -4.0], [6.0, 0.0, 4.0], [-6.0, 0.0, 4.0]],
+        floor,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "light",
+        [[-3.0, 5.0, -1.5], [3.0, 5.0, -1.5], [3.0, 5.0, 1.5], [-3.0, 5.0, 1.5]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    let roughness = [0.0, 0.25, 0.5, 0.75, 1.0];
+    for (row, (metallic, color)) in [(0.0, [0.8, 0.1, 0.1]), (1.0, [0.95, 0.64, 0.54])].iter().enumerate() {
+        for (col, &r) in roughness.iter().enumerate() {
+            let name = format!(
+                "{} roughness {r}",
+                if *metallic > 0.0 { "copper" } else { "red plastic" }
+            );
+            let m = b.pbr_material(&name, *color, *metallic, r, [0.0; 3], false);
+            let x = -2.4 + 1.2 * col as f32;
+            let z = -0.7 + 1.4 * row as f32;
+            b.sphere(&name, [x, 0.5, z], 0.5, m);
+        }
+    }
+    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
 }

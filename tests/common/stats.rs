@@ -15,9 +15,7 @@ fn ln_gamma(x: f64) -> f64 {
         1.505_632_735_149_311_6e-7,
     ];
     if x < 0.5 {
-        return std::f64::consts::PI.ln()
-            - (std::f64::consts::PI * x).sin().ln()
-            - ln_gamma(1.0 - x);
+        return std::f64::consts::PI.ln() - (std::f64::consts::PI * x).sin().ln() - ln_gamma(1.0 - x);
     }
     let x = x - 1.0;
     let mut a = C[0];
@@ -108,17 +106,8 @@ pub fn image_mean_and_stderr(film: &pathwave::Film) -> (f64, f64) {
     let mean = film.mean();
     let var = film.sample_variance();
     let p = mean.len() as f64;
-    let m: f64 = mean
-        .iter()
-        .map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0)
-        .sum::<f64>()
-        / p;
+    let m: f64 = mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / p;
     // The channel average's variance is bounded by the mean of the channel variances (Cauchy-Schwarz), which keeps this honest without covariances.
-    let v: f64 = var
-        .iter()
-        .map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0)
-        .sum::<f64>()
-        / film.spp as f64
-        / (p * p);
+    let v: f64 = var.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / film.spp as f64 / (p * p);
     (m, v.sqrt())
 }
