@@ -39,10 +39,28 @@ void main() {
     vec4 hit = path_get(PATH_HIT, path);
     uint tri = floatBitsToUint(hit.y);
     vec3 radiance = path_get(PATH_RADIANCE, path).rgb;
-    if (tri == NO_HIT) return; // nothing beyond the scene emits yet
     vec4 ray_o = path_get(PATH_ORIGIN, path);
     vec3 ray_d = path_get(PATH_DIR, path).xyz;
     vec3 beta = path_get(PATH_THROUGHPUT, path).rgb;
+    // After the camera or a delta bounce, nothing else could have found this light: it counts in full.
+    bool camera_or_delta = bounce == 0u || ray_o.w == 0.0;
+
+    if (tri == NO_HIT) {
+        bool hidden = bounce == 0u && (frame.flags & FLAG_HIDE_ENV) != 0u;
+        if (frame.env_width > 0u && !hidden) {
+            float w = 1.0;
+            if (!camera_or_delta) {
+                if (frame.estimator == ESTIMATOR_LIGHT) {
+                    w = 0.0;
+                } else if (frame.estimator == ESTIMATOR_MIS) {
+                    w = power_heuristic(ray_o.w, frame.env_prob * env_pdf(ray_d));
+                }
+            }
+            radiance += beta * env_radiance(ray_d) * w;
+        }
+        finish(path, radiance);
+        return;
+    }
 
     TriVerts tv = tri_verts[tri];
     TriShading ts = tri_shading[tri];
@@ -59,8 +77,7 @@ void main() {
     bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));
     if (emits) {
         float w = 1.0;
-        bool camera_or_specular = bounce == 0u || ray_o.w == 0.0;
-        if (!camera_or_specular) {
+        if (!camera_or_delta) {
             if (frame.estimator == ESTIMATOR_LIGHT) {
                 w = 0.0;
             } else if (frame.estimator == ESTIMATOR_MIS) {
@@ -84,31 +101,18 @@ void main() {
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
     if (frame.estimator != ESTIMATOR_BSDF && frame.light_count > 0u) {
-        uint li = pick_light(rand2(pixel, s, bounce, DIM_LIGHT_PICK).x);
-        Light l = lights[li];
-        TriVerts lv = tri_verts[l.tri];
-        vec2 b = sample_triangle(rand2(pixel, s, bounce, DIM_LIGHT_POINT));
-        vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
-        vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));
-        vec3 to_light = q - p_off;
-        float dist2 = dot(to_light, to_light);
-        float dist = sqrt(dist2);
-        vec3 wi = to_light / dist;
-        float cos_l = dot(lng, -wi);
-        Material lm = materials[floatBitsToUint(lv.v0.w)];
-        bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
-        vec3 wi_local = vec3(dot(wi, tx), dot(wi, ty), dot(wi, ns));
-        if (faces && wi_local.z > 0.0 && dot(n_in, wi) > 0.0 && dist > 0.0) {
-            float pdf_light = l.prob / l.area * dist2 / abs(cos_l);
+        LightSample ls = sample_light(p_off, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
+        vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
+        if (ls.pdf > 0.0 && wi_local.z > 0.0 && dot(n_in, ls.wi) > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
-            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(pdf_light, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
-            vec3 contribution = beta * f * wi_local.z * lm.emission.rgb * (w / pdf_light);
+            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
+            vec3 contribution = beta * f * wi_local.z * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {
                 uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
                 queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
                 // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
-                path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, dist * (1.0 - 1e-4)));
-                path_set(PATH_SHADOW_DIR, path, vec4(wi, 0.0));
+                path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, ls.dist * (1.0 - 1e-4)));
+                path_set(PATH_SHADOW_DIR, path, vec4(ls.wi, 0.0));
                 path_set(PATH_SHADOW_RADIANCE, path, vec4(contribution, 0.0));
             }
         }

@@ -16,7 +16,8 @@ pub const BINDING_COUNTERS: u32 = 7;
 pub const BINDING_FILM: u32 = 8;
 pub const BINDING_PROBE: u32 = 9;
 pub const BINDING_ENERGY: u32 = 10;
-pub const BINDING_COUNT: u32 = 11;
+pub const BINDING_ENV: u32 = 11;
+pub const BINDING_COUNT: u32 = 12;
 
 /// Microfacet energy tables: ENERGY_RES x ENERGY_RES cells over (cos theta, perceptual roughness), each the mean of
 /// ENERGY_SAMPLES visible-normal samples. Layout of the energy buffer, in floats: E1 grid, E2 grid (roughness-major),
@@ -28,6 +29,14 @@ pub const ENERGY_TABLE_FLOATS: u32 = 2 * ENERGY_RES * ENERGY_RES + 2 * ENERGY_RE
 
 /// Frame.flags bits.
 pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
+/// Camera rays do not see the environment (it still lights the scene).
+pub const FLAG_HIDE_ENV: u32 = 2;
+
+/// Light ids: the kind in the top two bits, the index (triangle, ...) below.
+pub const LIGHT_KIND_SHIFT: u32 = 30;
+pub const LIGHT_KIND_TRIANGLE: u32 = 0;
+pub const LIGHT_KIND_ENV: u32 = 1;
+pub const LIGHT_INDEX_MASK: u32 = 0x3FFFFFFF;
 
 /// Estimator selection (push constant `estimator`).
 pub const ESTIMATOR_MIS: u32 = 0;

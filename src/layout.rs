@@ -55,7 +55,7 @@ pub struct GpuMaterial {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuLight {
-    pub tri: u32,
+    pub id: u32,
     pub cdf: f32,
     pub prob: f32,
     pub area: f32,
@@ -93,7 +93,10 @@ pub struct Frame {
     pub path_capacity: u32,
     pub light_count: u32,
     pub flags: u32,
-    pub pad: [u32; 4],
+    pub env_prob: f32,
+    pub env_rotation: f32,
+    pub env_width: u32,
+    pub env_height: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);

@@ -63,6 +63,21 @@ struct RenderArgs {
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
     estimator: Estimator,
+    /// Environment map lighting the scene from infinitely far away: equirectangular .hdr or .exr.
+    #[arg(long, conflicts_with = "env_color")]
+    env: Option<PathBuf>,
+    /// A uniform environment colour instead of a map: linear RGB radiance, e.g. 1,1,1.
+    #[arg(long, value_parser = parse_rgb)]
+    env_color: Option<[f32; 3]>,
+    /// Multiplies the environment's radiance.
+    #[arg(long, default_value = "1", allow_hyphen_values = true)]
+    env_intensity: f32,
+    /// Turns the environment about the up axis (+y), in degrees.
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    env_rotation: f32,
+    /// Keeps the environment out of camera rays; it still lights the scene.
+    #[arg(long)]
+    hide_env: bool,
     /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
     #[arg(long)]
     no_energy_compensation: bool,
@@ -73,6 +88,15 @@ fn positive(s: &str) -> Result<u32, String> {
         Ok(n) if n >= 1 && n <= u32::MAX as i64 => Ok(n as u32),
         Ok(n) => Err(format!("{n} is not a positive number")),
         Err(_) => Err(format!("'{s}' is not a number")),
+    }
+}
+
+fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let values: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse::<f32>().ok()).collect();
+    match values[..] {
+        [r, g, b] if parts.len() == 3 && values.iter().all(|v| v.is_finite() && *v >= 0.0) => Ok([r, g, b]),
+        _ => Err(format!("'{s}' is not three non-negative numbers R,G,B (e.g. 1,1,1)")),
     }
 }
 
@@ -103,7 +127,19 @@ fn render(args: RenderArgs) -> Result<()> {
         output::format_of(out)?;
     }
     let start = Instant::now();
-    let scene = scene::load(&args.scene, args.camera)?;
+    let mut scene = scene::load(&args.scene, args.camera)?;
+    if !(args.env_intensity.is_finite() && args.env_intensity >= 0.0) {
+        bail!("--env-intensity must be a non-negative number");
+    }
+    let mut environment = match (&args.env, args.env_color) {
+        (Some(path), _) => Some(scene::Environment::load(path, args.env_intensity)?),
+        (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * args.env_intensity))),
+        (None, None) => None,
+    };
+    if let Some(env) = &mut environment {
+        env.rotation = args.env_rotation.to_radians();
+    }
+    scene.environment = environment;
     let mut renderer = Renderer::new(&scene, &args.device.unwrap_or_default())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
@@ -116,6 +152,7 @@ fn render(args: RenderArgs) -> Result<()> {
         seed: args.seed,
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
+        hide_environment: args.hide_env,
     };
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(

@@ -206,6 +206,34 @@ fn bad_inputs_are_refused_cleanly() {
         &out,
         "no device matches",
     );
+    let sky = d.join("sky.hdr");
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--env", sky.to_str().unwrap()],
+        &out,
+        "sky.hdr: cannot read",
+    );
+    let txt_env = d.join("sky.txt");
+    std::fs::write(&txt_env, "not an image").unwrap();
+    assert_refused(
+        &["render", &cornell(), "-o", o, "--env", txt_env.to_str().unwrap()],
+        &out,
+        "must be .hdr or .exr",
+    );
+    assert_refused(&["render", &cornell(), "-o", o, "--env-color", "1,2"], &out, "R,G,B");
+    assert_refused(
+        &[
+            "render",
+            &cornell(),
+            "-o",
+            o,
+            "--env-color",
+            "1,1,1",
+            "--env-intensity",
+            "-2",
+        ],
+        &out,
+        "intensity",
+    );
 }
 
 #[test]
@@ -255,4 +283,56 @@ fn info_describes_scene_and_devices() {
     let o = pathwave(&["info", "--devices"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("0: "), "no device listed");
+}
+
+#[test]
+fn environment_lights_the_scene_and_hide_env_keeps_it_from_the_camera() {
+    // A floor seen from above with the sky behind it: the top rows see only the environment.
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let m = b.material("grey", [0.5; 3], [0.0; 3], false);
+    b.quad(
+        "floor",
+        [
+            [-10.0, 0.0, -10.0],
+            [10.0, 0.0, -10.0],
+            [10.0, 0.0, 10.0],
+            [-10.0, 0.0, 10.0],
+        ],
+        m,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.camera([0.0, 0.5, 3.0], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 40.0);
+    let (dir, path) = common::write_temp(&b, "floor.gltf");
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "render",
+            path.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "16x16",
+            "--spp",
+            "8",
+        ];
+        args.extend_from_slice(extra);
+        let o = pathwave(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("nothing lights it"), "the environment is a light");
+        pathwave::output::read_exr(&out).unwrap().2
+    };
+    let seen = run("seen.exr", &["--env-color", "0.2,0.4,0.8"]);
+    let hidden = run("hidden.exr", &["--env-color", "0.2,0.4,0.8", "--hide-env"]);
+    let sky = [0.2, 0.4, 0.8];
+    assert!(
+        (0..3).all(|c| (seen[0][c] - sky[c]).abs() < 1e-6),
+        "the top-left pixel sees the sky: {:?}",
+        seen[0]
+    );
+    assert_eq!(hidden[0], [0.0; 3], "--hide-env keeps the sky out of camera rays");
+    let floor = 15 * 16 + 8;
+    assert!(
+        hidden[floor][2] > 0.0 && hidden[floor] == seen[floor],
+        "the floor is lit the same either way"
+    );
 }

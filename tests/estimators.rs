@@ -98,7 +98,7 @@ fn lights_are_picked_in_proportion_to_power() {
         .lights
         .iter()
         .map(|l| {
-            let orig = order[l.tri as usize] as usize;
+            let orig = order[(l.id & pathwave::constants::LIGHT_INDEX_MASK) as usize] as usize;
             let m = &scene.materials[scene.material_of[orig] as usize];
             let [a, b, c] = scene.triangles[orig];
             let area = 0.5 * (b - a).cross(c - a).length() as f64;

@@ -44,11 +44,11 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
         mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color]),
-        mirror!(GpuLight => "Light", [tri, cdf, prob, area]),
+        mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
-            max_depth, estimator, pixel_offset, path_count, path_capacity, light_count, flags, pad,
+            max_depth, estimator, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,
         ]),
     ]
 }

@@ -35,9 +35,10 @@ struct Material {
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
 };
 
-// 16 bytes, one per emissive triangle, sorted by the host; cdf is the inclusive upper end.
+// 16 bytes, one per light (emissive triangle or environment); cdf is the inclusive upper end. id: the kind in
+// the top bits (LIGHT_KIND_*), the index below (the triangle for a triangle light). area is 0 for the environment.
 struct Light {
-    uint tri;
+    uint id;
     float cdf;
     float prob;
     float area;
@@ -72,10 +73,10 @@ struct Frame {
     uint path_capacity;
     uint light_count;
     uint flags;        // FLAG_* bits
-    uint pad0;
-    uint pad1;
-    uint pad2;
-    uint pad3;
+    float env_prob;    // probability that light selection picks the environment (0 without one)
+    float env_rotation; // radians about +y
+    uint env_width;    // environment map size; 0 means no environment
+    uint env_height;
 };
 
 layout(push_constant) uniform PushConstants { Frame frame; };
@@ -94,6 +95,9 @@ layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
 layout(std430, set = 0, binding = BINDING_PROBE) buffer Probe { uint probe[]; };
 // Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.
 layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]; };
+// Environment: rgba texels (w unused) row by row from the top (+y), then the marginal cdf over rows
+// (env_height + 1 values), then each row's conditional cdf (env_width + 1 values), all inclusive-start at 0.
+layout(std430, set = 0, binding = BINDING_ENV) readonly buffer Env { float env[]; };
 
 vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
 void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }

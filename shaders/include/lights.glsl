@@ -1,6 +1,8 @@
-// Next-event estimation's light selection: emissive triangles picked in proportion to power.
+// Next-event estimation's lights: one table over emissive triangles and the environment, picked in proportion to power.
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
+
+#include "environment.glsl"
 
 // Smallest index whose inclusive cdf exceeds u; the host makes the last cdf exactly 1.
 uint pick_light(float u) {
@@ -11,6 +13,48 @@ uint pick_light(float u) {
         if (u < lights[mid].cdf) hi = mid; else lo = mid + 1u;
     }
     return lo;
+}
+
+struct LightSample {
+    vec3 wi;        // towards the light
+    float dist;     // to the light's point; effectively infinite for the environment
+    vec3 radiance;  // arriving along -wi
+    float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
+};
+
+// Picks a light with u_pick and a point or direction on it with u_point, as seen from p.
+LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
+    LightSample ls;
+    ls.pdf = 0.0;
+    ls.radiance = vec3(0.0);
+    ls.wi = vec3(0.0, 0.0, 1.0);
+    ls.dist = 0.0;
+    Light l = lights[pick_light(u_pick)];
+    if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_ENV) {
+        float pdf_dir;
+        ls.wi = env_sample(u_point, pdf_dir);
+        ls.dist = 1e30;
+        ls.radiance = env_radiance(ls.wi);
+        ls.pdf = l.prob * pdf_dir;
+        return ls;
+    }
+    TriVerts lv = tri_verts[l.id & LIGHT_INDEX_MASK];
+    vec2 b = sample_triangle(u_point);
+    vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
+    vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));
+    vec3 to_light = q - p;
+    float dist2 = dot(to_light, to_light);
+    if (!(dist2 > 0.0)) return ls;
+    ls.dist = sqrt(dist2);
+    ls.wi = to_light / ls.dist;
+    float cos_l = dot(lng, -ls.wi);
+    Material lm = materials[floatBitsToUint(lv.v0.w)];
+    // Counter-clockwise faces emit; both do when the material is double-sided.
+    bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
+    if (!faces) return ls;
+    ls.radiance = lm.emission.rgb;
+    ls.pdf = l.prob / l.area * dist2 / abs(cos_l);
+    return ls;
 }
 
 #endif

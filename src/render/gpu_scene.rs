@@ -1,5 +1,6 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
 use crate::bvh::{self, Bvh};
+use crate::constants::{LIGHT_KIND_ENV, LIGHT_KIND_SHIFT};
 use crate::layout::{GpuLight, GpuMaterial, TriShading, TriVerts};
 use crate::scene::Scene;
 
@@ -10,8 +11,12 @@ pub struct PackedScene {
     pub tri_shading: Vec<TriShading>,
     pub materials: Vec<GpuMaterial>,
     pub lights: Vec<GpuLight>,
-    /// Sum of the emitters' estimated power (W), what light selection is proportional to.
+    /// Sum of the lights' estimated power (W), what light selection is proportional to.
     pub total_light_power: f64,
+    /// Probability that light selection picks the environment (0 without one).
+    pub env_prob: f32,
+    /// The environment's device buffer (see layout.glsl), empty without one.
+    pub env_data: Vec<f32>,
 }
 
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
@@ -32,7 +37,8 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let n = scene.triangles.len();
     let mut tri_verts = Vec::with_capacity(n);
     let mut tri_shading = Vec::with_capacity(n);
-    let mut powers = Vec::new();
+    // (light id, power, area)
+    let mut powers: Vec<(u32, f64, f32)> = Vec::new();
     for (slot, &orig) in bvh.order.iter().enumerate() {
         let orig = orig as usize;
         let [a, b, c] = scene.triangles[orig];
@@ -54,10 +60,24 @@ pub fn pack(scene: &Scene) -> PackedScene {
             powers.push((slot as u32, p, area));
         }
     }
+    // The environment competes with the emitters by the power it sends into the scene's bounding sphere.
+    if let Some(env) = &scene.environment {
+        let (lo, hi) = scene.bounds();
+        let radius = if scene.triangles.is_empty() {
+            1.0
+        } else {
+            ((hi - lo).length() * 0.5).max(1e-3)
+        };
+        let p = env.power(radius);
+        if p > 0.0 {
+            powers.push((LIGHT_KIND_ENV << LIGHT_KIND_SHIFT, p, 0.0));
+        }
+    }
     let total: f64 = powers.iter().map(|p| p.1).sum();
     let mut lights = Vec::with_capacity(powers.len());
     let mut acc = 0.0f64;
-    for (i, &(tri, p, area)) in powers.iter().enumerate() {
+    let mut env_prob = 0.0;
+    for (i, &(id, p, area)) in powers.iter().enumerate() {
         acc += p;
         let prob = (p / total) as f32;
         // The last cdf is exactly 1 so every u in [0, 1) finds a light.
@@ -66,8 +86,12 @@ pub fn pack(scene: &Scene) -> PackedScene {
         } else {
             (acc / total) as f32
         };
-        lights.push(GpuLight { tri, cdf, prob, area });
-        tri_shading[tri as usize].n0[3] = prob / area;
+        lights.push(GpuLight { id, cdf, prob, area });
+        if id >> LIGHT_KIND_SHIFT == LIGHT_KIND_ENV {
+            env_prob = prob;
+        } else {
+            tri_shading[id as usize].n0[3] = prob / area;
+        }
     }
     let materials = scene
         .materials
@@ -79,6 +103,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
             specular_color: v4(m.specular_color, 0.0),
         })
         .collect();
+    let env_data = scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default();
     PackedScene {
         bvh,
         tri_verts,
@@ -86,5 +111,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
         materials,
         lights,
         total_light_power: total,
+        env_prob,
+        env_data,
     }
 }

@@ -46,6 +46,8 @@ pub struct RenderSettings {
     pub estimator: Estimator,
     /// Return the energy rough metals lose to single scattering (Kulla-Conty); on by default.
     pub energy_compensation: bool,
+    /// Keep the environment out of camera rays (it still lights the scene).
+    pub hide_environment: bool,
 }
 
 impl Default for RenderSettings {
@@ -58,6 +60,7 @@ impl Default for RenderSettings {
             seed: 0,
             estimator: Estimator::Mis,
             energy_compensation: true,
+            hide_environment: false,
         }
     }
 }
@@ -177,13 +180,28 @@ pub struct BsdfProbe {
     pub eval_reverse: glam::Vec3,
 }
 
+/// The scene's device buffers, bound at the same bindings by every stage.
+struct SceneBuffers {
+    nodes: Buffer,
+    tri_verts: Buffer,
+    tri_shading: Buffer,
+    materials: Buffer,
+    lights: Buffer,
+    env: Buffer,
+}
+
 /// A scene uploaded to one device, ready to render any number of images.
 pub struct Renderer {
     // Field order is drop order: everything device-owned goes before the context.
     timestamps: Timestamps,
     pipelines: Pipelines,
-    scene_buffers: Vec<Buffer>,
+    scene: SceneBuffers,
+    /// Built once per device at start-up; None only while it is being built.
+    energy: Option<Buffer>,
     light_count: u32,
+    env_prob: f32,
+    env_size: (u32, u32),
+    env_rotation: f32,
     camera: crate::scene::Camera,
     pub warnings: Vec<String>,
     ctx: Context,
@@ -213,28 +231,36 @@ impl Renderer {
         let packed = gpu_scene::pack(scene);
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
-            warnings.push("the scene has no emissive surface, so nothing lights it and the image is black".into());
+            warnings.push(
+                "the scene has no emissive surface and no environment, so nothing lights it and the image is black"
+                    .into(),
+            );
         }
-        let scene_buffers = vec![
-            Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
-            Buffer::with_data(&ctx, "triangle vertices", &packed.tri_verts)?,
-            Buffer::with_data(&ctx, "triangle shading", &packed.tri_shading)?,
-            Buffer::with_data(&ctx, "materials", &packed.materials)?,
-            Buffer::with_data(&ctx, "lights", &packed.lights)?,
-        ];
+        let buffers = SceneBuffers {
+            nodes: Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
+            tri_verts: Buffer::with_data(&ctx, "triangle vertices", &packed.tri_verts)?,
+            tri_shading: Buffer::with_data(&ctx, "triangle shading", &packed.tri_shading)?,
+            materials: Buffer::with_data(&ctx, "materials", &packed.materials)?,
+            lights: Buffer::with_data(&ctx, "lights", &packed.lights)?,
+            env: Buffer::with_data(&ctx, "environment", &packed.env_data)?,
+        };
+        let env = scene.environment.as_ref();
         let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
         let timestamps = Timestamps::new(&ctx, 2048)?;
         let mut r = Renderer {
             timestamps,
             pipelines,
-            scene_buffers,
+            scene: buffers,
+            energy: None,
             light_count: packed.lights.len() as u32,
+            env_prob: packed.env_prob,
+            env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
+            env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
             camera: scene.camera_or_default(),
             warnings,
             ctx,
         };
-        let energy = r.build_energy_tables()?;
-        r.scene_buffers.push(energy);
+        r.energy = Some(r.build_energy_tables()?);
         Ok(r)
     }
 
@@ -278,7 +304,8 @@ impl Renderer {
 
     /// The energy tables as the device uses them: E1 and E2 grids, then their averages (see ENERGY_* constants).
     pub fn energy_tables(&self) -> Result<Vec<f32>, Error> {
-        let mut t: Vec<f32> = self.scene_buffers[5].download(&self.ctx)?;
+        let energy = self.energy.as_ref().expect("built in Renderer::new");
+        let mut t: Vec<f32> = energy.download(&self.ctx)?;
         t.truncate(ENERGY_TABLE_FLOATS as usize);
         Ok(t)
     }
@@ -299,16 +326,17 @@ impl Renderer {
     }
 
     fn bind_scene(&self, extra: &[(u32, &Buffer)]) {
-        let b = &self.scene_buffers;
+        let b = &self.scene;
         let mut all = vec![
-            (BINDING_NODES, &b[0]),
-            (BINDING_TRI_VERTS, &b[1]),
-            (BINDING_TRI_SHADING, &b[2]),
-            (BINDING_MATERIALS, &b[3]),
-            (BINDING_LIGHTS, &b[4]),
+            (BINDING_NODES, &b.nodes),
+            (BINDING_TRI_VERTS, &b.tri_verts),
+            (BINDING_TRI_SHADING, &b.tri_shading),
+            (BINDING_MATERIALS, &b.materials),
+            (BINDING_LIGHTS, &b.lights),
+            (BINDING_ENV, &b.env),
         ];
-        // The energy tables join the scene's buffers once built; while they are being built, the caller binds them.
-        if let Some(energy) = b.get(5) {
+        // While the energy tables are being built, the caller binds them.
+        if let Some(energy) = &self.energy {
             all.push((BINDING_ENERGY, energy));
         }
         all.extend_from_slice(extra);
@@ -333,7 +361,11 @@ impl Renderer {
                 FLAG_ENERGY_COMPENSATION
             } else {
                 0
-            },
+            } | if s.hide_environment { FLAG_HIDE_ENV } else { 0 },
+            env_prob: self.env_prob,
+            env_rotation: self.env_rotation,
+            env_width: self.env_size.0,
+            env_height: self.env_size.1,
             ..Default::default()
         }
     }
@@ -574,6 +606,39 @@ impl Renderer {
             .collect())
     }
 
+    /// Runs environment sampling on the device: `x` holds uniforms (sampling) or directions (`evaluate`).
+    /// Returns (direction, pdf from sampling, pdf of the direction, radiance) per query.
+    pub fn probe_env(
+        &mut self,
+        x: &[glam::Vec3],
+        evaluate: bool,
+    ) -> Result<Vec<(glam::Vec3, f32, f32, glam::Vec3)>, Error> {
+        let n = x.len();
+        let mut words: Vec<u32> = x.iter().flat_map(|v| [v.x, v.y, v.z, 0.0].map(f32::to_bits)).collect();
+        words.resize(12 * n, 0);
+        let out = self.run_probe(
+            "probe_env",
+            &words,
+            Frame {
+                path_count: n as u32,
+                bounce: evaluate as u32,
+                ..Default::default()
+            },
+        )?;
+        let f = |i: usize| f32::from_bits(out[i]);
+        Ok((0..n)
+            .map(|k| {
+                let o = 4 * n + 8 * k;
+                (
+                    glam::Vec3::new(f(o), f(o + 1), f(o + 2)),
+                    f(o + 3),
+                    f(o + 4),
+                    glam::Vec3::new(f(o + 5), f(o + 6), f(o + 7)),
+                )
+            })
+            .collect())
+    }
+
     fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let mut probe = Buffer::new(
@@ -601,7 +666,7 @@ impl Renderer {
             BINDING_FILM,
             BINDING_PROBE,
         ];
-        if self.scene_buffers.len() < 6 {
+        if self.energy.is_none() {
             wanted.push(BINDING_ENERGY);
         }
         let stand_ins: Vec<(u32, Buffer)> = wanted
@@ -619,6 +684,10 @@ impl Renderer {
         self.bind_scene(&all);
         let frame = Frame {
             light_count: self.light_count,
+            env_prob: self.env_prob,
+            env_rotation: self.env_rotation,
+            env_width: self.env_size.0,
+            env_height: self.env_size.1,
             ..frame
         };
         let n = frame.path_count;

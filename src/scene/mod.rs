@@ -1,4 +1,8 @@
 //! glTF loading into the host scene model: world-space triangles, materials, emitters and the camera.
+mod environment;
+
+pub use environment::Environment;
+
 use crate::Error;
 use glam::{Mat3, Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
@@ -75,6 +79,8 @@ pub struct Scene {
     pub camera_count: usize,
     /// Everything the file asked for that pathwave ignored, one sentence each.
     pub warnings: Vec<String>,
+    /// Light from infinitely far away; glTF has none, so it comes from the caller (`--env`, `--env-color`).
+    pub environment: Option<Environment>,
 }
 
 impl Scene {

@@ -121,6 +121,11 @@ impl GltfBuilder {
 
     /// A UV sphere with smooth vertex normals, front faces outwards.
     pub fn sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize) {
+        self.uv_sphere(name, center, radius, material, true);
+    }
+
+    /// A UV sphere, with smooth vertex normals or faceted (geometric normals only: exact energy balance).
+    pub fn uv_sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize, smooth: bool) {
         let (rings, segments) = (32u32, 64u32);
         let c = Vec3::from(center);
         let mut positions = Vec::new();
@@ -143,7 +148,7 @@ impl GltfBuilder {
                 indices.extend([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
             }
         }
-        self.mesh_with_normals(name, &positions, Some(&normals), &indices, material);
+        self.mesh_with_normals(name, &positions, smooth.then_some(&normals[..]), &indices, material);
     }
 
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.

@@ -1,0 +1,110 @@
+//! The environment light: an equirectangular radiance map (or a constant colour) and its importance-sampling tables.
+use crate::Error;
+use std::path::Path;
+
+/// Radiance arriving from infinitely far away, in linear RGB (W sr^-1 m^-2).
+/// Row 0 is straight up (+y); column 0.5 * width looks down -z; u grows towards +x.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Environment {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 3]>,
+    /// Rotation about +y, in radians.
+    pub rotation: f32,
+}
+
+fn env_err(path: &Path, message: impl Into<String>) -> Error {
+    Error::Scene {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+impl Environment {
+    /// A uniform colour. The map is 64x32 rather than one texel so the sampling tables (which weight rows by
+    /// sin theta) sample the sphere uniformly.
+    pub fn constant(rgb: [f32; 3]) -> Self {
+        Environment {
+            width: 64,
+            height: 32,
+            texels: vec![rgb; 64 * 32],
+            rotation: 0.0,
+        }
+    }
+
+    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`.
+    pub fn load(path: &Path, intensity: f32) -> Result<Self, Error> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("hdr") | Some("exr")) {
+            return Err(env_err(path, "environment maps must be .hdr or .exr"));
+        }
+        let img = image::open(path).map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
+        let rgb = img.into_rgb32f();
+        let (width, height) = rgb.dimensions();
+        if width == 0 || height == 0 {
+            return Err(env_err(path, "the environment map has no pixels"));
+        }
+        let texels: Vec<[f32; 3]> = rgb.pixels().map(|p| p.0.map(|c| (c * intensity).max(0.0))).collect();
+        if texels.iter().any(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(env_err(path, "the environment map holds non-finite values"));
+        }
+        Ok(Environment {
+            width,
+            height,
+            texels,
+            rotation: 0.0,
+        })
+    }
+
+    /// Sampling weight of each texel: its mean radiance times sin theta at its centre (the equirectangular Jacobian).
+    fn weights(&self) -> Vec<f64> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        (0..w * h)
+            .map(|i| {
+                let theta = std::f64::consts::PI * ((i / w) as f64 + 0.5) / h as f64;
+                let t = self.texels[i];
+                (t[0] + t[1] + t[2]) as f64 / 3.0 * theta.sin()
+            })
+            .collect()
+    }
+
+    /// Power it sends into a scene bounded by a sphere of `radius`: 4 pi^2 r^2 times the mean radiance.
+    pub fn power(&self, radius: f32) -> f64 {
+        let (w, h) = (self.width as f64, self.height as f64);
+        // mean over the sphere of the channel-mean radiance: sum of L sin(theta) dtheta dphi / (4 pi)
+        let integral: f64 =
+            self.weights().iter().sum::<f64>() * (std::f64::consts::PI / h) * (2.0 * std::f64::consts::PI / w);
+        let mean = integral / (4.0 * std::f64::consts::PI);
+        4.0 * std::f64::consts::PI * std::f64::consts::PI * (radius as f64).powi(2) * mean
+    }
+
+    /// The device buffer: rgba texels, the marginal cdf over rows, then each row's conditional cdf (see layout.glsl).
+    pub fn device_data(&self) -> Vec<f32> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let weights = self.weights();
+        let mut out = Vec::with_capacity(4 * w * h + (h + 1) + h * (w + 1));
+        for t in &self.texels {
+            out.extend_from_slice(&[t[0], t[1], t[2], 0.0]);
+        }
+        let row_sums: Vec<f64> = (0..h).map(|y| weights[y * w..(y + 1) * w].iter().sum()).collect();
+        let total: f64 = row_sums.iter().sum();
+        out.extend(cdf(&row_sums, total));
+        for y in 0..h {
+            out.extend(cdf(&weights[y * w..(y + 1) * w], row_sums[y]));
+        }
+        out
+    }
+}
+
+/// Inclusive cdf with a leading 0 and a last value of exactly 1; an all-zero row becomes uniform.
+fn cdf(weights: &[f64], total: f64) -> Vec<f32> {
+    let n = weights.len();
+    let mut out = Vec::with_capacity(n + 1);
+    out.push(0.0);
+    let mut acc = 0.0;
+    for (i, w) in weights.iter().enumerate() {
+        acc += if total > 0.0 { w / total } else { 1.0 / n as f64 };
+        out.push(if i + 1 == n { 1.0 } else { acc.min(1.0) as f32 });
+    }
+    out
+}
