@@ -12,6 +12,7 @@ fn main() {
         ("two-lights.gltf", scenes::two_lights()),
         ("unequal-lights.gltf", scenes::unequal_lights()),
         ("material-grid.gltf", scenes::material_grid()),
+        ("glass.gltf", scenes::glass()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

@@ -1,5 +1,6 @@
 // probe_bsdf: runs the BSDF's sample, eval and pdf on batches from Rust (the material comes from the materials buffer).
-// Input record k at probe[8k..8k+8): material index, wo xyz, then u xyz (sample mode) or wi xyz (eval mode), pad.
+// Input record k at probe[8k..8k+8): material index, wo xyz, then u xyz (sample mode) or wi xyz (eval mode), then 1 if
+// wo is on the front (outside) of the surface, 0 if inside.
 // Output record k at probe[8n + 16k..]: wi xyz, weight rgb, pdf, delta|ok<<1, eval(wo,wi) rgb, pdf(wo,wi),
 // eval(wi,wo) rgb, unused. frame.bounce: 0 = sample, 1 = evaluate at the given wi.
 #version 460
@@ -21,7 +22,7 @@ void main() {
     uint k = gl_GlobalInvocationID.x;
     uint n = frame.path_count;
     if (k >= n) return;
-    Bsdf b = bsdf_from_material(materials[probe[8u * k]]);
+    Bsdf b = bsdf_from_material(materials[probe[8u * k]], probe[8u * k + 7u] != 0u);
     vec3 wo = read3(8u * k + 1u);
     vec3 x = read3(8u * k + 4u);
     BsdfSample s;

@@ -93,7 +93,12 @@ void main() {
         return;
     }
 
-    Bsdf bsdf = bsdf_from_material(m);
+    // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
+    if (!front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
+        beta *= exp(-m.attenuation.rgb * hit.x);
+    }
+    Bsdf bsdf = bsdf_from_material(m, front);
+    vec3 p_back = offset_ray(p, -n_in); // origin for rays that go through the surface
     vec3 p_off = offset_ray(p, n_in);
     // The shading frame: z along the shading normal on the incoming side.
     vec3 tx, ty;
@@ -101,17 +106,19 @@ void main() {
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
     if (frame.estimator != ESTIMATOR_BSDF && frame.light_count > 0u) {
-        LightSample ls = sample_light(p_off, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
+        LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
-        if (ls.pdf > 0.0 && wi_local.z > 0.0 && dot(n_in, ls.wi) > 0.0) {
+        // The shading and true normals must agree on which side the light is (reflection or transmission).
+        float side = dot(n_in, ls.wi);
+        if (ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
             float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
-            vec3 contribution = beta * f * wi_local.z * ls.radiance * (w / ls.pdf);
+            vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {
                 uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
                 queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
                 // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
-                path_set(PATH_SHADOW_ORIGIN, path, vec4(p_off, ls.dist * (1.0 - 1e-4)));
+                path_set(PATH_SHADOW_ORIGIN, path, vec4(side > 0.0 ? p_off : p_back, ls.dist * (1.0 - 1e-4)));
                 path_set(PATH_SHADOW_DIR, path, vec4(ls.wi, 0.0));
                 path_set(PATH_SHADOW_RADIANCE, path, vec4(contribution, 0.0));
             }
@@ -122,8 +129,8 @@ void main() {
     BsdfSample bs;
     bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
     vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
-    // A direction the shading normal allows but the true surface does not (below it) carries no light.
-    if (!ok || dot(n_in, wi) <= 0.0) {
+    // A direction the shading normal puts on one side and the true surface on the other carries no light.
+    if (!ok || dot(n_in, wi) * bs.wi.z <= 0.0) {
         finish(path, radiance);
         return;
     }
@@ -137,7 +144,7 @@ void main() {
         beta /= survive;
     }
     // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
-    path_set(PATH_ORIGIN, path, vec4(p_off, bs.delta ? 0.0 : bs.pdf));
+    path_set(PATH_ORIGIN, path, vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf));
     path_set(PATH_DIR, path, vec4(wi, 0.0));
     path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
     finish(path, radiance);

@@ -40,8 +40,8 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 64 bytes. See `Material` in layout.glsl: base colour, emission (w: double-sided),
-/// params (metallic, roughness, IOR, specular weight), specular colour.
+/// 96 bytes. See `Material` in layout.glsl: base colour, emission (w: double-sided),
+/// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -49,6 +49,8 @@ pub struct GpuMaterial {
     pub emission: [f32; 4],
     pub params: [f32; 4],
     pub specular_color: [f32; 4],
+    pub transmission: [f32; 4],
+    pub attenuation: [f32; 4],
 }
 
 /// 16 bytes, one per emissive triangle.
@@ -102,7 +104,7 @@ pub struct Frame {
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<Counters>() == 48);
 const _: () = assert!(std::mem::size_of::<Frame>() == 128);

@@ -60,7 +60,11 @@ struct Grid {
 
 impl Grid {
     fn new(wo: Vec3) -> Self {
-        let axis = Vec3::new(-wo.x, -wo.y, wo.z).normalize();
+        Self::around(Vec3::new(-wo.x, -wo.y, wo.z))
+    }
+
+    fn around(axis: Vec3) -> Self {
+        let axis = axis.normalize();
         let tx = axis.any_orthonormal_vector();
         let ty = axis.cross(tx);
         Grid {
@@ -160,6 +164,7 @@ fn sampled_directions_follow_the_pdf() {
                     material: mi as u32,
                     wo,
                     x: *w,
+                    front: true,
                 })
                 .collect();
             let pdfs = r.probe_bsdf(&queries, true, true).unwrap();
@@ -274,12 +279,26 @@ fn albedo(samples: &[BsdfProbe]) -> (f64, f64) {
 }
 
 fn sample_with(r: &mut Renderer, material: u32, wo: Vec3, n: usize, seed: u64, compensate: bool) -> Vec<BsdfProbe> {
+    sample_side(r, material, wo, true, n, seed, compensate)
+}
+
+/// Samples with wo outside (front) or inside the object.
+fn sample_side(
+    r: &mut Renderer,
+    material: u32,
+    wo: Vec3,
+    front: bool,
+    n: usize,
+    seed: u64,
+    compensate: bool,
+) -> Vec<BsdfProbe> {
     let mut rng = Rng(seed);
     let queries: Vec<BsdfQuery> = (0..n)
         .map(|_| BsdfQuery {
             material,
             wo,
             x: Vec3::new(rng.next(), rng.next(), rng.next()),
+            front,
         })
         .collect();
     r.probe_bsdf(&queries, false, compensate).unwrap()
@@ -403,6 +422,197 @@ fn a_smooth_mirror_is_a_delta_without_nans() {
         // A smooth dielectric: the delta coat or the diffuse base, never a NaN.
         for s in sample_many(&mut r, 1, wo, 256, 4) {
             assert!(s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(), "{s:?}");
+        }
+    }
+}
+
+fn glass(roughness: f32, ior: f32, thin: bool) -> Material {
+    Material {
+        roughness,
+        metallic: 0.0,
+        ior,
+        transmission: 1.0,
+        thin_walled: thin,
+        base_color: Vec3::ONE,
+        ..Material::default()
+    }
+}
+
+/// Where a smooth interface would send wo through the surface (or, under total internal reflection or for a thin
+/// sheet, the mirror image of the reflection): the centre of the transmitted lobe.
+fn transmitted_axis(wo: Vec3, eta: f32, thin: bool) -> Vec3 {
+    let (cos_i, sin2_i) = (wo.z, 1.0 - wo.z * wo.z);
+    let sin2_t = sin2_i / (eta * eta);
+    if thin || sin2_t >= 1.0 {
+        return Vec3::new(-wo.x, -wo.y, -wo.z);
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    -wo / eta + Vec3::Z * (cos_i / eta - cos_t)
+}
+
+#[test]
+fn transmission_follows_the_pdf() {
+    let cases: Vec<(Material, bool)> = [0.05, 0.3, 1.0]
+        .iter()
+        .flat_map(|&rough| {
+            [1.33, 2.0].into_iter().flat_map(move |ior| {
+                [
+                    (glass(rough, ior, false), true),
+                    (glass(rough, ior, false), false),
+                    (glass(rough, ior, true), true),
+                ]
+            })
+        })
+        .collect();
+    let mut r = renderer_with(cases.iter().map(|(m, _)| m.clone()).collect());
+    let angles = [1.0, 45.0, 80.0];
+    let tests = cases.len() * angles.len();
+    let threshold = 1.0 - 0.99f64.powf(1.0 / tests as f64);
+    let n = 100_000;
+    let mut failures = Vec::new();
+    for (mi, (m, front)) in cases.iter().enumerate() {
+        for &deg in &angles {
+            let wo = wo_at(deg);
+            let eta = if *front { m.ior } else { 1.0 / m.ior };
+            // One grid per hemisphere, each centred on its lobe, so both sharp lobes are resolved.
+            let upper = Grid::new(wo);
+            let lower = Grid::around(transmitted_axis(wo, eta, m.thin_walled));
+            let cells = upper.s_bins * upper.phi_bins;
+            let samples = sample_side(&mut r, mi as u32, wo, *front, n, 31 + mi as u64 * 7 + deg as u64, true);
+            let mut observed = vec![0f64; 2 * cells];
+            let mut failed = 0;
+            for smp in &samples {
+                match (smp.ok, smp.wi.z > 0.0) {
+                    (false, _) => failed += 1,
+                    (true, true) => observed[upper.cell(smp.wi)] += 1.0,
+                    (true, false) => observed[cells + lower.cell(smp.wi)] += 1.0,
+                }
+            }
+            let mut expected = vec![0f64; 2 * cells];
+            for (offset, grid, up) in [(0, &upper, true), (cells, &lower, false)] {
+                let quad = grid.quadrature();
+                let queries: Vec<BsdfQuery> = quad
+                    .iter()
+                    .map(|(_, w, _)| BsdfQuery {
+                        material: mi as u32,
+                        wo,
+                        x: *w,
+                        front: *front,
+                    })
+                    .collect();
+                let pdfs = r.probe_bsdf(&queries, true, true).unwrap();
+                for ((cell, w, weight), p) in quad.iter().zip(&pdfs) {
+                    // Each grid covers only its own hemisphere.
+                    if (w.z > 0.0) == up {
+                        expected[offset + cell] += (p.pdf * weight) as f64;
+                    }
+                }
+            }
+            let mass: f64 = expected.iter().sum();
+            let what = format!(
+                "glass roughness {} ior {} {} at {deg} deg",
+                m.roughness,
+                m.ior,
+                if m.thin_walled {
+                    "thin"
+                } else if *front {
+                    "entering"
+                } else {
+                    "leaving"
+                }
+            );
+            // The transmitted pdf has an integrable singularity where refraction turns grazing (its Jacobian's
+            // denominator (wi.m + wo.m / eta)^2 vanishes), so quadrature converges slowly there: for roughness 1,
+            // IOR 1.33 at 80 degrees, horizon-aligned grids of 1024^2 and 2048^2 gave 0.9799 and 0.9852 against
+            // 0.9833 actually sampled. Hence 1 % here, against 0.2-0.3 % for reflection.
+            assert!(mass <= 1.0 + 1e-2, "{what}: pdf integrates to {mass}");
+            let failed_fraction = failed as f64 / n as f64;
+            assert!(
+                failed_fraction <= (1.0 - mass).max(0.0) + 1e-2,
+                "{what}: {failed_fraction} failed, pdf misses {}",
+                1.0 - mass
+            );
+            let expected: Vec<f64> = expected.iter().map(|e| e * n as f64).collect();
+            let (stat, dof) = chi2_statistic(&observed, &expected, 5.0);
+            let p = chi2_p_value(stat, dof);
+            let transmitted = observed[cells..].iter().sum::<f64>() / n as f64;
+            eprintln!("{what}: chi2 {stat:8.1} dof {dof:4} p {p:.4} (mass {mass:.4}, transmitted {transmitted:.3})");
+            if p < threshold {
+                failures.push(format!("{what}: p = {p:.2e}"));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "chi-square rejects (threshold {threshold:.2e}): {failures:#?}"
+    );
+}
+
+#[test]
+fn glass_eval_pdf_and_sample_agree_and_smooth_glass_conserves_energy() {
+    let materials: Vec<Material> = [0.0, 0.05, 0.4]
+        .iter()
+        .flat_map(|&r| [glass(r, 1.5, false), glass(r, 1.5, true)])
+        .collect();
+    let mut r = renderer_with(materials.clone());
+    let close = |a: f32, b: f32| (a - b).abs() <= 2e-3 * a.abs().max(b.abs()) + 1e-6;
+    for (mi, m) in materials.iter().enumerate() {
+        for &deg in &INCIDENT_DEG {
+            for front in [true, false] {
+                let wo = wo_at(deg);
+                let samples = sample_side(&mut r, mi as u32, wo, front, 20_000, 3 + mi as u64, true);
+                for smp in samples.iter().filter(|s| s.ok && !s.delta) {
+                    let what = format!(
+                        "glass roughness {} thin {} front {front} wo {wo} wi {}",
+                        m.roughness, m.thin_walled, smp.wi
+                    );
+                    assert!(
+                        smp.weight.is_finite() && smp.pdf.is_finite() && smp.weight.min_element() >= 0.0,
+                        "{what}: {smp:?}"
+                    );
+                    assert!(
+                        close(smp.pdf, smp.pdf_wi),
+                        "{what}: sample pdf {} but pdf() says {}",
+                        smp.pdf,
+                        smp.pdf_wi
+                    );
+                    let expect = smp.eval * smp.wi.z.abs() / smp.pdf;
+                    for c in 0..3 {
+                        assert!(
+                            close(smp.weight[c], expect[c]),
+                            "{what}: weight {} but eval |cos| / pdf = {}",
+                            smp.weight,
+                            expect
+                        );
+                        if smp.wi.z > 0.0 {
+                            assert!(
+                                close(smp.eval[c], smp.eval_reverse[c]),
+                                "{what}: reflection is not reciprocal"
+                            );
+                        }
+                    }
+                }
+                if m.roughness == 0.0 {
+                    // A smooth interface only reflects or refracts: every sample is a delta, and R + T = 1 (with the
+                    // radiance scaled by 1/eta^2 through a thick interface, so weights are 1 or 1/eta^2).
+                    let eta: f32 = if m.thin_walled {
+                        1.0
+                    } else if front {
+                        1.5
+                    } else {
+                        1.0 / 1.5
+                    };
+                    for smp in &samples {
+                        assert!(smp.ok && smp.delta, "smooth glass gave a non-delta sample: {smp:?}");
+                        let expected = if smp.wi.z > 0.0 { 1.0 } else { 1.0 / (eta * eta) };
+                        assert!(
+                            (smp.weight.x - expected).abs() < 1e-4,
+                            "smooth glass weight {} (expected {expected})",
+                            smp.weight.x
+                        );
+                    }
+                }
+            }
         }
     }
 }

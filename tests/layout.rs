@@ -43,7 +43,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(BvhNode => "BvhNode", [lo, hi]),
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
-        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color]),
+        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
         mirror!(Frame => "Frame", [

@@ -9,6 +9,7 @@ fn scene_files_match_their_generator() {
         ("two-lights.gltf", common::scenes::two_lights()),
         ("unequal-lights.gltf", common::scenes::unequal_lights()),
         ("material-grid.gltf", common::scenes::material_grid()),
+        ("glass.gltf", common::scenes::glass()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(

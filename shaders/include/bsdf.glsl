@@ -1,5 +1,5 @@
-// The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior and KHR_materials_specular):
-// eval, sample and pdf live together here, in the shading frame (z = normal), so they cannot drift apart.
+// The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior, _specular, _transmission, _volume):
+// eval, sample and pdf live together here, in the shading frame (z = normal on wo's side), so they cannot drift apart.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 
@@ -16,9 +16,13 @@ struct Bsdf {
     float specular;       // KHR_materials_specular weight of the dielectric layer
     vec3 specular_f0;     // dielectric F0 = min(((ior - 1) / (ior + 1))^2 * specularColor, 1)
     bool compensate;      // add the metal's multiple scattering (Kulla-Conty)
+    float transmission;   // fraction of the dielectric base that is a rough dielectric interface instead of diffuse
+    bool thin;            // thin-walled: transmitted light passes straight through, unbent
+    float eta;            // relative IOR across the surface, from wo's side to the other: n_other / n_this
 };
 
-Bsdf bsdf_from_material(Material m) {
+// front: wo is on the front (counter-clockwise) side, outside the object.
+Bsdf bsdf_from_material(Material m, bool front) {
     Bsdf b;
     b.base_color = m.base_color.rgb;
     b.metallic = m.params.x;
@@ -29,6 +33,9 @@ Bsdf bsdf_from_material(Material m) {
     b.specular = m.params.w;
     b.specular_f0 = min(vec3(r * r) * m.specular_color.rgb, vec3(1.0));
     b.compensate = (frame.flags & FLAG_ENERGY_COMPENSATION) != 0u;
+    b.transmission = m.transmission.x;
+    b.thin = m.transmission.y > 0.5;
+    b.eta = b.thin || front ? ior : 1.0 / ior;
     return b;
 }
 
@@ -126,42 +133,124 @@ vec3 metal_multiple_scattering(Bsdf b, float cos_o, float cos_i) {
     return f_ms * lobe;
 }
 
-// The weight of the specular lobe against the diffuse one, as the probability of sampling it.
-float specular_probability(Bsdf b, vec3 wo) {
-    vec3 fd = dielectric_fresnel(b, wo.z);
-    float spec = (1.0 - b.metallic) * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
-    // Everything diffuse-like (the base under the coat, the metal's multiple scattering) is sampled by the cosine lobe.
-    float diff = (1.0 - b.metallic) * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
-    if (b.compensate && !bsdf_is_delta(b)) diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
-    if (spec + diff <= 0.0) return 1.0;
-    return spec / (spec + diff);
+// Exact Fresnel reflectance of a dielectric interface; eta = n_t / n_i, cos_i > 0. 1 under total internal reflection.
+float fresnel_dielectric(float cos_i, float eta) {
+    float sin2_t = max(0.0, 1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0) return 1.0;
+    float cos_t = sqrt(1.0 - sin2_t);
+    float r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    return 0.5 * (r_parl * r_parl + r_perp * r_perp);
 }
 
-// f(wo, wi) without the cosine; zero for the delta part of a mirror.
+// Refracts wo (pointing away, on n's side) through a surface with normal n; false under total internal reflection.
+bool refract_dir(vec3 wo, vec3 n, float eta, out vec3 wt) {
+    float cos_i = dot(n, wo);
+    float sin2_t = max(0.0, 1.0 - cos_i * cos_i) / (eta * eta);
+    wt = vec3(0.0);
+    if (sin2_t >= 1.0) return false;
+    float cos_t = sqrt(1.0 - sin2_t);
+    wt = -wo / eta + (cos_i / eta - cos_t) * n;
+    return true;
+}
+
+// Lobe selection: the probability of the glass lobe (rough dielectric interface) and of the specular reflections
+// (coat and metal); the rest goes to the cosine lobe that samples everything diffuse-like.
+vec2 lobe_probabilities(Bsdf b, vec3 wo) {
+    vec3 fd = dielectric_fresnel(b, wo.z);
+    float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
+    float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
+    float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
+    if (b.compensate && !bsdf_is_delta(b)) diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
+    float glass = (1.0 - b.metallic) * b.transmission;
+    float total = spec + diff + glass;
+    if (total <= 0.0) return vec2(0.0, 1.0);
+    return vec2(glass, spec) / total;
+}
+
+// The visible-normal density of the microfacet normal m seen from wo: G1(wo) D(m) max(0, wo.m) / wo.z.
+float vndf_pdf(float a2, vec3 wo, vec3 m) {
+    return ggx_d(a2, m) * max(0.0, dot(wo, m)) / ((1.0 + smith_lambda(a2, wo)) * wo.z);
+}
+
+// Thin-walled transmission mirrors the reflected direction through the surface plane.
+vec3 flip_z(vec3 w) {
+    return vec3(w.x, w.y, -w.z);
+}
+
+// The glass lobe without its weight or tint: f and the density of sampling wi within the lobe.
+// Reflection and transmission are chosen by Fresnel at the sampled microfacet (pbrt-v4's DielectricBxDF).
+void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
+    f = vec3(0.0);
+    pdf = 0.0;
+    if (bsdf_is_delta(b) || wi.z == 0.0) return;
+    float a2 = b.alpha * b.alpha;
+    bool reflect_side = wi.z > 0.0;
+    if (b.thin || reflect_side) {
+        vec3 w = reflect_side ? wi : flip_z(wi);
+        vec3 m = normalize(wo + w);
+        float F = fresnel_dielectric(dot(wo, m), b.eta);
+        float weight = reflect_side ? F : 1.0 - F;
+        float g = 1.0 / (1.0 + smith_lambda(a2, wo) + smith_lambda(a2, w));
+        f = vec3(ggx_d(a2, m) * g * weight / (4.0 * wo.z * w.z));
+        pdf = vndf_pdf(a2, wo, m) / (4.0 * dot(wo, m)) * weight;
+        if (!reflect_side) f *= b.base_color;
+        return;
+    }
+    // Refraction: the generalised half vector, facing wo's side.
+    vec3 m = normalize(wi * b.eta + wo);
+    if (m.z < 0.0) m = -m;
+    float wo_m = dot(wo, m);
+    float wi_m = dot(wi, m);
+    if (wo_m <= 0.0 || wi_m >= 0.0) return; // the microfacet must face wo and be crossed by wi
+    float F = fresnel_dielectric(wo_m, b.eta);
+    float denom = wi_m + wo_m / b.eta;
+    float g = 1.0 / (1.0 + smith_lambda(a2, wo) + smith_lambda(a2, wi));
+    float ft = ggx_d(a2, m) * (1.0 - F) * g * abs(wi_m * wo_m / (denom * denom * wi.z * wo.z));
+    // Radiance is compressed by eta^2 entering a denser medium (and expanded leaving it).
+    f = b.base_color * ft / (b.eta * b.eta);
+    pdf = vndf_pdf(a2, wo, m) * abs(wi_m) / (denom * denom) * (1.0 - F);
+}
+
+// f(wo, wi) without the cosine; zero for delta lobes.
 vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    if (wo.z <= 0.0 || wi.z == 0.0) return vec3(0.0);
+    float glass_w = (1.0 - b.metallic) * b.transmission;
+    vec3 glass_f = vec3(0.0);
+    float glass_pdf;
+    if (glass_w > 0.0) glass_eval_pdf(b, wo, wi, glass_f, glass_pdf);
+    if (wi.z < 0.0) return glass_w * glass_f;
+    float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     vec3 fd = dielectric_fresnel(b, c);
-    vec3 diffuse = (1.0 - b.metallic) * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI
+    vec3 diffuse = opaque * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI
         + b.metallic * metal_multiple_scattering(b, wo.z, wi.z);
     if (bsdf_is_delta(b)) return diffuse;
     float a2 = b.alpha * b.alpha;
     float g = 1.0 / (1.0 + smith_lambda(a2, wo) + smith_lambda(a2, wi));
     float spec = ggx_d(a2, h) * g / (4.0 * wo.z * wi.z);
-    return diffuse + spec * ((1.0 - b.metallic) * b.specular * fd + b.metallic * metal_fresnel(b, c));
+    return diffuse + spec * (opaque * b.specular * fd + b.metallic * metal_fresnel(b, c)) + glass_w * glass_f;
 }
 
-// Solid-angle density with which bsdf_sample returns wi (the delta part of a mirror has none).
+// Solid-angle density with which bsdf_sample returns wi (delta lobes have none).
 float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
-    float ps = specular_probability(b, wo);
-    float pdf = (1.0 - ps) * wi.z / PI;
+    if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
+    vec2 p = lobe_probabilities(b, wo);
+    float pdf = 0.0;
+    if (p.x > 0.0) {
+        vec3 f;
+        float glass_pdf;
+        glass_eval_pdf(b, wo, wi, f, glass_pdf);
+        pdf += p.x * glass_pdf;
+    }
+    if (wi.z < 0.0) return pdf;
+    pdf += (1.0 - p.x - p.y) * wi.z / PI;
     if (!bsdf_is_delta(b)) {
         // Visible-normal sampling then reflection: D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
         float a2 = b.alpha * b.alpha;
         vec3 h = normalize(wo + wi);
-        pdf += ps * ggx_d(a2, h) / (4.0 * (1.0 + smith_lambda(a2, wo)) * wo.z);
+        pdf += p.y * ggx_d(a2, h) / (4.0 * (1.0 + smith_lambda(a2, wo)) * wo.z);
     }
     return pdf;
 }
@@ -184,25 +273,57 @@ vec3 sample_ggx_vndf(vec3 wo, float alpha, vec2 u) {
 
 struct BsdfSample {
     vec3 wi;
-    vec3 weight;  // f * cos / pdf (for a delta lobe: its reflectance over the lobe's probability)
+    vec3 weight;  // f * |cos| / pdf (for a delta lobe: its throughput over the lobe's probability)
     float pdf;    // 0 for a delta lobe
     bool delta;
 };
 
-// u.z picks the lobe, u.xy the direction. Returns false when the sample carries no energy.
+// u.z picks the lobe (and, rescaled, reflection or transmission in the glass lobe), u.xy the direction.
+// Returns false when the sample carries no energy.
 bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     s.wi = vec3(0.0, 0.0, 1.0);
     s.weight = vec3(0.0);
     s.pdf = 0.0;
     s.delta = false;
     if (wo.z <= 0.0) return false;
-    float ps = specular_probability(b, wo);
-    if (u.z < ps) {
+    vec2 p = lobe_probabilities(b, wo);
+    if (u.z < p.x) {
+        // The glass lobe. u_rt reuses u.z, rescaled to [0, 1), to choose reflection or transmission.
+        float u_rt = u.z / p.x;
+        float glass_w = (1.0 - b.metallic) * b.transmission;
+        if (bsdf_is_delta(b)) {
+            float F = fresnel_dielectric(wo.z, b.eta);
+            s.delta = true;
+            if (u_rt < F) {
+                s.wi = vec3(-wo.x, -wo.y, wo.z);
+                s.weight = vec3(glass_w / p.x);
+            } else if (b.thin) {
+                s.wi = -wo;
+                s.weight = b.base_color * (glass_w / p.x);
+            } else {
+                if (!refract_dir(wo, vec3(0.0, 0.0, 1.0), b.eta, s.wi)) return false;
+                s.weight = b.base_color * (glass_w / (p.x * b.eta * b.eta));
+            }
+            return true;
+        }
+        vec3 m = sample_ggx_vndf(wo, b.alpha, u.xy);
+        float F = fresnel_dielectric(dot(wo, m), b.eta);
+        if (u_rt < F) {
+            s.wi = reflect(-wo, m);
+            if (s.wi.z <= 0.0) return false;
+        } else if (b.thin) {
+            s.wi = flip_z(reflect(-wo, m));
+            if (s.wi.z >= 0.0) return false;
+        } else {
+            if (!refract_dir(wo, m, b.eta, s.wi) || s.wi.z >= 0.0) return false;
+        }
+    } else if (u.z < p.x + p.y) {
         if (bsdf_is_delta(b)) {
             s.wi = vec3(-wo.x, -wo.y, wo.z);
             s.delta = true;
-            vec3 f = (1.0 - b.metallic) * b.specular * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
-            s.weight = f / ps;
+            float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
+            vec3 f = opaque * b.specular * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
+            s.weight = f / p.y;
             return true;
         }
         vec3 h = sample_ggx_vndf(wo, b.alpha, u.xy);
@@ -213,7 +334,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     }
     s.pdf = bsdf_pdf(b, wo, s.wi);
     if (!(s.pdf > 0.0)) return false;
-    s.weight = bsdf_eval(b, wo, s.wi) * (s.wi.z / s.pdf);
+    s.weight = bsdf_eval(b, wo, s.wi) * (abs(s.wi.z) / s.pdf);
     return true;
 }
 

@@ -27,12 +27,14 @@ struct TriShading {
     vec4 n2;
 };
 
-// 64 bytes, the glTF material as the BSDF reads it.
+// 96 bytes, the glTF material as the BSDF reads it.
 struct Material {
-    vec4 base_color;     // rgb linear albedo / metal F0, w: alpha (opacity; not used yet)
+    vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity; not used yet)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
     vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
+    vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), zw unused
+    vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused
 };
 
 // 16 bytes, one per light (emissive triangle or environment); cdf is the inclusive upper end. id: the kind in

@@ -101,6 +101,8 @@ pub fn pack(scene: &Scene) -> PackedScene {
             emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
             params: [m.metallic, m.roughness, m.ior, m.specular],
             specular_color: v4(m.specular_color, 0.0),
+            transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
+            attenuation: v4(m.attenuation, 0.0),
         })
         .collect();
     let env_data = scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default();

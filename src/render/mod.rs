@@ -162,6 +162,8 @@ pub struct BsdfQuery {
     pub wo: glam::Vec3,
     /// Three uniforms in [0, 1) when sampling; the direction wi when evaluating.
     pub x: glam::Vec3,
+    /// wo is outside the object (its front face); inside, the relative IOR inverts.
+    pub front: bool,
 }
 
 /// What the device BSDF answered for one query.
@@ -573,7 +575,8 @@ impl Renderer {
         let mut words: Vec<u32> = Vec::with_capacity(24 * n);
         for q in queries {
             words.push(q.material);
-            words.extend([q.wo.x, q.wo.y, q.wo.z, q.x.x, q.x.y, q.x.z, 0.0].map(f32::to_bits));
+            words.extend([q.wo.x, q.wo.y, q.wo.z, q.x.x, q.x.y, q.x.z].map(f32::to_bits));
+            words.push(q.front as u32);
         }
         words.resize(24 * n, 0);
         let frame = Frame {

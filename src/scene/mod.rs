@@ -26,6 +26,12 @@ pub struct Material {
     /// KHR_materials_specular: weight of the dielectric coat (0 makes a pure Lambertian) and its F0 colour.
     pub specular: f32,
     pub specular_color: Vec3,
+    /// KHR_materials_transmission: the fraction of the dielectric base that transmits (refracts) instead of diffusing.
+    pub transmission: f32,
+    /// No KHR_materials_volume (or thickness 0): a thin sheet, light passes without bending.
+    pub thin_walled: bool,
+    /// KHR_materials_volume absorption coefficient inside the object, per metre: -ln(attenuationColor) / distance.
+    pub attenuation: Vec3,
 }
 
 impl Default for Material {
@@ -41,6 +47,9 @@ impl Default for Material {
             ior: 1.5,
             specular: 1.0,
             specular_color: Vec3::ONE,
+            transmission: 0.0,
+            thin_walled: true,
+            attenuation: Vec3::ZERO,
         }
     }
 }
@@ -129,6 +138,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
 ];
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {
@@ -512,7 +523,36 @@ impl Loader<'_> {
         // IOR 0 means "F0 = 1" in KHR_materials_ior: 1e30 gives exactly that in ((ior - 1) / (ior + 1))^2 without
         // the NaN infinity would; other values below 1 are outside the extension's range.
         let ior = if ior == 0.0 { 1e30 } else { ior.max(1.0) };
+        let transmission = m.transmission().map(|t| t.transmission_factor()).unwrap_or(0.0);
+        let (thin_walled, attenuation) = match m.volume() {
+            Some(v) if v.thickness_factor() > 0.0 => {
+                let d = v.attenuation_distance();
+                let c = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
+                // An infinite (default) distance means no absorption.
+                let sigma = if d.is_finite() && d > 0.0 {
+                    -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / d
+                } else {
+                    Vec3::ZERO
+                };
+                (false, sigma)
+            }
+            _ => (true, Vec3::ZERO),
+        };
+        if m.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
+            self.warn(format!(
+                "material '{name}': transmissionTexture is ignored (textures are not supported yet)"
+            ));
+        }
+        if !(transmission.is_finite() && attenuation.is_finite()) {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': a transmission or volume factor is not finite"),
+            ));
+        }
         self.scene.materials.push(Material {
+            transmission: transmission.clamp(0.0, 1.0),
+            thin_walled,
+            attenuation,
             name,
             base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
             emission: emission.max(Vec3::ZERO),

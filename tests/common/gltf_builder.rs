@@ -35,6 +35,35 @@ impl GltfBuilder {
         i
     }
 
+    /// A transmissive dielectric (KHR_materials_transmission, _ior, and _volume unless thin-walled), tinted `tint`,
+    /// absorbing to `attenuation` colour over `distance` metres inside.
+    pub fn glass_material(
+        &mut self,
+        name: &str,
+        tint: [f32; 3],
+        ior: f32,
+        roughness: f32,
+        thin: bool,
+        absorb: Option<([f32; 3], f32)>,
+    ) -> usize {
+        let i = self.pbr_material(name, tint, 0.0, roughness, [0.0; 3], false);
+        let ext = &mut self.materials[i]["extensions"];
+        ext["KHR_materials_transmission"] = json!({ "transmissionFactor": 1.0 });
+        ext["KHR_materials_ior"] = json!({ "ior": ior });
+        if !thin {
+            let mut volume = json!({ "thicknessFactor": 1.0 });
+            if let Some((color, distance)) = absorb {
+                volume["attenuationColor"] = json!(color);
+                volume["attenuationDistance"] = json!(distance);
+            }
+            ext["KHR_materials_volume"] = volume;
+            self.use_extension("KHR_materials_volume");
+        }
+        self.use_extension("KHR_materials_transmission");
+        self.use_extension("KHR_materials_ior");
+        i
+    }
+
     /// A glTF metallic-roughness material.
     pub fn pbr_material(
         &mut self,

@@ -235,3 +235,36 @@ pub fn material_grid() -> GltfBuilder {
     b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
 }
+
+/// Caustics-prone glass on a white floor under a small bright light: a thick glass sphere (IOR 1.5), a thin pane, and a
+/// rough amber block that absorbs inside.
+pub fn glass() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.8; 3], [0.0; 3], false);
+    let light = b.material("light", [0.0; 3], [60.0, 56.0, 50.0], false);
+    let sphere = b.glass_material("glass", [1.0; 3], 1.5, 0.0, false, None);
+    let pane = b.glass_material("thin pane", [0.9, 1.0, 0.95], 1.5, 0.0, true, None);
+    let amber = b.glass_material("rough amber", [1.0; 3], 1.55, 0.3, false, Some(([1.0, 0.6, 0.2], 0.5)));
+    b.quad(
+        "floor",
+        [[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]],
+        floor,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "light",
+        [[-0.3, 4.0, -0.3], [0.3, 4.0, -0.3], [0.3, 4.0, 0.3], [-0.3, 4.0, 0.3]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.sphere("glass sphere", [-0.9, 0.7, 0.0], 0.7, sphere);
+    b.quad(
+        "pane",
+        [[0.3, 0.0, -1.2], [0.3, 1.4, -1.2], [0.3, 1.4, -0.2], [0.3, 0.0, -0.2]],
+        pane,
+        Some([1.0, 0.0, 0.0]),
+    );
+    b.cube("amber block", [0.7, 0.0, 0.0], [1.5, 0.8, 0.8], amber, false);
+    b.camera([0.0, 2.2, 4.5], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 38.0);
+    b
+}
