@@ -13,6 +13,7 @@ fn main() {
         ("unequal-lights.gltf", scenes::unequal_lights()),
         ("material-grid.gltf", scenes::material_grid()),
         ("glass.gltf", scenes::glass()),
+        ("punctual-lights.gltf", scenes::punctual_lights()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

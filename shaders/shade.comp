@@ -112,7 +112,8 @@ void main() {
         float side = dot(n_in, ls.wi);
         if (ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
-            float w = frame.estimator == ESTIMATOR_MIS ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
+                        bool mis = frame.estimator == ESTIMATOR_MIS && !ls.delta;
+            float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
             vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {
                 uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);

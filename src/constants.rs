@@ -17,7 +17,8 @@ pub const BINDING_FILM: u32 = 8;
 pub const BINDING_PROBE: u32 = 9;
 pub const BINDING_ENERGY: u32 = 10;
 pub const BINDING_ENV: u32 = 11;
-pub const BINDING_COUNT: u32 = 12;
+pub const BINDING_PUNCTUAL: u32 = 12;
+pub const BINDING_COUNT: u32 = 13;
 
 /// Microfacet energy tables: ENERGY_RES x ENERGY_RES cells over (cos theta, perceptual roughness), each the mean of
 /// ENERGY_SAMPLES visible-normal samples. Layout of the energy buffer, in floats: E1 grid, E2 grid (roughness-major),
@@ -36,6 +37,12 @@ pub const FLAG_HIDE_ENV: u32 = 2;
 pub const LIGHT_KIND_SHIFT: u32 = 30;
 pub const LIGHT_KIND_TRIANGLE: u32 = 0;
 pub const LIGHT_KIND_ENV: u32 = 1;
+pub const LIGHT_KIND_PUNCTUAL: u32 = 2;
+
+/// PunctualLight.position.w: which KHR_lights_punctual type.
+pub const PUNCTUAL_POINT: u32 = 0;
+pub const PUNCTUAL_SPOT: u32 = 1;
+pub const PUNCTUAL_DIRECTIONAL: u32 = 2;
 pub const LIGHT_INDEX_MASK: u32 = 0x3FFFFFFF;
 
 /// Estimator selection (push constant `estimator`).

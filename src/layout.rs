@@ -63,6 +63,15 @@ pub struct GpuLight {
     pub area: f32,
 }
 
+/// 48 bytes: a KHR_lights_punctual light (see `PunctualLight` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuPunctual {
+    pub position: [f32; 4],
+    pub direction: [f32; 4],
+    pub intensity: [f32; 4],
+}
+
 /// 48 bytes: queue counters, the indirect dispatch of the current bounce, and ray tallies.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -107,6 +116,7 @@ const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<Counters>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuPunctual>() == 48);
 const _: () = assert!(std::mem::size_of::<Frame>() == 128);
 
 /// Byte offset of the indirect dispatch command inside `Counters`.

@@ -1,5 +1,5 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
-use pathwave::layout::{BvhNode, Counters, Frame, GpuLight, GpuMaterial, TriShading, TriVerts};
+use pathwave::layout::{BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, TriShading, TriVerts};
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
 /// The push-constant size every Vulkan implementation guarantees (maxPushConstantsSize >= 128).
@@ -45,6 +45,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
         mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
+        mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,

@@ -10,6 +10,7 @@ fn scene_files_match_their_generator() {
         ("unequal-lights.gltf", common::scenes::unequal_lights()),
         ("material-grid.gltf", common::scenes::material_grid()),
         ("glass.gltf", common::scenes::glass()),
+        ("punctual-lights.gltf", common::scenes::punctual_lights()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(
@@ -22,7 +23,7 @@ fn scene_files_match_their_generator() {
             "scenes/{name} loads with warnings: {:?}",
             scene.warnings
         );
-        assert!(scene.emissive_triangle_count() > 0);
+                assert!(scene.emissive_triangle_count() + scene.punctual.len() > 0, "scenes/{name} has no light");
     }
 }
 

@@ -46,6 +46,15 @@ struct Light {
     float area;
 };
 
+// 48 bytes, a KHR_lights_punctual light in world space. position.w: PUNCTUAL_* type (uint bits);
+// direction: where it points (spot, directional), w: cos(outer cone); intensity: rgb radiant intensity (W/sr) for point
+// and spot lights, irradiance (W/m^2) for directional ones, w: cos(inner cone).
+struct PunctualLight {
+    vec4 position;
+    vec4 direction;
+    vec4 intensity;
+};
+
 // 48 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
 // dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages.
 struct Counters {
@@ -100,6 +109,7 @@ layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]
 // Environment: rgba texels (w unused) row by row from the top (+y), then the marginal cdf over rows
 // (env_height + 1 values), then each row's conditional cdf (env_width + 1 values), all inclusive-start at 0.
 layout(std430, set = 0, binding = BINDING_ENV) readonly buffer Env { float env[]; };
+layout(std430, set = 0, binding = BINDING_PUNCTUAL) readonly buffer Punctuals { PunctualLight punctuals[]; };
 
 vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
 void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }

@@ -19,7 +19,8 @@ struct LightSample {
     vec3 wi;        // towards the light
     float dist;     // to the light's point; effectively infinite for the environment
     vec3 radiance;  // arriving along -wi
-    float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
+        float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
+    bool delta;     // a punctual light: pdf is only the selection probability, and no BSDF sample can find it
 };
 
 // Picks a light with u_pick and a point or direction on it with u_point, as seen from p.
@@ -28,8 +29,40 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     ls.pdf = 0.0;
     ls.radiance = vec3(0.0);
     ls.wi = vec3(0.0, 0.0, 1.0);
-    ls.dist = 0.0;
+        ls.dist = 0.0;
+    ls.delta = false;
     Light l = lights[pick_light(u_pick)];
+    if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
+        PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
+        uint kind = floatBitsToUint(pl.position.w);
+        ls.delta = true;
+        ls.pdf = l.prob;
+        if (kind == PUNCTUAL_DIRECTIONAL) {
+            ls.wi = -pl.direction.xyz;
+            ls.dist = 1e30;
+            ls.radiance = pl.intensity.rgb;
+            return ls;
+        }
+        vec3 to_light = pl.position.xyz - p;
+        float dist2 = dot(to_light, to_light);
+        if (!(dist2 > 0.0)) {
+            ls.pdf = 0.0;
+            return ls;
+        }
+        ls.dist = sqrt(dist2);
+        ls.wi = to_light / ls.dist;
+        float falloff = 1.0;
+        if (kind == PUNCTUAL_SPOT) {
+            // KHR_lights_punctual's cone: linear in the cosine between the cones, then squared.
+            float cd = dot(pl.direction.xyz, -ls.wi);
+            float scale = 1.0 / max(0.001, pl.intensity.w - pl.direction.w);
+            float t = clamp((cd - pl.direction.w) * scale, 0.0, 1.0);
+            falloff = t * t;
+        }
+        // "Radiance" here is what multiplies f cos / pdf: the irradiance normal to wi, I / d^2.
+        ls.radiance = pl.intensity.rgb * (falloff / dist2);
+        return ls;
+    }
     if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_ENV) {
         float pdf_dir;
         ls.wi = env_sample(u_point, pdf_dir);

@@ -1,8 +1,8 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
 use crate::bvh::{self, Bvh};
-use crate::constants::{LIGHT_KIND_ENV, LIGHT_KIND_SHIFT};
-use crate::layout::{GpuLight, GpuMaterial, TriShading, TriVerts};
-use crate::scene::Scene;
+use crate::constants::*;
+use crate::layout::{GpuLight, GpuMaterial, GpuPunctual, TriShading, TriVerts};
+use crate::scene::{PunctualKind, Scene};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -17,6 +17,7 @@ pub struct PackedScene {
     pub env_prob: f32,
     /// The environment's device buffer (see layout.glsl), empty without one.
     pub env_data: Vec<f32>,
+    pub punctual: Vec<GpuPunctual>,
 }
 
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
@@ -60,14 +61,36 @@ pub fn pack(scene: &Scene) -> PackedScene {
             powers.push((slot as u32, p, area));
         }
     }
+    let (lo, hi) = scene.bounds();
+    let radius = if scene.triangles.is_empty() {
+        1.0
+    } else {
+        ((hi - lo).length() * 0.5).max(1e-3)
+    };
+    // Punctual lights by their emitted power; a directional one by what crosses the scene's bounding disk.
+    let mut punctual = Vec::with_capacity(scene.punctual.len());
+    for (i, l) in scene.punctual.iter().enumerate() {
+        let mean = (l.intensity.x + l.intensity.y + l.intensity.z) as f64 / 3.0;
+        let pi = std::f64::consts::PI;
+        let (kind, cos_outer, cos_inner, p) = match l.kind {
+            PunctualKind::Point => (PUNCTUAL_POINT, -1.0, -1.0, 4.0 * pi * mean),
+            PunctualKind::Spot { inner, outer } => {
+                let (ci, co) = (inner.cos(), outer.cos());
+                (PUNCTUAL_SPOT, co, ci, 2.0 * pi * (1.0 - 0.5 * (ci + co) as f64) * mean)
+            }
+            PunctualKind::Directional => (PUNCTUAL_DIRECTIONAL, 1.0, 1.0, pi * (radius as f64).powi(2) * mean),
+        };
+        punctual.push(GpuPunctual {
+            position: v4(l.position, f32::from_bits(kind)),
+            direction: v4(l.direction, cos_outer),
+            intensity: v4(l.intensity, cos_inner),
+        });
+        if p > 0.0 {
+            powers.push((LIGHT_KIND_PUNCTUAL << LIGHT_KIND_SHIFT | i as u32, p, 0.0));
+        }
+    }
     // The environment competes with the emitters by the power it sends into the scene's bounding sphere.
     if let Some(env) = &scene.environment {
-        let (lo, hi) = scene.bounds();
-        let radius = if scene.triangles.is_empty() {
-            1.0
-        } else {
-            ((hi - lo).length() * 0.5).max(1e-3)
-        };
         let p = env.power(radius);
         if p > 0.0 {
             powers.push((LIGHT_KIND_ENV << LIGHT_KIND_SHIFT, p, 0.0));
@@ -87,10 +110,10 @@ pub fn pack(scene: &Scene) -> PackedScene {
             (acc / total) as f32
         };
         lights.push(GpuLight { id, cdf, prob, area });
-        if id >> LIGHT_KIND_SHIFT == LIGHT_KIND_ENV {
-            env_prob = prob;
-        } else {
-            tri_shading[id as usize].n0[3] = prob / area;
+        match id >> LIGHT_KIND_SHIFT {
+            LIGHT_KIND_ENV => env_prob = prob,
+            LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = prob / area,
+            _ => {} // punctual lights are never hit, so MIS never asks for their probability
         }
     }
     let materials = scene
@@ -115,5 +138,6 @@ pub fn pack(scene: &Scene) -> PackedScene {
         total_light_power: total,
         env_prob,
         env_data,
+        punctual,
     }
 }

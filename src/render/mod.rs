@@ -190,6 +190,7 @@ struct SceneBuffers {
     materials: Buffer,
     lights: Buffer,
     env: Buffer,
+    punctual: Buffer,
 }
 
 /// A scene uploaded to one device, ready to render any number of images.
@@ -245,6 +246,7 @@ impl Renderer {
             materials: Buffer::with_data(&ctx, "materials", &packed.materials)?,
             lights: Buffer::with_data(&ctx, "lights", &packed.lights)?,
             env: Buffer::with_data(&ctx, "environment", &packed.env_data)?,
+            punctual: Buffer::with_data(&ctx, "punctual lights", &packed.punctual)?,
         };
         let env = scene.environment.as_ref();
         let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
@@ -336,6 +338,7 @@ impl Renderer {
             (BINDING_MATERIALS, &b.materials),
             (BINDING_LIGHTS, &b.lights),
             (BINDING_ENV, &b.env),
+            (BINDING_PUNCTUAL, &b.punctual),
         ];
         // While the energy tables are being built, the caller binds them.
         if let Some(energy) = &self.energy {

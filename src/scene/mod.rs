@@ -90,6 +90,30 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Light from infinitely far away; glTF has none, so it comes from the caller (`--env`, `--env-color`).
     pub environment: Option<Environment>,
+    /// KHR_lights_punctual lights, in world space.
+    pub punctual: Vec<PunctualLight>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PunctualKind {
+    Point,
+    /// Cone half-angles in radians; light falls off smoothly between them (the extension's formula).
+    Spot {
+        inner: f32,
+        outer: f32,
+    },
+    Directional,
+}
+
+/// A point, spot or directional light. `intensity` is colour times the glTF intensity, read radiometrically:
+/// W/sr for point and spot lights (the extension's candela), W/m^2 for directional ones (its lux).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PunctualLight {
+    pub kind: PunctualKind,
+    pub position: Vec3,
+    /// Where the light points (its node's -z): spot and directional lights.
+    pub direction: Vec3,
+    pub intensity: Vec3,
 }
 
 impl Scene {
@@ -135,6 +159,7 @@ impl Scene {
 
 /// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
@@ -591,6 +616,9 @@ impl Loader<'_> {
                 format!("node {} has a non-finite transform", node.index()),
             ));
         }
+        if let Some(light) = node.light() {
+            self.punctual(&light, world)?;
+        }
         if let Some(cam) = node.camera() {
             match cam.projection() {
                 gltf::camera::Projection::Perspective(p) => {
@@ -622,6 +650,48 @@ impl Loader<'_> {
             }
         }
         Ok(world)
+    }
+
+    fn punctual(&mut self, light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<(), Error> {
+        use gltf::khr_lights_punctual::Kind;
+        let name = light
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("#{}", light.index()));
+        let intensity = Vec3::from(light.color()) * light.intensity();
+        if !intensity.is_finite() {
+            return Err(scene_err(
+                self.path,
+                format!("light '{name}': its intensity is not finite"),
+            ));
+        }
+        if light.range().is_some() {
+            self.warn(format!(
+                "light '{name}': range is ignored; light falls off with the inverse square of distance"
+            ));
+        }
+        let kind = match light.kind() {
+            Kind::Point => PunctualKind::Point,
+            Kind::Directional => PunctualKind::Directional,
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let outer = outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2);
+                PunctualKind::Spot {
+                    inner: inner_cone_angle.clamp(0.0, outer),
+                    outer,
+                }
+            }
+        };
+        let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
+        self.scene.punctual.push(PunctualLight {
+            kind,
+            position: world.transform_point3(Vec3::ZERO),
+            direction,
+            intensity: intensity.max(Vec3::ZERO),
+        });
+        Ok(())
     }
 
     /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.

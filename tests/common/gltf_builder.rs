@@ -12,6 +12,7 @@ pub struct GltfBuilder {
     materials: Vec<Value>,
     nodes: Vec<Value>,
     cameras: Vec<Value>,
+    lights: Vec<Value>,
     extensions: Vec<&'static str>,
 }
 
@@ -210,6 +211,28 @@ impl GltfBuilder {
         }
     }
 
+    /// A KHR_lights_punctual light on its own node at `position`, pointing along `rotation` applied to -z.
+    /// `light` is the light object without its type-independent parts, e.g. json!({"type": "point"}).
+    pub fn punctual(
+        &mut self,
+        mut light: Value,
+        color: [f32; 3],
+        intensity: f32,
+        position: [f32; 3],
+        rotation: [f32; 4],
+    ) {
+        light["color"] = json!(color);
+        light["intensity"] = json!(intensity);
+        self.lights.push(light);
+        self.use_extension("KHR_lights_punctual");
+        self.nodes.push(json!({
+            "name": format!("light {}", self.lights.len() - 1),
+            "translation": position,
+            "rotation": rotation,
+            "extensions": { "KHR_lights_punctual": { "light": self.lights.len() - 1 } },
+        }));
+    }
+
     /// A perspective camera at `eye` looking at `target`; yfov in degrees.
     pub fn camera(&mut self, eye: [f32; 3], target: [f32; 3], up: [f32; 3], yfov_deg: f32) {
         // glTF cameras look down -Z with +Y up.
@@ -280,6 +303,9 @@ impl GltfBuilder {
         }
         if !self.extensions.is_empty() {
             doc["extensionsUsed"] = json!(self.extensions);
+        }
+        if !self.lights.is_empty() {
+            doc["extensions"]["KHR_lights_punctual"] = json!({ "lights": self.lights });
         }
         doc
     }

@@ -268,3 +268,50 @@ pub fn glass() -> GltfBuilder {
     b.camera([0.0, 2.2, 4.5], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 38.0);
     b
 }
+
+/// One light of each KHR_lights_punctual type over a floor with spheres: a warm point light, a spot cone, a cool sun.
+pub fn punctual_lights() -> GltfBuilder {
+    use serde_json::json;
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.7; 3], [0.0; 3], false);
+    let white = b.pbr_material("white plastic", [0.8; 3], 0.0, 0.4, [0.0; 3], false);
+    let gold = b.pbr_material("gold", [1.0, 0.78, 0.34], 1.0, 0.3, [0.0; 3], false);
+    b.quad(
+        "floor",
+        [[-6.0, 0.0, -6.0], [6.0, 0.0, -6.0], [6.0, 0.0, 6.0], [-6.0, 0.0, 6.0]],
+        floor,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.sphere("white sphere", [-1.0, 0.5, 0.0], 0.5, white);
+    b.sphere("gold sphere", [1.0, 0.5, 0.0], 0.5, gold);
+    let down = [
+        -std::f32::consts::FRAC_1_SQRT_2,
+        0.0,
+        0.0,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ];
+    b.punctual(
+        json!({ "type": "point" }),
+        [1.0, 0.8, 0.6],
+        4.0,
+        [-1.8, 1.6, 1.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
+    b.punctual(
+        json!({ "type": "spot", "spot": { "innerConeAngle": 0.25, "outerConeAngle": 0.45 } }),
+        [1.0; 3],
+        30.0,
+        [1.0, 3.0, 0.0],
+        down,
+    );
+    let sun = -50f32.to_radians();
+    b.punctual(
+        json!({ "type": "directional" }),
+        [0.6, 0.7, 1.0],
+        0.8,
+        [0.0; 3],
+        [(sun * 0.5).sin(), 0.0, 0.0, (sun * 0.5).cos()],
+    );
+    b.camera([0.0, 2.0, 4.5], [0.0, 0.4, 0.0], [0.0, 1.0, 0.0], 40.0);
+    b
+}
