@@ -23,7 +23,10 @@ fn scene_files_match_their_generator() {
             "scenes/{name} loads with warnings: {:?}",
             scene.warnings
         );
-                assert!(scene.emissive_triangle_count() + scene.punctual.len() > 0, "scenes/{name} has no light");
+        assert!(
+            scene.emissive_triangle_count() + scene.punctual.len() > 0,
+            "scenes/{name} has no light"
+        );
     }
 }
 
