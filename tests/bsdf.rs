@@ -11,17 +11,7 @@ const ROUGHNESS: [f32; 5] = [0.05, 0.1, 0.3, 0.6, 1.0];
 const METALLIC: [f32; 2] = [0.0, 1.0];
 const INCIDENT_DEG: [f32; 4] = [1.0, 30.0, 60.0, 85.0];
 
-/// SplitMix64 uniforms: fixed seeds, the same every run.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
+use common::rng::Rng;
 
 fn material(roughness: f32, metallic: f32, base: Vec3) -> Material {
     Material {
@@ -122,6 +112,17 @@ impl Grid {
     }
 }
 
+/// The pdf integrates to at most 1, and samples that fail (leave no direction) are no more than the mass it misses,
+/// both within the quadrature's `tolerance`.
+fn assert_mass_matches(what: &str, mass: f64, failed_fraction: f64, tolerance: f64) {
+    assert!(mass <= 1.0 + tolerance, "{what}: pdf integrates to {mass}");
+    assert!(
+        failed_fraction <= (1.0 - mass).max(0.0) + tolerance,
+        "{what}: {failed_fraction} of samples failed but the pdf only misses {}",
+        1.0 - mass
+    );
+}
+
 fn sample_many(r: &mut Renderer, material: u32, wo: Vec3, n: usize, seed: u64) -> Vec<BsdfProbe> {
     sample_with(r, material, wo, n, seed, true)
 }
@@ -174,13 +175,7 @@ fn sampled_directions_follow_the_pdf() {
             }
             let mass: f64 = expected.iter().sum();
             let what = format!("roughness {} metallic {} at {deg} deg", m.roughness, m.metallic);
-            assert!(mass <= 1.0 + 2e-3, "{what}: pdf integrates to {mass}");
-            let failed_fraction = failed as f64 / n as f64;
-            assert!(
-                failed_fraction <= (1.0 - mass).max(0.0) + 2e-3,
-                "{what}: {failed_fraction} of samples failed but the pdf only misses {}",
-                1.0 - mass
-            );
+            assert_mass_matches(&what, mass, failed as f64 / n as f64, 2e-3);
             let expected: Vec<f64> = expected.iter().map(|e| e * n as f64).collect();
             if std::env::var_os("BSDF_DEBUG").is_some() {
                 let mut worst: Vec<(f64, usize)> = (0..cells)
@@ -525,13 +520,7 @@ fn transmission_follows_the_pdf() {
             // denominator (wi.m + wo.m / eta)^2 vanishes), so quadrature converges slowly there: for roughness 1,
             // IOR 1.33 at 80 degrees, horizon-aligned grids of 1024^2 and 2048^2 gave 0.9799 and 0.9852 against
             // 0.9833 actually sampled. Hence 1 % here, against 0.2-0.3 % for reflection.
-            assert!(mass <= 1.0 + 1e-2, "{what}: pdf integrates to {mass}");
-            let failed_fraction = failed as f64 / n as f64;
-            assert!(
-                failed_fraction <= (1.0 - mass).max(0.0) + 1e-2,
-                "{what}: {failed_fraction} failed, pdf misses {}",
-                1.0 - mass
-            );
+            assert_mass_matches(&what, mass, failed as f64 / n as f64, 1e-2);
             let expected: Vec<f64> = expected.iter().map(|e| e * n as f64).collect();
             let (stat, dof) = chi2_statistic(&observed, &expected, 5.0);
             let p = chi2_p_value(stat, dof);

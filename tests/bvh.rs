@@ -8,16 +8,16 @@ use pathwave::layout::TriVerts;
 use pathwave::render::gpu_scene;
 use pathwave::scene::{Material, Scene};
 
-/// A small deterministic generator (SplitMix64) so the rays are the same on every run.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
-    }
+use common::rng::Rng;
+
+/// Ranges, points and directions from the shared test generator.
+trait RngExt {
+    fn range(&mut self, lo: f32, hi: f32) -> f32;
+    fn vec(&mut self, lo: Vec3, hi: Vec3) -> Vec3;
+    fn dir(&mut self) -> Vec3;
+}
+
+impl RngExt for Rng {
     fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.next()
     }

@@ -127,6 +127,18 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     Bvh { nodes, order, stats }
 }
 
+/// A leaf when few enough triangles remain, otherwise the halves by centroid along `axis`.
+fn median_split(idx: &mut [u32], centroids: &[Vec3], axis: usize) -> Option<usize> {
+    if idx.len() <= BVH_MAX_LEAF_TRIS as usize {
+        return None;
+    }
+    let mid = idx.len() / 2;
+    idx.select_nth_unstable_by(mid, |&a, &b| {
+        centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+    });
+    Some(mid)
+}
+
 /// Partitions `idx` and returns the size of the left part, or None to make a leaf.
 fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aabb, depth: u32) -> Option<usize> {
     let count = idx.len();
@@ -142,14 +154,7 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
     };
     if extent[axis] <= 0.0 || depth >= SAH_DEPTH_LIMIT {
         // Coincident centroids (or too deep for SAH): halve by position so leaves stay small and depth stays bounded.
-        if count <= BVH_MAX_LEAF_TRIS as usize {
-            return None;
-        }
-        let mid = count / 2;
-        idx.select_nth_unstable_by(mid, |&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
-        });
-        return Some(mid);
+        return median_split(idx, centroids, axis);
     }
     // SAH over bins on every axis with a non-zero extent.
     let mut best = (f32::INFINITY, 0usize, 0usize);
@@ -193,14 +198,7 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
     let leaf_cost = bounds.area() * count as f32;
     let split_cost = TRAVERSAL_COST * bounds.area() + best.0;
     if best.0 == f32::INFINITY || (split_cost >= leaf_cost && count <= BVH_MAX_LEAF_TRIS as usize) {
-        if count <= BVH_MAX_LEAF_TRIS as usize {
-            return None;
-        }
-        let mid = count / 2;
-        idx.select_nth_unstable_by(mid, |&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
-        });
-        return Some(mid);
+        return median_split(idx, centroids, axis);
     }
     let (_, ax, split_bin) = best;
     let scale = BINS as f32 / extent[ax];
