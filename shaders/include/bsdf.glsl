@@ -117,6 +117,8 @@ vec3 coat_average(Bsdf b) {
 // reflect more than arrives (1.025 for a white, nearly smooth plastic at 60 degrees); this form is reciprocal and
 // conserves energy.
 vec3 coat_transmittance(Bsdf b, float cos_o, float cos_i) {
+    // No coat (KHR_materials_specular weight 0, as in a pure Lambertian): nothing to look up.
+    if (b.specular == 0.0) return vec3(1.0);
     vec3 avg = coat_average(b);
     return (vec3(1.0) - coat_albedo(b, cos_o)) * (vec3(1.0) - coat_albedo(b, cos_i)) / max(vec3(1.0) - avg, vec3(1e-6));
 }
@@ -161,7 +163,9 @@ vec2 lobe_probabilities(Bsdf b, vec3 wo) {
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
     float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
-    if (b.compensate && !bsdf_is_delta(b)) diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
+        if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
+        diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
+    }
     float glass = (1.0 - b.metallic) * b.transmission;
     float total = spec + diff + glass;
     if (total <= 0.0) return vec2(0.0, 1.0);
@@ -224,9 +228,10 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     vec3 fd = dielectric_fresnel(b, c);
-    vec3 diffuse = opaque * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI
-        + b.metallic * metal_multiple_scattering(b, wo.z, wi.z);
-    if (bsdf_is_delta(b)) return diffuse;
+        vec3 diffuse = opaque * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI;
+    if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo.z, wi.z);
+    // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).
+    if (bsdf_is_delta(b) || (opaque * b.specular == 0.0 && b.metallic == 0.0)) return diffuse + glass_w * glass_f;
     float a2 = b.alpha * b.alpha;
     float g = 1.0 / (1.0 + smith_lambda(a2, wo) + smith_lambda(a2, wi));
     float spec = ggx_d(a2, h) * g / (4.0 * wo.z * wi.z);
