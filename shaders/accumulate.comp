@@ -1,14 +1,21 @@
-// accumulate: add each path's sample to its pixel's running sum and sum of squares (each pixel owns its slot).
+// accumulate: add each pixel's samples of this pass to its running sum and sum of squares, in sample order, so the sum
+// is the same bytes however samples are grouped into passes.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= frame.path_count) return;
+        uint i = gl_GlobalInvocationID.x;
+    if (i >= frame.pass_pixels) return;
     uint pixel = frame.pixel_offset + i;
     uint pixels = frame.width * frame.height;
-    vec3 l = path_get(PATH_RADIANCE, i).rgb;
-    film[pixel] += vec4(l, 1.0);
-    film[pixels + pixel] += vec4(l * l, 0.0);
+    vec4 sum = film[pixel];
+    vec4 sum_sq = film[pixels + pixel];
+    for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
+        vec3 l = path_get(PATH_RADIANCE, path).rgb;
+        sum += vec4(l, 1.0);
+        sum_sq += vec4(l * l, 0.0);
+    }
+    film[pixel] = sum;
+    film[pixels + pixel] = sum_sq;
 }

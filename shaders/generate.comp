@@ -8,10 +8,10 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i == 0u) counters.queue_count[0] = frame.path_count;
     if (i >= frame.path_count) return;
-    uint pixel = frame.pixel_offset + i;
+        uint pixel = path_pixel(i);
     uint px = pixel % frame.width;
     uint py = pixel / frame.width;
-    vec2 j = pixel_jitter(pixel, frame.sample_index);
+        vec2 j = pixel_jitter(pixel, path_sample(i));
     float tan_half = frame.cam_origin.w;
     float aspect = frame.cam_right.w;
     // Row 0 is the top of the image.

@@ -32,8 +32,8 @@ void main() {
     uint cur = frame.bounce & 1u;
     if (i >= counters.queue_count[cur]) return;
     uint path = queues[cur * frame.path_capacity + i];
-    uint pixel = frame.pixel_offset + path;
-    uint s = frame.sample_index;
+    uint pixel = path_pixel(path);
+    uint s = path_sample(path);
     uint bounce = frame.bounce;
 
     vec4 hit = path_get(PATH_HIT, path);
@@ -50,9 +50,9 @@ void main() {
         if (frame.env_width > 0u && !hidden) {
             float w = 1.0;
             if (!camera_or_delta) {
-                if (frame.estimator == ESTIMATOR_LIGHT) {
+                if (frame_estimator() == ESTIMATOR_LIGHT) {
                     w = 0.0;
-                } else if (frame.estimator == ESTIMATOR_MIS) {
+                } else if (frame_estimator() == ESTIMATOR_MIS) {
                     w = power_heuristic(ray_o.w, frame.env_prob * env_pdf(ray_d));
                 }
             }
@@ -78,9 +78,9 @@ void main() {
     if (emits) {
         float w = 1.0;
         if (!camera_or_delta) {
-            if (frame.estimator == ESTIMATOR_LIGHT) {
+            if (frame_estimator() == ESTIMATOR_LIGHT) {
                 w = 0.0;
-            } else if (frame.estimator == ESTIMATOR_MIS) {
+            } else if (frame_estimator() == ESTIMATOR_MIS) {
                 float cos_l = abs(dot(ng, ray_d));
                 float pdf_light = cos_l > 0.0 ? ts.n0.w * hit.x * hit.x / cos_l : 0.0;
                 w = power_heuristic(ray_o.w, pdf_light);
@@ -105,14 +105,14 @@ void main() {
     basis(ns, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
-    if (frame.estimator != ESTIMATOR_BSDF && frame.light_count > 0u) {
+    if (frame_estimator() != ESTIMATOR_BSDF && frame.light_count > 0u) {
         LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
         if (ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
-                        bool mis = frame.estimator == ESTIMATOR_MIS && !ls.delta;
+                        bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
             vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {

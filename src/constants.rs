@@ -45,10 +45,11 @@ pub const PUNCTUAL_SPOT: u32 = 1;
 pub const PUNCTUAL_DIRECTIONAL: u32 = 2;
 pub const LIGHT_INDEX_MASK: u32 = 0x3FFFFFFF;
 
-/// Estimator selection (push constant `estimator`).
+/// Estimator selection: bits ESTIMATOR_SHIFT.. of Frame.flags.
 pub const ESTIMATOR_MIS: u32 = 0;
 pub const ESTIMATOR_LIGHT: u32 = 1;
 pub const ESTIMATOR_BSDF: u32 = 2;
+pub const ESTIMATOR_SHIFT: u32 = 4;
 
 /// Traversal stack depth; the builder guarantees the tree is no deeper than this.
 pub const BVH_STACK_SIZE: u32 = 64;

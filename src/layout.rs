@@ -98,7 +98,7 @@ pub struct Frame {
     pub seed: u32,
     pub bounce: u32,
     pub max_depth: u32,
-    pub estimator: u32,
+    pub pass_pixels: u32,
     pub pixel_offset: u32,
     pub path_count: u32,
     pub path_capacity: u32,

@@ -49,7 +49,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
-            max_depth, estimator, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,
+            max_depth, pass_pixels, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,
         ]),
     ]
 }

@@ -78,7 +78,8 @@ struct Frame {
     uint seed;
     uint bounce;
     uint max_depth;
-    uint estimator;
+        uint pass_pixels;  // pixels per sample in this pass: path i is pixel pixel_offset + i % pass_pixels,
+                       // sample sample_index + i / pass_pixels
     uint pixel_offset;
     uint path_count;
     uint path_capacity;
@@ -110,6 +111,10 @@ layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]
 // (env_height + 1 values), then each row's conditional cdf (env_width + 1 values), all inclusive-start at 0.
 layout(std430, set = 0, binding = BINDING_ENV) readonly buffer Env { float env[]; };
 layout(std430, set = 0, binding = BINDING_PUNCTUAL) readonly buffer Punctuals { PunctualLight punctuals[]; };
+
+uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
+uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }
+uint frame_estimator() { return (frame.flags >> ESTIMATOR_SHIFT) & 3u; }
 
 vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
 void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }

@@ -110,8 +110,9 @@ pub struct RenderStats {
     pub samples: u64,
     pub extension_rays: u64,
     pub shadow_rays: u64,
-    /// GPU time per stage in milliseconds, over all passes but the first.
+    /// GPU time per stage in milliseconds, over all passes but the first (or the first, when it is the only one).
     pub stage_ms: Vec<(&'static str, f64)>,
+    first_pass_stage_ms: Vec<(&'static str, f64)>,
 }
 
 impl RenderStats {
@@ -360,13 +361,15 @@ impl Renderer {
             height: s.height,
             seed: s.seed,
             max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP).min(DEPTH_SAFETY_CAP),
-            estimator: s.estimator.code(),
+
             light_count: self.light_count,
-            flags: if s.energy_compensation {
-                FLAG_ENERGY_COMPENSATION
-            } else {
-                0
-            } | if s.hide_environment { FLAG_HIDE_ENV } else { 0 },
+            flags: s.estimator.code() << ESTIMATOR_SHIFT
+                | if s.energy_compensation {
+                    FLAG_ENERGY_COMPENSATION
+                } else {
+                    0
+                }
+                | if s.hide_environment { FLAG_HIDE_ENV } else { 0 },
             env_prob: self.env_prob,
             env_rotation: self.env_rotation,
             env_width: self.env_size.0,
@@ -402,7 +405,9 @@ impl Renderer {
         }
         // Paths in flight per pass: all pixels when they fit, otherwise the image is covered in chunks.
         let per_path = PATH_FIELDS as u64 * 16;
-        let capacity = pixels.min(range / per_path).min(1 << 20) as u32;
+        // Paths in flight: every pixel times as many samples as fit in the budget, or chunks of pixels when one sample
+        // of the image alone is larger. 2^18 paths (32 MiB of path state) keep lavapipe's lanes busy without hoarding memory.
+        let capacity = (pixels * s.spp as u64).min(range / per_path).min(1 << 18) as u32;
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let paths = Buffer::new(
@@ -435,33 +440,34 @@ impl Renderer {
         let start = Instant::now();
         let mut frame = self.frame(s);
         frame.path_capacity = capacity;
-        let chunks = pixels.div_ceil(capacity as u64) as u32;
-        for sample in 0..s.spp {
-            for chunk in 0..chunks {
-                frame.sample_index = sample;
-                frame.pixel_offset = chunk * capacity;
-                frame.path_count = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
-                let pass_start = Instant::now();
-                self.pass(&frame, &counters)?;
-                let tally: Counters = counters.download(&self.ctx)?[0];
-                stats.extension_rays += tally.extension_rays as u64;
-                stats.shadow_rays += tally.shadow_rays as u64;
-                stats.samples += frame.path_count as u64;
-                if stats.passes == 0 {
-                    stats.first_pass = pass_start.elapsed();
-                } else {
-                    for (label, ns) in self.timestamps.read()? {
-                        match stats.stage_ms.iter_mut().find(|(l, _)| *l == label) {
-                            Some(e) => e.1 += ns * 1e-6,
-                            None => stats.stage_ms.push((label, ns * 1e-6)),
-                        }
-                    }
+
+        let mut done = 0u32;
+        while done < s.spp {
+            frame.sample_index = done;
+            if pixels <= capacity as u64 {
+                // Whole samples of every pixel, as many as fit.
+                let k = ((capacity as u64 / pixels) as u32).min(s.spp - done);
+                frame.pixel_offset = 0;
+                frame.pass_pixels = pixels as u32;
+                frame.path_count = pixels as u32 * k;
+                self.run_pass(&frame, &counters, &mut stats)?;
+                done += k;
+            } else {
+                // One sample, the image in chunks of `capacity` pixels.
+                for chunk in 0..pixels.div_ceil(capacity as u64) as u32 {
+                    frame.pixel_offset = chunk * capacity;
+                    frame.pass_pixels = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
+                    frame.path_count = frame.pass_pixels;
+                    self.run_pass(&frame, &counters, &mut stats)?;
                 }
-                stats.passes += 1;
+                done += 1;
             }
-            progress(sample + 1);
+            progress(done);
         }
         stats.wall = start.elapsed();
+        if stats.passes == 1 {
+            stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
+        }
         let raw: Vec<[f32; 4]> = film.download(&self.ctx)?;
         self.check_validation()?;
         let (sum, sum_sq) = raw.split_at(pixels as usize);
@@ -477,7 +483,32 @@ impl Renderer {
         ))
     }
 
-    /// One sample for `frame.path_count` pixels: the whole path, every bounce, in one submission.
+    /// Runs one pass and adds its ray tallies and (after the first pass, which also compiles) GPU stage times.
+    fn run_pass(&mut self, frame: &Frame, counters: &Buffer, stats: &mut RenderStats) -> Result<(), Error> {
+        let pass_start = Instant::now();
+        self.pass(frame, counters)?;
+        let tally: Counters = counters.download(&self.ctx)?[0];
+        stats.extension_rays += tally.extension_rays as u64;
+        stats.shadow_rays += tally.shadow_rays as u64;
+        stats.samples += frame.path_count as u64;
+        let times = self.timestamps.read()?;
+        if stats.passes == 0 {
+            stats.first_pass = pass_start.elapsed();
+            // Kept apart (it includes compilation) and reported only if no other pass follows.
+            stats.first_pass_stage_ms = times.iter().map(|(l, ns)| (*l, ns * 1e-6)).collect();
+        } else {
+            for (label, ns) in times {
+                match stats.stage_ms.iter_mut().find(|(l, _)| *l == label) {
+                    Some(e) => e.1 += ns * 1e-6,
+                    None => stats.stage_ms.push((label, ns * 1e-6)),
+                }
+            }
+        }
+        stats.passes += 1;
+        Ok(())
+    }
+
+    /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
     fn pass(&mut self, frame: &Frame, counters: &Buffer) -> Result<(), Error> {
         let ctx = &self.ctx;
         let p = &self.pipelines;
@@ -511,7 +542,9 @@ impl Renderer {
             f.bounce = NO_HIT;
             p.dispatch(cmd, "queue_args", &f, 1);
             ctx.barrier(cmd);
-            ts.time(cmd, "accumulate", || p.dispatch(cmd, "accumulate", frame, groups));
+            ts.time(cmd, "accumulate", || {
+                p.dispatch(cmd, "accumulate", frame, frame.pass_pixels.div_ceil(WORKGROUP_SIZE))
+            });
             ctx.barrier(cmd);
         })
     }
