@@ -105,12 +105,14 @@ void main() {
     basis(ns, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
-    if (frame_estimator() != ESTIMATOR_BSDF && frame.light_count > 0u) {
+        // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
+    if (frame.light_count > 0u) {
         LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
-        if (ls.pdf > 0.0 && wi_local.z * side > 0.0) {
+                bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
+        if (wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
                         bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;

@@ -605,3 +605,23 @@ fn glass_eval_pdf_and_sample_agree_and_smooth_glass_conserves_energy() {
         }
     }
 }
+
+#[test]
+fn a_rough_interface_between_equal_indices_passes_light_straight_through() {
+    // IOR 1 with a volume: the refraction half vector would vanish; the interface must act as nothing at all.
+    let mut r = renderer_with(vec![glass(0.3, 1.0, false)]);
+    for &deg in &INCIDENT_DEG {
+        let wo = wo_at(deg);
+        for front in [true, false] {
+            for s in sample_side(&mut r, 0, wo, front, 512, 8, true) {
+                assert!(s.ok && s.delta && s.weight.is_finite() && s.pdf.is_finite(), "{s:?}");
+                assert!(
+                    (s.wi + wo).length() < 1e-6,
+                    "not straight through: {} for wo {wo}",
+                    s.wi
+                );
+                assert!((s.weight - Vec3::ONE).abs().max_element() < 1e-5, "weight {}", s.weight);
+            }
+        }
+    }
+}

@@ -20,7 +20,8 @@ fn plane_point(px: f64, py: f64) -> DVec3 {
     DVec3::new(sx * HEIGHT, 0.0, -sy * HEIGHT)
 }
 
-/// Renders the plane with direct light only and compares each pixel with `radiance` averaged over the pixel.
+/// Renders the plane with direct light only and compares each pixel with `radiance` averaged over the pixel; the
+/// BSDF-sampling-only estimator must give the same image, since no BSDF sample can find a delta light.
 fn check(
     name: &str,
     light: serde_json::Value,
@@ -52,6 +53,13 @@ fn check(
     let mut s = common::settings(SIZE as u32, SIZE as u32, 1024, 1);
     s.max_depth = Some(1);
     let film = common::render(&mut r, &s);
+    let mut bsdf_only = s.clone();
+    bsdf_only.estimator = pathwave::Estimator::Bsdf;
+    assert_eq!(
+        common::render(&mut r, &bsdf_only).sum,
+        film.sum,
+        "{name}: BSDF-only sampling must still reach the light"
+    );
     let mean = film.mean();
     let mut worst = 0.0f64;
     let expected_at = |x: usize, y: usize| {

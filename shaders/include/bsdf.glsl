@@ -182,12 +182,18 @@ vec3 flip_z(vec3 w) {
     return vec3(w.x, w.y, -w.z);
 }
 
+// An interface between equal indices changes nothing, however rough: light passes straight through (a delta).
+// Treating it as a microfacet refraction would divide by a vanishing half vector.
+bool glass_passes_through(Bsdf b) {
+    return !b.thin && abs(b.eta - 1.0) < 1e-4;
+}
+
 // The glass lobe without its weight or tint: f and the density of sampling wi within the lobe.
 // Reflection and transmission are chosen by Fresnel at the sampled microfacet (pbrt-v4's DielectricBxDF).
 void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
     f = vec3(0.0);
     pdf = 0.0;
-    if (bsdf_is_delta(b) || wi.z == 0.0) return;
+    if (bsdf_is_delta(b) || glass_passes_through(b) || wi.z == 0.0) return;
     float a2 = b.alpha * b.alpha;
     bool reflect_side = wi.z > 0.0;
     if (b.thin || reflect_side) {
@@ -294,8 +300,14 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     vec2 p = lobe_probabilities(b, wo);
     if (u.z < p.x) {
         // The glass lobe. u_rt reuses u.z, rescaled to [0, 1), to choose reflection or transmission.
-        float u_rt = u.z / p.x;
+                float u_rt = u.z / p.x;
         float glass_w = (1.0 - b.metallic) * b.transmission;
+        if (glass_passes_through(b)) {
+            s.wi = -wo;
+            s.delta = true;
+            s.weight = b.base_color * (glass_w / p.x);
+            return true;
+        }
         if (bsdf_is_delta(b)) {
             float F = fresnel_dielectric(wo.z, b.eta);
             s.delta = true;

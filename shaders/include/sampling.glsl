@@ -41,10 +41,11 @@ vec2 sample_triangle(vec2 u) {
     return vec2(su * (1.0 - u.y), su * u.y);
 }
 
+// Written as 1 / (1 + (pb / pa)^2) so huge pdfs (near-delta lobes) cannot overflow to inf / inf.
 float power_heuristic(float pa, float pb) {
-    float a = pa * pa;
-    float b = pb * pb;
-    return a + b > 0.0 ? a / (a + b) : 0.0;
+    if (!(pa > 0.0)) return 0.0;
+    float r = pb / pa;
+    return 1.0 / (1.0 + r * r);
 }
 
 #endif

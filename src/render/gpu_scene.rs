@@ -100,19 +100,23 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let mut lights = Vec::with_capacity(powers.len());
     let mut acc = 0.0f64;
     let mut env_prob = 0.0;
+    let mut previous_cdf = 0.0f32;
     for (i, &(id, p, area)) in powers.iter().enumerate() {
         acc += p;
-        let prob = (p / total) as f32;
         // The last cdf is exactly 1 so every u in [0, 1) finds a light.
         let cdf = if i + 1 == powers.len() {
             1.0
         } else {
             (acc / total) as f32
         };
+        // The probability the device actually picks with is the gap between stored f32 cdfs, not p / total: for tiny
+        // lights late in the table they differ.
+        let prob = cdf - previous_cdf;
+        previous_cdf = cdf;
         lights.push(GpuLight { id, cdf, prob, area });
         match id >> LIGHT_KIND_SHIFT {
             LIGHT_KIND_ENV => env_prob = prob,
-            LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = prob / area,
+            LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = if prob > 0.0 { prob / area } else { 0.0 },
             _ => {} // punctual lights are never hit, so MIS never asks for their probability
         }
     }

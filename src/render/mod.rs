@@ -360,7 +360,8 @@ impl Renderer {
             width: s.width,
             height: s.height,
             seed: s.seed,
-            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP).min(DEPTH_SAFETY_CAP),
+            // The cap applies to unbounded paths only; an explicit depth is taken as given.
+            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP),
 
             light_count: self.light_count,
             flags: s.estimator.code() << ESTIMATOR_SHIFT
