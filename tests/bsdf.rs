@@ -112,6 +112,35 @@ impl Grid {
     }
 }
 
+/// The device pdf integrated over each of `grid`'s cells (Gauss-Legendre), counting only directions `keep` accepts.
+fn cell_masses(
+    r: &mut Renderer,
+    grid: &Grid,
+    material: u32,
+    wo: Vec3,
+    front: bool,
+    keep: impl Fn(Vec3) -> bool,
+) -> Vec<f64> {
+    let quad = grid.quadrature();
+    let queries: Vec<BsdfQuery> = quad
+        .iter()
+        .map(|(_, w, _)| BsdfQuery {
+            material,
+            wo,
+            x: *w,
+            front,
+        })
+        .collect();
+    let pdfs = r.probe_bsdf(&queries, true, true).unwrap();
+    let mut masses = vec![0f64; grid.s_bins * grid.phi_bins];
+    for ((cell, w, weight), p) in quad.iter().zip(&pdfs) {
+        if keep(*w) {
+            masses[*cell] += (p.pdf * weight) as f64;
+        }
+    }
+    masses
+}
+
 /// The pdf integrates to at most 1, and samples that fail (leave no direction) are no more than the mass it misses,
 /// both within the quadrature's `tolerance`.
 fn assert_mass_matches(what: &str, mass: f64, failed_fraction: f64, tolerance: f64) {
@@ -158,21 +187,7 @@ fn sampled_directions_follow_the_pdf() {
                     failed += 1;
                 }
             }
-            let quad = grid.quadrature();
-            let queries: Vec<BsdfQuery> = quad
-                .iter()
-                .map(|(_, w, _)| BsdfQuery {
-                    material: mi as u32,
-                    wo,
-                    x: *w,
-                    front: true,
-                })
-                .collect();
-            let pdfs = r.probe_bsdf(&queries, true, true).unwrap();
-            let mut expected = vec![0f64; cells];
-            for ((cell, _, weight), p) in quad.iter().zip(&pdfs) {
-                expected[*cell] += (p.pdf * weight) as f64;
-            }
+            let expected = cell_masses(&mut r, &grid, mi as u32, wo, true, |_| true);
             let mass: f64 = expected.iter().sum();
             let what = format!("roughness {} metallic {} at {deg} deg", m.roughness, m.metallic);
             assert_mass_matches(&what, mass, failed as f64 / n as f64, 2e-3);
@@ -485,22 +500,10 @@ fn transmission_follows_the_pdf() {
             }
             let mut expected = vec![0f64; 2 * cells];
             for (offset, grid, up) in [(0, &upper, true), (cells, &lower, false)] {
-                let quad = grid.quadrature();
-                let queries: Vec<BsdfQuery> = quad
-                    .iter()
-                    .map(|(_, w, _)| BsdfQuery {
-                        material: mi as u32,
-                        wo,
-                        x: *w,
-                        front: *front,
-                    })
-                    .collect();
-                let pdfs = r.probe_bsdf(&queries, true, true).unwrap();
-                for ((cell, w, weight), p) in quad.iter().zip(&pdfs) {
-                    // Each grid covers only its own hemisphere.
-                    if (w.z > 0.0) == up {
-                        expected[offset + cell] += (p.pdf * weight) as f64;
-                    }
+                // Each grid covers only its own hemisphere.
+                let part = cell_masses(&mut r, grid, mi as u32, wo, *front, |w| (w.z > 0.0) == up);
+                for (e, m) in expected[offset..offset + cells].iter_mut().zip(part) {
+                    *e += m;
                 }
             }
             let mass: f64 = expected.iter().sum();
