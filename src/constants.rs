@@ -61,6 +61,7 @@ pub const RR_START_BOUNCE: u32 = 3;
 
 /// Random-number dimensions, so each use of randomness has its own stream.
 pub const DIM_PIXEL: u32 = 0;
+pub const DIM_LENS: u32 = 1;
 pub const DIM_LIGHT_PICK: u32 = 2;
 pub const DIM_LIGHT_POINT: u32 = 3;
 pub const DIM_BSDF: u32 = 5;

@@ -78,6 +78,12 @@ struct RenderArgs {
     /// Keeps the environment out of camera rays; it still lights the scene.
     #[arg(long)]
     hide_env: bool,
+    /// Thin-lens aperture radius in scene units (metres for glTF); 0, the default, is a pinhole.
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    aperture: f32,
+    /// Distance to the plane in focus along the view direction (default: the camera's distance to the scene's centre).
+    #[arg(long, allow_hyphen_values = true)]
+    focus_distance: Option<f32>,
     /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
     #[arg(long)]
     no_energy_compensation: bool,
@@ -153,6 +159,8 @@ fn render(args: RenderArgs) -> Result<()> {
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
         hide_environment: args.hide_env,
+        aperture: args.aperture,
+        focus_distance: args.focus_distance,
     };
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(

@@ -80,3 +80,81 @@ fn yfov_is_vertical_and_the_width_follows_the_aspect_ratio() {
         }
     }
 }
+
+/// Emitters whose edge runs down the image centre: a near one (z = -2) in the top half, a far one (z = -8) below.
+fn two_edges() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let m = b.material("emitter", [0.0; 3], [1.0; 3], false);
+    b.quad(
+        "near",
+        [[-5.0, 0.0, -2.0], [0.0, 0.0, -2.0], [0.0, 5.0, -2.0], [-5.0, 5.0, -2.0]],
+        m,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.quad(
+        "far",
+        [
+            [-20.0, -20.0, -8.0],
+            [0.0, -20.0, -8.0],
+            [0.0, 0.0, -8.0],
+            [-20.0, 0.0, -8.0],
+        ],
+        m,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 60.0);
+    b
+}
+
+fn render_lens(aperture: f32, focus: Option<f32>) -> pathwave::Film {
+    let (_dir, path) = common::write_temp(&two_edges(), "edges.gltf");
+    let mut r = common::renderer(&path);
+    let mut s = common::settings(64, 64, 256, 3);
+    s.max_depth = Some(0);
+    s.aperture = aperture;
+    s.focus_distance = focus;
+    common::render(&mut r, &s)
+}
+
+/// Pixels of row `y` strictly between 10 % and 90 % of full brightness: the width of the edge's blur.
+fn edge_width(film: &pathwave::Film, y: usize) -> usize {
+    let w = film.width as usize;
+    film.mean()[y * w..(y + 1) * w]
+        .iter()
+        .filter(|p| p[0] > 0.1 && p[0] < 0.9)
+        .count()
+}
+
+#[test]
+fn aperture_zero_is_the_pinhole_byte_for_byte() {
+    let pinhole = render_lens(0.0, None);
+    assert_eq!(
+        render_lens(0.0, Some(2.0)).sum,
+        pinhole.sum,
+        "aperture 0 must not depend on the focus distance"
+    );
+    assert!(
+        render_lens(0.2, Some(2.0)).sum != pinhole.sum,
+        "a real aperture must change the image"
+    );
+}
+
+#[test]
+fn the_plane_in_focus_is_sharp_and_a_far_one_is_blurred() {
+    // Aperture radius 0.2 focused at 2: a point at 8 spreads over a disk of radius 0.2 * (8 - 2) / 8 = 0.15 at the
+    // focus plane, 0.075 rad, about 4 pixels of this 64-pixel, 60-degree image.
+    let film = render_lens(0.2, Some(2.0));
+    let (near, far) = (edge_width(&film, 16), edge_width(&film, 48));
+    let pinhole = render_lens(0.0, None);
+    let (near_pin, far_pin) = (edge_width(&pinhole, 16), edge_width(&pinhole, 48));
+    eprintln!("edge widths (pixels between 10 % and 90 %): in focus {near}, far {far}; pinhole {near_pin}, {far_pin}");
+    assert!(
+        near <= 1,
+        "the plane at the focus distance should stay sharp, edge width {near}"
+    );
+    assert!(
+        far >= 4,
+        "a plane four times farther should blur over several pixels, edge width {far}"
+    );
+    assert!(near_pin <= 1 && far_pin <= 1, "a pinhole keeps both sharp");
+}

@@ -70,8 +70,8 @@ struct Counters {
 struct Frame {
     vec4 cam_origin;   // w: tan(yfov / 2)
     vec4 cam_right;    // w: aspect (width / height)
-    vec4 cam_up;       // w unused
-    vec4 cam_forward;  // w unused
+        vec4 cam_up;       // w: thin-lens aperture radius (0: a pinhole)
+    vec4 cam_forward;  // w: focus distance along the view direction
     uint width;
     uint height;
     uint sample_index;

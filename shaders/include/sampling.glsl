@@ -13,8 +13,8 @@ void basis(vec3 n, out vec3 t, out vec3 b) {
     b = vec3(c, s + n.y * n.y * a, -n.y);
 }
 
-// Cosine-weighted hemisphere around n (Malley's method on a concentric disk).
-vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
+// Uniform point on the unit disk (Shirley-Chiu concentric map: neighbouring samples stay neighbours).
+vec2 sample_concentric_disk(vec2 u) {
     vec2 d = 2.0 * u - 1.0;
     float r, phi;
     if (d.x == 0.0 && d.y == 0.0) {
@@ -24,7 +24,12 @@ vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
     } else {
         r = d.y; phi = (PI / 2.0) - (PI / 4.0) * (d.x / d.y);
     }
-    vec2 disk = r * vec2(cos(phi), sin(phi));
+    return r * vec2(cos(phi), sin(phi));
+}
+
+// Cosine-weighted hemisphere around n (Malley's method on a concentric disk).
+vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
+    vec2 disk = sample_concentric_disk(u);
     float z = sqrt(max(0.0, 1.0 - dot(disk, disk)));
     vec3 t, b;
     basis(n, t, b);

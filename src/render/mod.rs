@@ -48,6 +48,11 @@ pub struct RenderSettings {
     pub energy_compensation: bool,
     /// Keep the environment out of camera rays (it still lights the scene).
     pub hide_environment: bool,
+    /// Thin-lens aperture radius in scene units; 0 is a pinhole (everything sharp).
+    pub aperture: f32,
+    /// Distance from the camera to the plane in focus, along the view direction; None: the camera's distance to
+    /// the scene's centre.
+    pub focus_distance: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -61,6 +66,8 @@ impl Default for RenderSettings {
             estimator: Estimator::Mis,
             energy_compensation: true,
             hide_environment: false,
+            aperture: 0.0,
+            focus_distance: None,
         }
     }
 }
@@ -206,6 +213,8 @@ pub struct Renderer {
     env_prob: f32,
     env_size: (u32, u32),
     env_rotation: f32,
+    /// The camera's distance to the scene's centre along its view direction: the focus when none is given.
+    default_focus: f32,
     camera: crate::scene::Camera,
     pub warnings: Vec<String>,
     ctx: Context,
@@ -261,6 +270,15 @@ impl Renderer {
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
+            default_focus: {
+                let cam = scene.camera_or_default();
+                let (lo, hi) = if scene.triangles.is_empty() {
+                    (glam::Vec3::ZERO, glam::Vec3::ZERO)
+                } else {
+                    scene.bounds()
+                };
+                ((lo + hi) * 0.5 - cam.origin()).dot(cam.basis().2).max(1e-3)
+            },
             camera: scene.camera_or_default(),
             warnings,
             ctx,
@@ -355,8 +373,13 @@ impl Renderer {
         Frame {
             cam_origin: [o.x, o.y, o.z, (self.camera.yfov * 0.5).tan()],
             cam_right: [right.x, right.y, right.z, s.width as f32 / s.height as f32],
-            cam_up: [up.x, up.y, up.z, 0.0],
-            cam_forward: [forward.x, forward.y, forward.z, 0.0],
+            cam_up: [up.x, up.y, up.z, s.aperture],
+            cam_forward: [
+                forward.x,
+                forward.y,
+                forward.z,
+                s.focus_distance.unwrap_or(self.default_focus),
+            ],
             width: s.width,
             height: s.height,
             seed: s.seed,
@@ -394,6 +417,13 @@ impl Renderer {
         }
         if s.spp == 0 {
             return Err(Error::Settings("samples per pixel must be at least 1".into()));
+        }
+        if !(s.aperture.is_finite() && s.aperture >= 0.0)
+            || s.focus_distance.is_some_and(|f| !(f.is_finite() && f > 0.0))
+        {
+            return Err(Error::Settings(
+                "the aperture must be >= 0 and the focus distance > 0".into(),
+            ));
         }
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
