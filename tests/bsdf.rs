@@ -141,6 +141,41 @@ fn cell_masses(
     masses
 }
 
+/// One non-delta sample agrees with eval and pdf: finite, non-negative, its pdf is pdf(wi), its weight is
+/// f |cos| / pdf, and (when it reflects) f is reciprocal.
+fn assert_sample_consistent(what: &str, s: &BsdfProbe) {
+    let close = |a: f32, b: f32| (a - b).abs() <= 2e-3 * a.abs().max(b.abs()) + 1e-6;
+    let what = format!("{what} wi {}", s.wi);
+    assert!(
+        s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(),
+        "{what}: non-finite sample {s:?}"
+    );
+    assert!(s.weight.min_element() >= 0.0, "{what}: negative weight {}", s.weight);
+    assert!(
+        close(s.pdf, s.pdf_wi),
+        "{what}: sample pdf {} but pdf() says {}",
+        s.pdf,
+        s.pdf_wi
+    );
+    let expect = s.eval * s.wi.z.abs() / s.pdf;
+    for c in 0..3 {
+        assert!(
+            close(s.weight[c], expect[c]),
+            "{what}: weight {} but eval |cos| / pdf = {}",
+            s.weight,
+            expect
+        );
+        if s.wi.z > 0.0 {
+            assert!(
+                close(s.eval[c], s.eval_reverse[c]),
+                "{what}: f(wo, wi) {} != f(wi, wo) {}",
+                s.eval,
+                s.eval_reverse
+            );
+        }
+    }
+}
+
 /// The pdf integrates to at most 1, and samples that fail (leave no direction) are no more than the mass it misses,
 /// both within the quadrature's `tolerance`.
 fn assert_mass_matches(what: &str, mass: f64, failed_fraction: f64, tolerance: f64) {
@@ -236,7 +271,6 @@ fn eval_pdf_and_sample_agree_and_reflection_is_reciprocal() {
         }
     }
     let mut r = renderer_with(materials.clone());
-    let close = |a: f32, b: f32| (a - b).abs() <= 2e-3 * a.abs().max(b.abs()) + 1e-6;
     for (mi, m) in materials.iter().enumerate() {
         for &deg in &INCIDENT_DEG {
             let wo = wo_at(deg);
@@ -244,33 +278,12 @@ fn eval_pdf_and_sample_agree_and_reflection_is_reciprocal() {
                 if !s.ok {
                     continue;
                 }
-                let what = format!("roughness {} metallic {} wo {wo} wi {}", m.roughness, m.metallic, s.wi);
-                assert!(
-                    s.wi.is_finite() && s.weight.is_finite() && s.pdf.is_finite(),
-                    "{what}: non-finite sample {s:?}"
+                // Every sample of these opaque, rough materials reflects, so the helper checks reciprocity for all.
+                assert!(s.wi.z > 0.0 && !s.delta, "an opaque rough material must reflect: {s:?}");
+                assert_sample_consistent(
+                    &format!("roughness {} metallic {} wo {wo}", m.roughness, m.metallic),
+                    &s,
                 );
-                assert!(s.weight.min_element() >= 0.0, "{what}: negative weight");
-                assert!(
-                    close(s.pdf, s.pdf_wi),
-                    "{what}: sample pdf {} but pdf() says {}",
-                    s.pdf,
-                    s.pdf_wi
-                );
-                let expect = s.eval * s.wi.z / s.pdf;
-                for c in 0..3 {
-                    assert!(
-                        close(s.weight[c], expect[c]),
-                        "{what}: weight {} but eval cos / pdf = {}",
-                        s.weight,
-                        expect
-                    );
-                    assert!(
-                        close(s.eval[c], s.eval_reverse[c]),
-                        "{what}: f(wo, wi) {} != f(wi, wo) {}",
-                        s.eval,
-                        s.eval_reverse
-                    );
-                }
             }
         }
     }
@@ -547,7 +560,6 @@ fn glass_eval_pdf_and_sample_agree_and_smooth_glass_conserves_energy() {
         .flat_map(|&r| [glass(r, 1.5, false), glass(r, 1.5, true)])
         .collect();
     let mut r = renderer_with(materials.clone());
-    let close = |a: f32, b: f32| (a - b).abs() <= 2e-3 * a.abs().max(b.abs()) + 1e-6;
     for (mi, m) in materials.iter().enumerate() {
         for &deg in &INCIDENT_DEG {
             for front in [true, false] {
@@ -555,34 +567,10 @@ fn glass_eval_pdf_and_sample_agree_and_smooth_glass_conserves_energy() {
                 let samples = sample_side(&mut r, mi as u32, wo, front, 20_000, 3 + mi as u64, true);
                 for smp in samples.iter().filter(|s| s.ok && !s.delta) {
                     let what = format!(
-                        "glass roughness {} thin {} front {front} wo {wo} wi {}",
-                        m.roughness, m.thin_walled, smp.wi
+                        "glass roughness {} thin {} front {front} wo {wo}",
+                        m.roughness, m.thin_walled
                     );
-                    assert!(
-                        smp.weight.is_finite() && smp.pdf.is_finite() && smp.weight.min_element() >= 0.0,
-                        "{what}: {smp:?}"
-                    );
-                    assert!(
-                        close(smp.pdf, smp.pdf_wi),
-                        "{what}: sample pdf {} but pdf() says {}",
-                        smp.pdf,
-                        smp.pdf_wi
-                    );
-                    let expect = smp.eval * smp.wi.z.abs() / smp.pdf;
-                    for c in 0..3 {
-                        assert!(
-                            close(smp.weight[c], expect[c]),
-                            "{what}: weight {} but eval |cos| / pdf = {}",
-                            smp.weight,
-                            expect
-                        );
-                        if smp.wi.z > 0.0 {
-                            assert!(
-                                close(smp.eval[c], smp.eval_reverse[c]),
-                                "{what}: reflection is not reciprocal"
-                            );
-                        }
-                    }
+                    assert_sample_consistent(&what, smp);
                 }
                 if m.roughness == 0.0 {
                     // A smooth interface only reflects or refracts: every sample is a delta, and R + T = 1 (with the
