@@ -14,6 +14,7 @@ fn main() {
         ("material-grid.gltf", scenes::material_grid()),
         ("glass.gltf", scenes::glass()),
         ("punctual-lights.gltf", scenes::punctual_lights()),
+        ("textured.gltf", scenes::textured()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

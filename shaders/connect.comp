@@ -2,6 +2,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
+#include "rng.glsl"
 #include "traverse.glsl"
 
 void main() {
@@ -10,7 +11,8 @@ void main() {
     uint path = queues[QUEUE_SHADOW * frame.path_capacity + i];
     vec4 o = path_get(PATH_SHADOW_ORIGIN, path);
     vec3 d = path_get(PATH_SHADOW_DIR, path).xyz;
-    Hit h = trace(o.xyz, d, 0.0, o.w, true);
+    uint key = pcg4d(uvec4(path_pixel(path), path_sample(path), (frame.bounce << 8u) | DIM_SHADOW_ALPHA, frame.seed)).x;
+    Hit h = trace(o.xyz, d, 0.0, o.w, true, key);
     if (h.tri == NO_HIT) {
         vec4 l = path_get(PATH_RADIANCE, path);
         path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));

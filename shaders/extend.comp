@@ -2,6 +2,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
+#include "rng.glsl"
 #include "traverse.glsl"
 
 void main() {
@@ -11,6 +12,7 @@ void main() {
     uint path = queues[cur * frame.path_capacity + i];
     vec3 o = path_get(PATH_ORIGIN, path).xyz;
     vec3 d = path_get(PATH_DIR, path).xyz;
-    Hit h = trace(o, d, 0.0, 3.0e38, false);
+    uint key = pcg4d(uvec4(path_pixel(path), path_sample(path), (frame.bounce << 8u) | DIM_ALPHA, frame.seed)).x;
+    Hit h = trace(o, d, 0.0, 3.0e38, false, key);
     path_set(PATH_HIT, path, vec4(h.t, uintBitsToFloat(h.tri), h.uv));
 }

@@ -14,7 +14,7 @@ void main() {
     float tmin = uintBitsToFloat(probe[8u * k + 3u]);
     vec3 d = vec3(uintBitsToFloat(probe[8u * k + 4u]), uintBitsToFloat(probe[8u * k + 5u]), uintBitsToFloat(probe[8u * k + 6u]));
     float tmax = uintBitsToFloat(probe[8u * k + 7u]);
-    Hit h = trace(o, d, tmin, tmax, frame.bounce == 1u);
+    Hit h = trace(o, d, tmin, tmax, frame.bounce == 1u, 0u);
     uint base = 8u * n + 4u * k;
     probe[base] = floatBitsToUint(h.t);
     probe[base + 1u] = h.tri;

@@ -64,13 +64,14 @@ void main() {
 
     TriVerts tv = tri_verts[tri];
     TriShading ts = tri_shading[tri];
-    Material m = materials[floatBitsToUint(tv.v0.w)];
     vec2 uv = hit.zw;
+    Material m = material_at(materials[floatBitsToUint(tv.v0.w)], tri, uv);
     vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
     vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
     bool front = dot(ng, ray_d) < 0.0;
     vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
     vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
+    ns = normal_mapped(m, tri, uv, ns);
     if (dot(ns, n_in) < 0.0) ns = -ns;
 
     // Emission seen by this ray, weighted against the chance NEE would have found the same point.
@@ -105,16 +106,16 @@ void main() {
     basis(ns, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
-        // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
+    // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
     if (frame.light_count > 0u) {
         LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
-                bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
+        bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
         if (wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
-                        bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
+            bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
             vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {

@@ -18,7 +18,31 @@ pub const BINDING_PROBE: u32 = 9;
 pub const BINDING_ENERGY: u32 = 10;
 pub const BINDING_ENV: u32 = 11;
 pub const BINDING_PUNCTUAL: u32 = 12;
-pub const BINDING_COUNT: u32 = 13;
+pub const BINDING_TEXTURES: u32 = 13;
+pub const BINDING_TEXELS: u32 = 14;
+pub const BINDING_TRI_TEXCOORDS: u32 = 15;
+pub const BINDING_TRI_TANGENTS: u32 = 16;
+pub const BINDING_COUNT: u32 = 17;
+
+/// Material texture slots (Material.textures[]).
+pub const TEX_BASE_COLOR: u32 = 0;
+pub const TEX_METALLIC_ROUGHNESS: u32 = 1;
+pub const TEX_NORMAL: u32 = 2;
+pub const TEX_EMISSIVE: u32 = 3;
+pub const TEX_SLOTS: u32 = 4;
+/// A slot without a texture.
+pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
+/// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_CLAMP: u32 = 1;
+pub const WRAP_MIRROR: u32 = 2;
+pub const TEXTURE_WRAP_T_SHIFT: u32 = 2;
+pub const TEXTURE_NEAREST: u32 = 16;
+
+/// Material.alpha.x: glTF alphaMode.
+pub const ALPHA_OPAQUE: u32 = 0;
+pub const ALPHA_MASK: u32 = 1;
+pub const ALPHA_BLEND: u32 = 2;
 
 /// Microfacet energy tables: ENERGY_RES x ENERGY_RES cells over (cos theta, perceptual roughness), each the mean of
 /// ENERGY_SAMPLES visible-normal samples. Layout of the energy buffer, in floats: E1 grid, E2 grid (roughness-major),
@@ -67,6 +91,9 @@ pub const DIM_LIGHT_POINT: u32 = 3;
 pub const DIM_BSDF: u32 = 5;
 pub const DIM_BSDF_LOBE: u32 = 6;
 pub const DIM_RR: u32 = 7;
+/// Stochastic transparency (alphaMode BLEND) of extension and shadow rays.
+pub const DIM_ALPHA: u32 = 8;
+pub const DIM_SHADOW_ALPHA: u32 = 9;
 
 /// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue.
 pub const QUEUE_SHADOW: u32 = 2;

@@ -22,7 +22,8 @@ impl BvhNode {
     }
 }
 
-/// 48 bytes: vertex 0 and two edges; `v0[3]` holds the material index bits.
+/// 48 bytes: vertex 0 and two edges; `v0[3]` holds the material index bits, `e1[3]` is 1 when the material is
+/// alpha-tested (rays may pass through).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TriVerts {
@@ -40,8 +41,9 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 96 bytes. See `Material` in layout.glsl: base colour, emission (w: double-sided),
-/// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption.
+/// 240 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption,
+/// alpha (mode bits, cutoff, normal scale), then one texture slot per TEX_*.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -51,6 +53,45 @@ pub struct GpuMaterial {
     pub specular_color: [f32; 4],
     pub transmission: [f32; 4],
     pub attenuation: [f32; 4],
+    pub alpha: [f32; 4],
+    pub textures: [TextureSlot; 4],
+}
+
+/// 32 bytes: a material's use of a texture. uv' = (u . (uv, 1), v . (uv, 1)); `u[3]` holds the texture index bits
+/// (TEXTURE_NONE: unused slot), `v[3]` the TEXCOORD set bits.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TextureSlot {
+    pub u: [f32; 4],
+    pub v: [f32; 4],
+}
+
+/// 16 bytes: where a texture's RGBA8 texels start in the texel buffer, its size, and TEXTURE_*/WRAP_* flags.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTexture {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub flags: u32,
+}
+
+/// 48 bytes per triangle: each vertex's TEXCOORD_0 (xy) and TEXCOORD_1 (zw).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriTexcoords {
+    pub t0: [f32; 4],
+    pub t1: [f32; 4],
+    pub t2: [f32; 4],
+}
+
+/// 48 bytes per triangle: each vertex's tangent (xyz) and bitangent sign (w).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriTangents {
+    pub t0: [f32; 4],
+    pub t1: [f32; 4],
+    pub t2: [f32; 4],
 }
 
 /// 16 bytes, one per emissive triangle.
@@ -113,7 +154,11 @@ pub struct Frame {
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 96);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);
+const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);
+const _: () = assert!(std::mem::size_of::<TriTexcoords>() == 48);
+const _: () = assert!(std::mem::size_of::<TriTangents>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<Counters>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuPunctual>() == 48);

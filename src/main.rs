@@ -220,6 +220,12 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
         packed.lights.len(),
         packed.total_light_power
     );
+    println!(
+        "textures    {} ({} images, {:.2} MiB of texels)",
+        scene.textures.len(),
+        scene.images.len(),
+        (packed.texels.len() * 4) as f64 / (1 << 20) as f64
+    );
     println!("cameras     {}", scene.camera_count);
     println!(
         "bvh         {} nodes ({} leaves), depth {}, at most {} triangles per leaf, SAH cost {:.2}, {} bytes, built in {:.1} ms",

@@ -221,7 +221,7 @@ fn what_gltf_refuses_but_gltf_2_allows_loads() {
         "mesh 'm': NORMAL accessor 1 has no bufferView (all zeros); face normals are used",
         "mesh 'm': POSITION accessor 3 has no bufferView (all zeros); the primitive is skipped",
         "mesh 'm': indices accessor 2 has no bufferView (all zeros); the primitive is skipped",
-        "baseColorTexture is ignored",
+        "baseColorTexture uses texture 0 whose image is not PNG or JPEG in core glTF; it is ignored",
         "animations are ignored",
     ] {
         assert!(

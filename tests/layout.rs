@@ -1,5 +1,8 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
-use pathwave::layout::{BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, TriShading, TriVerts};
+use pathwave::layout::{
+    BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriShading, TriTangents,
+    TriTexcoords, TriVerts,
+};
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
 /// The push-constant size every Vulkan implementation guarantees (maxPushConstantsSize >= 128).
@@ -43,7 +46,11 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(BvhNode => "BvhNode", [lo, hi]),
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
-        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation]),
+        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, textures]),
+        mirror!(TextureSlot => "TextureSlot", [u, v]),
+        mirror!(GpuTexture => "TextureInfo", [offset, width, height, flags]),
+        mirror!(TriTexcoords => "TriTexcoords", [t0, t1, t2]),
+        mirror!(TriTangents => "TriTangents", [t0, t1, t2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),

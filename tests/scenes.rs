@@ -11,6 +11,7 @@ fn scene_files_match_their_generator() {
         ("material-grid.gltf", common::scenes::material_grid()),
         ("glass.gltf", common::scenes::glass()),
         ("punctual-lights.gltf", common::scenes::punctual_lights()),
+        ("textured.gltf", common::scenes::textured()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(

@@ -163,7 +163,7 @@ vec2 lobe_probabilities(Bsdf b, vec3 wo) {
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
     float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
-        if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
+    if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
         diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
     }
     float glass = (1.0 - b.metallic) * b.transmission;

@@ -12,7 +12,8 @@ struct BvhNode {
     vec4 hi;
 };
 
-// 48 bytes: precomputed edges for Moller-Trumbore. v0.w = material index (uint bits).
+// 48 bytes: precomputed edges for Moller-Trumbore. v0.w = material index (uint bits); e1.w = 1 when the material
+// is alpha-tested (traversal evaluates its alpha at each candidate hit), else 0.
 struct TriVerts {
     vec4 v0;
     vec4 e1;
@@ -27,14 +28,45 @@ struct TriShading {
     vec4 n2;
 };
 
-// 96 bytes, the glTF material as the BSDF reads it.
+// 32 bytes: a material's use of a texture. The texture is sampled at (dot(u.xyz, vec3(uv, 1)), dot(v.xyz, vec3(uv, 1)))
+// (KHR_texture_transform as an affine map); u.w: texture index (uint bits, TEXTURE_NONE if unused), v.w: TEXCOORD set.
+struct TextureSlot {
+    vec4 u;
+    vec4 v;
+};
+
+// 240 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
-    vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity; not used yet)
+    vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
     vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
     vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), zw unused
     vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused
+    vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w unused
+    TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
+};
+
+// 16 bytes: a texture's texels[offset ..] (RGBA8, row 0 at the top), its size, and TEXTURE_* / WRAP_* flags.
+struct TextureInfo {
+    uint offset;
+    uint width;
+    uint height;
+    uint flags;
+};
+
+// 48 bytes per triangle: per vertex, TEXCOORD_0 in xy and TEXCOORD_1 in zw.
+struct TriTexcoords {
+    vec4 t0;
+    vec4 t1;
+    vec4 t2;
+};
+
+// 48 bytes per triangle: per vertex, the tangent in xyz and the bitangent's sign in w (glTF: b = cross(n, t) * w).
+struct TriTangents {
+    vec4 t0;
+    vec4 t1;
+    vec4 t2;
 };
 
 // 16 bytes, one per light (emissive triangle or environment); cdf is the inclusive upper end. id: the kind in
@@ -70,7 +102,7 @@ struct Counters {
 struct Frame {
     vec4 cam_origin;   // w: tan(yfov / 2)
     vec4 cam_right;    // w: aspect (width / height)
-        vec4 cam_up;       // w: thin-lens aperture radius (0: a pinhole)
+    vec4 cam_up;       // w: thin-lens aperture radius (0: a pinhole)
     vec4 cam_forward;  // w: focus distance along the view direction
     uint width;
     uint height;
@@ -78,7 +110,7 @@ struct Frame {
     uint seed;
     uint bounce;
     uint max_depth;
-        uint pass_pixels;  // pixels per sample in this pass: path i is pixel pixel_offset + i % pass_pixels,
+    uint pass_pixels;  // pixels per sample in this pass: path i is pixel pixel_offset + i % pass_pixels,
                        // sample sample_index + i / pass_pixels
     uint pixel_offset;
     uint path_count;
@@ -111,6 +143,12 @@ layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]
 // (env_height + 1 values), then each row's conditional cdf (env_width + 1 values), all inclusive-start at 0.
 layout(std430, set = 0, binding = BINDING_ENV) readonly buffer Env { float env[]; };
 layout(std430, set = 0, binding = BINDING_PUNCTUAL) readonly buffer Punctuals { PunctualLight punctuals[]; };
+// Textures are texels in one storage buffer, not images: lavapipe has no descriptor indexing, and a buffer works
+// for any number and size of textures on every Vulkan device (filtering and wrapping are done in textures.glsl).
+layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { TextureInfo textures[]; };
+layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { uint texels[]; };
+layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexcoordsBuf { TriTexcoords tri_texcoords[]; };
+layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
 
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }

@@ -3,6 +3,7 @@
 #define LIGHTS_GLSL
 
 #include "environment.glsl"
+#include "surface.glsl"
 
 // Smallest index whose inclusive cdf exceeds u; the host makes the last cdf exactly 1.
 uint pick_light(float u) {
@@ -19,7 +20,7 @@ struct LightSample {
     vec3 wi;        // towards the light
     float dist;     // to the light's point; effectively infinite for the environment
     vec3 radiance;  // arriving along -wi
-        float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
+    float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
     bool delta;     // a punctual light: pdf is only the selection probability, and no BSDF sample can find it
 };
 
@@ -29,7 +30,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     ls.pdf = 0.0;
     ls.radiance = vec3(0.0);
     ls.wi = vec3(0.0, 0.0, 1.0);
-        ls.dist = 0.0;
+    ls.dist = 0.0;
     ls.delta = false;
     Light l = lights[pick_light(u_pick)];
     if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
@@ -71,7 +72,8 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
         ls.pdf = l.prob * pdf_dir;
         return ls;
     }
-    TriVerts lv = tri_verts[l.id & LIGHT_INDEX_MASK];
+    uint tri = l.id & LIGHT_INDEX_MASK;
+    TriVerts lv = tri_verts[tri];
     vec2 b = sample_triangle(u_point);
     vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
     vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));
@@ -85,7 +87,8 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     // Counter-clockwise faces emit; both do when the material is double-sided.
     bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
     if (!faces) return ls;
-    ls.radiance = lm.emission.rgb;
+    // Emissive textures and cut-out or blended parts, as a ray hitting the point would find them.
+    ls.radiance = material_at(lm, tri, b).emission.rgb * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
     ls.pdf = l.prob / l.area * dist2 / abs(cos_l);
     return ls;
 }

@@ -2,6 +2,8 @@
 #ifndef TRAVERSE_GLSL
 #define TRAVERSE_GLSL
 
+#include "surface.glsl"
+
 struct Hit {
     float t;
     uint tri;
@@ -45,8 +47,9 @@ vec3 safe_inverse(vec3 d) {
     return vec3(d.x != 0.0 ? 1.0 / d.x : big, d.y != 0.0 ? 1.0 / d.y : big, d.z != 0.0 ? 1.0 / d.z : big);
 }
 
-// any_hit: stop at the first intersection (shadow rays).
-Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit) {
+// any_hit: stop at the first intersection (shadow rays). alpha_key: the ray's hash for stochastic transparency
+// (alphaMode BLEND); alpha-tested triangles the ray passes through are not hits.
+Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
     Hit hit;
     hit.t = tmax;
     hit.tri = NO_HIT;
@@ -68,7 +71,7 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit) {
             for (uint i = first; i < first + count; ++i) {
                 vec2 uv;
                 float t = intersect_triangle(i, o, d, tmin, hit.t, uv);
-                if (t >= 0.0) {
+                if (t >= 0.0 && (tri_verts[i].e1.w == 0.0 || alpha_stops(i, uv, alpha_key))) {
                     hit.t = t;
                     hit.tri = i;
                     hit.uv = uv;

@@ -1,8 +1,10 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
-use crate::layout::{GpuLight, GpuMaterial, GpuPunctual, TriShading, TriVerts};
-use crate::scene::{PunctualKind, Scene};
+use crate::layout::{
+    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriShading, TriTangents, TriTexcoords, TriVerts,
+};
+use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, Wrap};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -18,19 +20,112 @@ pub struct PackedScene {
     /// The environment's device buffer (see layout.glsl), empty without one.
     pub env_data: Vec<f32>,
     pub punctual: Vec<GpuPunctual>,
+    pub textures: Vec<GpuTexture>,
+    /// RGBA8 texels of every image, one u32 each (red in the low byte), as `TextureInfo.offset` indexes them.
+    pub texels: Vec<u32>,
+    /// Empty when no material has a texture (the shaders then never read them).
+    pub tri_texcoords: Vec<TriTexcoords>,
+    /// Empty when no material has a normal map.
+    pub tri_tangents: Vec<TriTangents>,
 }
 
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
 
+/// Mean emitted radiance of a material: the factor times its emissive texture's average (decoded from sRGB).
+pub fn mean_emission(scene: &Scene, m: &Material) -> glam::Vec3 {
+    match m.emissive_texture {
+        Some(r) => {
+            m.emission
+                * scene.images[scene.textures[r.texture].image]
+                    .average_linear()
+                    .truncate()
+        }
+        None => m.emission,
+    }
+}
+
 /// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
 pub fn emitted_power(scene: &Scene, tri: usize) -> f64 {
     let m = &scene.materials[scene.material_of[tri] as usize];
+    let e = mean_emission(scene, m);
     let [a, b, c] = scene.triangles[tri];
     let area = 0.5 * (b - a).cross(c - a).length() as f64;
     let sides = if m.double_sided { 2.0 } else { 1.0 };
-    (m.emission.x + m.emission.y + m.emission.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
+    (e.x + e.y + e.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
+}
+
+fn slot(r: Option<TextureRef>) -> TextureSlot {
+    match r {
+        Some(r) => TextureSlot {
+            u: [
+                r.transform[0][0],
+                r.transform[0][1],
+                r.transform[0][2],
+                f32::from_bits(r.texture as u32),
+            ],
+            v: [
+                r.transform[1][0],
+                r.transform[1][1],
+                r.transform[1][2],
+                f32::from_bits(r.tex_coord),
+            ],
+        },
+        None => TextureSlot {
+            u: [1.0, 0.0, 0.0, f32::from_bits(TEXTURE_NONE)],
+            v: [0.0, 1.0, 0.0, f32::from_bits(0)],
+        },
+    }
+}
+
+fn gpu_material(m: &Material) -> GpuMaterial {
+    let (mode, cutoff) = match m.alpha_mode {
+        AlphaMode::Opaque => (ALPHA_OPAQUE, 0.0),
+        AlphaMode::Mask(c) => (ALPHA_MASK, c),
+        AlphaMode::Blend => (ALPHA_BLEND, 0.0),
+    };
+    GpuMaterial {
+        base_color: v4(m.base_color, m.alpha),
+        emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
+        params: [m.metallic, m.roughness, m.ior, m.specular],
+        specular_color: v4(m.specular_color, 0.0),
+        transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
+        attenuation: v4(m.attenuation, 0.0),
+        alpha: [f32::from_bits(mode), cutoff, m.normal_scale, 0.0],
+        textures: m.texture_refs().map(slot),
+    }
+}
+
+/// The texture table and every image's texels, each image once however many textures share it.
+fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
+    let mut offsets = Vec::with_capacity(scene.images.len());
+    let mut texels = Vec::new();
+    for image in &scene.images {
+        offsets.push(texels.len() as u32);
+        texels.extend(image.texels.iter().map(|t| u32::from_le_bytes(*t)));
+    }
+    let wrap = |w: Wrap| match w {
+        Wrap::Repeat => WRAP_REPEAT,
+        Wrap::ClampToEdge => WRAP_CLAMP,
+        Wrap::MirroredRepeat => WRAP_MIRROR,
+    };
+    let textures = scene
+        .textures
+        .iter()
+        .map(|t| {
+            let image = &scene.images[t.image];
+            GpuTexture {
+                offset: offsets[t.image],
+                width: image.width,
+                height: image.height,
+                flags: wrap(t.wrap_s)
+                    | wrap(t.wrap_t) << TEXTURE_WRAP_T_SHIFT
+                    | if t.nearest { TEXTURE_NEAREST } else { 0 },
+            }
+        })
+        .collect();
+    (textures, texels)
 }
 
 pub fn pack(scene: &Scene) -> PackedScene {
@@ -38,6 +133,13 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let n = scene.triangles.len();
     let mut tri_verts = Vec::with_capacity(n);
     let mut tri_shading = Vec::with_capacity(n);
+    let textured = scene
+        .materials
+        .iter()
+        .any(|m| m.texture_refs().iter().any(Option::is_some));
+    let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
+    let mut tri_texcoords = Vec::with_capacity(if textured { n } else { 0 });
+    let mut tri_tangents = Vec::with_capacity(if normal_mapped { n } else { 0 });
     // (light id, power, area)
     let mut powers: Vec<(u32, f64, f32)> = Vec::new();
     for (slot, &orig) in bvh.order.iter().enumerate() {
@@ -45,11 +147,20 @@ pub fn pack(scene: &Scene) -> PackedScene {
         let [a, b, c] = scene.triangles[orig];
         let [na, nb, nc] = scene.normals[orig];
         let material = scene.material_of[orig];
+        let alpha_tested = scene.materials[material as usize].alpha_tested();
         tri_verts.push(TriVerts {
             v0: v4(a, f32::from_bits(material)),
-            e1: v4(b - a, 0.0),
+            e1: v4(b - a, if alpha_tested { 1.0 } else { 0.0 }),
             e2: v4(c - a, 0.0),
         });
+        if textured {
+            let [t0, t1, t2] = scene.texcoords[orig].map(|t| t.to_array());
+            tri_texcoords.push(TriTexcoords { t0, t1, t2 });
+        }
+        if normal_mapped {
+            let [t0, t1, t2] = scene.tangents[orig].map(|t| t.to_array());
+            tri_tangents.push(TriTangents { t0, t1, t2 });
+        }
         let area = 0.5 * (b - a).cross(c - a).length();
         tri_shading.push(TriShading {
             n0: v4(na, 0.0),
@@ -120,18 +231,8 @@ pub fn pack(scene: &Scene) -> PackedScene {
             _ => {} // punctual lights are never hit, so MIS never asks for their probability
         }
     }
-    let materials = scene
-        .materials
-        .iter()
-        .map(|m| GpuMaterial {
-            base_color: v4(m.base_color, 1.0),
-            emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
-            params: [m.metallic, m.roughness, m.ior, m.specular],
-            specular_color: v4(m.specular_color, 0.0),
-            transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
-            attenuation: v4(m.attenuation, 0.0),
-        })
-        .collect();
+    let materials = scene.materials.iter().map(gpu_material).collect();
+    let (textures, texels) = pack_textures(scene);
     let env_data = scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default();
     PackedScene {
         bvh,
@@ -143,5 +244,9 @@ pub fn pack(scene: &Scene) -> PackedScene {
         env_prob,
         env_data,
         punctual,
+        textures,
+        texels,
+        tri_texcoords,
+        tri_tangents,
     }
 }

@@ -199,6 +199,10 @@ struct SceneBuffers {
     lights: Buffer,
     env: Buffer,
     punctual: Buffer,
+    textures: Buffer,
+    texels: Buffer,
+    tri_texcoords: Buffer,
+    tri_tangents: Buffer,
 }
 
 /// A scene uploaded to one device, ready to render any number of images.
@@ -249,14 +253,31 @@ impl Renderer {
                     .into(),
             );
         }
+        let range = ctx.properties.limits.max_storage_buffer_range as u64;
+        // One storage buffer per kind of data: a scene that outgrows the device's range is refused by name.
+        fn upload<T: bytemuck::Pod>(ctx: &Context, range: u64, name: &str, data: &[T]) -> Result<Buffer, Error> {
+            let bytes = std::mem::size_of_val(data) as u64;
+            if bytes > range {
+                return Err(Error::Settings(format!(
+                    "the scene's {name} take {} MiB, more than this device's storage-buffer range of {} MiB",
+                    bytes >> 20,
+                    range >> 20
+                )));
+            }
+            Buffer::with_data(ctx, name, data)
+        }
         let buffers = SceneBuffers {
-            nodes: Buffer::with_data(&ctx, "bvh nodes", &packed.bvh.nodes)?,
-            tri_verts: Buffer::with_data(&ctx, "triangle vertices", &packed.tri_verts)?,
-            tri_shading: Buffer::with_data(&ctx, "triangle shading", &packed.tri_shading)?,
-            materials: Buffer::with_data(&ctx, "materials", &packed.materials)?,
-            lights: Buffer::with_data(&ctx, "lights", &packed.lights)?,
-            env: Buffer::with_data(&ctx, "environment", &packed.env_data)?,
-            punctual: Buffer::with_data(&ctx, "punctual lights", &packed.punctual)?,
+            nodes: upload(&ctx, range, "bvh nodes", &packed.bvh.nodes)?,
+            tri_verts: upload(&ctx, range, "triangle vertices", &packed.tri_verts)?,
+            tri_shading: upload(&ctx, range, "triangle shading", &packed.tri_shading)?,
+            materials: upload(&ctx, range, "materials", &packed.materials)?,
+            lights: upload(&ctx, range, "lights", &packed.lights)?,
+            env: upload(&ctx, range, "environment", &packed.env_data)?,
+            punctual: upload(&ctx, range, "punctual lights", &packed.punctual)?,
+            textures: upload(&ctx, range, "textures", &packed.textures)?,
+            texels: upload(&ctx, range, "texels", &packed.texels)?,
+            tri_texcoords: upload(&ctx, range, "texture coordinates", &packed.tri_texcoords)?,
+            tri_tangents: upload(&ctx, range, "tangents", &packed.tri_tangents)?,
         };
         let env = scene.environment.as_ref();
         let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
@@ -358,6 +379,10 @@ impl Renderer {
             (BINDING_LIGHTS, &b.lights),
             (BINDING_ENV, &b.env),
             (BINDING_PUNCTUAL, &b.punctual),
+            (BINDING_TEXTURES, &b.textures),
+            (BINDING_TEXELS, &b.texels),
+            (BINDING_TRI_TEXCOORDS, &b.tri_texcoords),
+            (BINDING_TRI_TANGENTS, &b.tri_tangents),
         ];
         // While the energy tables are being built, the caller binds them.
         if let Some(energy) = &self.energy {

@@ -1,10 +1,13 @@
 //! glTF loading into the host scene model: world-space triangles, materials, emitters and the camera.
 mod environment;
+mod tangent;
+pub mod texture;
 
 pub use environment::Environment;
+pub use texture::{Image, Texture, TextureRef, Wrap};
 
 use crate::Error;
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::collections::HashSet;
@@ -32,6 +35,47 @@ pub struct Material {
     pub thin_walled: bool,
     /// KHR_materials_volume absorption coefficient inside the object, per metre: -ln(attenuationColor) / distance.
     pub attenuation: Vec3,
+    /// baseColorFactor's alpha: opacity under alphaMode MASK and BLEND.
+    pub alpha: f32,
+    pub alpha_mode: AlphaMode,
+    /// sRGB colour and alpha, multiplying base_color and alpha.
+    pub base_color_texture: Option<TextureRef>,
+    /// Roughness in G and metallic in B, multiplying the factors.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Tangent-space normals; `normal_scale` scales their x and y.
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+    /// sRGB colour multiplying the emission.
+    pub emissive_texture: Option<TextureRef>,
+}
+
+/// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    Opaque,
+    /// Opaque where alpha >= the cutoff, absent elsewhere.
+    Mask(f32),
+    /// Present with probability alpha (stochastic transparency: unbiased coverage, no sorting).
+    Blend,
+}
+
+impl Material {
+    /// Whether rays may pass through the surface: traversal then evaluates alpha at each candidate hit.
+    pub fn alpha_tested(&self) -> bool {
+        match self.alpha_mode {
+            AlphaMode::Opaque => false,
+            AlphaMode::Mask(_) | AlphaMode::Blend => true,
+        }
+    }
+
+    pub fn texture_refs(&self) -> [Option<TextureRef>; 4] {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.normal_texture,
+            self.emissive_texture,
+        ]
+    }
 }
 
 impl Default for Material {
@@ -50,6 +94,13 @@ impl Default for Material {
             transmission: 0.0,
             thin_walled: true,
             attenuation: Vec3::ZERO,
+            alpha: 1.0,
+            alpha_mode: AlphaMode::Opaque,
+            base_color_texture: None,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            emissive_texture: None,
         }
     }
 }
@@ -81,6 +132,11 @@ pub struct Scene {
     /// World-space triangles; front faces wind counter-clockwise.
     pub triangles: Vec<[Vec3; 3]>,
     pub normals: Vec<[Vec3; 3]>,
+    /// Per triangle and vertex: TEXCOORD_0 in xy and TEXCOORD_1 in zw (zero where the mesh has none).
+    pub texcoords: Vec<[Vec4; 3]>,
+    /// Per triangle and vertex: the tangent in xyz and the bitangent's sign in w, from the file or generated
+    /// (MikkTSpace) for normal-mapped materials; zero elsewhere.
+    pub tangents: Vec<[Vec4; 3]>,
     pub material_of: Vec<u32>,
     pub materials: Vec<Material>,
     pub camera: Option<Camera>,
@@ -92,6 +148,9 @@ pub struct Scene {
     pub environment: Option<Environment>,
     /// KHR_lights_punctual lights, in world space.
     pub punctual: Vec<PunctualLight>,
+    /// The textures materials use (indexed by TextureRef::texture) and their images.
+    pub textures: Vec<Texture>,
+    pub images: Vec<Image>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,6 +224,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_transform",
 ];
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {
@@ -205,9 +265,12 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     };
     Loader {
         path,
+        base,
         buffers: &buffers,
         scene: &mut scene,
         cameras: Vec::new(),
+        texture_map: Default::default(),
+        image_map: Default::default(),
     }
     .run(&document, camera)?;
     Ok(scene)
@@ -423,9 +486,14 @@ enum Contents {
 
 struct Loader<'a> {
     path: &'a Path,
+    /// The folder relative URIs resolve against.
+    base: &'a Path,
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
     cameras: Vec<Camera>,
+    /// glTF texture index to scene texture (None: no readable image); glTF image index to scene image.
+    texture_map: std::collections::HashMap<usize, Option<usize>>,
+    image_map: std::collections::HashMap<usize, usize>,
 }
 
 impl Loader<'_> {
@@ -505,24 +573,64 @@ impl Loader<'_> {
                 format!("material '{name}': the emission {emission} is not finite"),
             ));
         }
-        for (what, present) in [
-            ("baseColorTexture", pbr.base_color_texture().is_some()),
-            ("metallicRoughnessTexture", pbr.metallic_roughness_texture().is_some()),
-            ("normalTexture", m.normal_texture().is_some()),
-            ("emissiveTexture", m.emissive_texture().is_some()),
-        ] {
-            if present {
-                self.warn(format!(
-                    "material '{name}': {what} is ignored (textures are not supported yet)"
-                ));
+        let base_color_texture = match pbr.base_color_texture() {
+            Some(info) => self.info_ref(&name, "baseColorTexture", &info)?,
+            None => None,
+        };
+        let metallic_roughness_texture = match pbr.metallic_roughness_texture() {
+            Some(info) => self.info_ref(&name, "metallicRoughnessTexture", &info)?,
+            None => None,
+        };
+        let emissive_texture = match m.emissive_texture() {
+            Some(info) => self.info_ref(&name, "emissiveTexture", &info)?,
+            None => None,
+        };
+        let (normal_texture, normal_scale) = match m.normal_texture() {
+            Some(n) => {
+                let ext = match n.extension_value("KHR_texture_transform") {
+                    Some(v) => Some(texture::transform_from_json(v).ok_or_else(|| {
+                        scene_err(
+                            self.path,
+                            format!("material '{name}': normalTexture's KHR_texture_transform is malformed"),
+                        )
+                    })?),
+                    None => None,
+                };
+                let r = self.texture_ref(&name, "normalTexture", &n.texture(), n.tex_coord(), ext)?;
+                (r, n.scale())
             }
-        }
-        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            None => (None, 1.0),
+        };
+        if m.occlusion_texture().is_some() {
             self.warn(format!(
-                "material '{name}': alphaMode {:?} is ignored; rendered opaque",
-                m.alpha_mode()
+                "material '{name}': occlusionTexture is ignored (a path tracer computes occlusion)"
             ));
         }
+        let alpha = c[3].clamp(0.0, 1.0);
+        // Transparency that cannot happen (alpha 1 and no texture alpha below 1) costs nothing in traversal.
+        let texture_alpha = base_color_texture.is_some_and(|r| {
+            let image = self.scene.textures[r.texture].image;
+            self.scene.images[image].has_alpha()
+        });
+        let alpha_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => {
+                let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+                if !cutoff.is_finite() {
+                    return Err(scene_err(
+                        self.path,
+                        format!("material '{name}': alphaCutoff is not finite"),
+                    ));
+                }
+                if alpha >= cutoff && !texture_alpha {
+                    AlphaMode::Opaque
+                } else {
+                    AlphaMode::Mask(cutoff)
+                }
+            }
+            gltf::material::AlphaMode::Blend if alpha >= 1.0 && !texture_alpha => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        };
         let ior = m.ior().unwrap_or(1.5);
         let (specular, specular_color) = match m.specular() {
             Some(s) => (s.specular_factor(), Vec3::from(s.specular_color_factor())),
@@ -531,7 +639,7 @@ impl Loader<'_> {
         if let Some(s) = m.specular() {
             if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
                 self.warn(format!(
-                    "material '{name}': specular textures are ignored (textures are not supported yet)"
+                    "material '{name}': specular textures are ignored (only the factors are read)"
                 ));
             }
         }
@@ -565,7 +673,7 @@ impl Loader<'_> {
         };
         if m.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
             self.warn(format!(
-                "material '{name}': transmissionTexture is ignored (textures are not supported yet)"
+                "material '{name}': transmissionTexture is ignored (only the factor is read)"
             ));
         }
         if !(transmission.is_finite() && attenuation.is_finite()) {
@@ -587,8 +695,103 @@ impl Loader<'_> {
             ior,
             specular: specular.clamp(0.0, 1.0),
             specular_color: specular_color.max(Vec3::ZERO),
+            alpha,
+            alpha_mode,
+            base_color_texture,
+            metallic_roughness_texture,
+            normal_texture,
+            normal_scale: if normal_scale.is_finite() { normal_scale } else { 1.0 },
+            emissive_texture,
         });
         Ok(())
+    }
+
+    /// A textureInfo slot with its KHR_texture_transform.
+    fn info_ref(
+        &mut self,
+        material: &str,
+        slot: &str,
+        info: &gltf::texture::Info,
+    ) -> Result<Option<TextureRef>, Error> {
+        let ext = info.texture_transform().map(|t| {
+            (
+                texture::transform_matrix(t.offset(), t.rotation(), t.scale()),
+                t.tex_coord(),
+            )
+        });
+        self.texture_ref(material, slot, &info.texture(), info.tex_coord(), ext)
+    }
+
+    /// Resolves one material slot, loading the texture's image on first use. `None`, with a warning, when the slot
+    /// cannot be honoured: no core-glTF image (e.g. a KTX2 or WebP source in an extension) or a TEXCOORD set past 1.
+    fn texture_ref(
+        &mut self,
+        material: &str,
+        slot: &str,
+        tex: &gltf::Texture,
+        tex_coord: u32,
+        ext: Option<([[f32; 3]; 2], Option<u32>)>,
+    ) -> Result<Option<TextureRef>, Error> {
+        let (transform, tc_override) = ext.unwrap_or((texture::IDENTITY_TRANSFORM, None));
+        let tex_coord = tc_override.unwrap_or(tex_coord);
+        if !transform.iter().flatten().all(|x| x.is_finite()) {
+            return Err(scene_err(
+                self.path,
+                format!("material '{material}': {slot}'s KHR_texture_transform is not finite"),
+            ));
+        }
+        if tex_coord > 1 {
+            self.warn(format!(
+                "material '{material}': {slot} reads TEXCOORD_{tex_coord}; only sets 0 and 1 are supported, so it is ignored"
+            ));
+            return Ok(None);
+        }
+        let texture = match self.texture_map.get(&tex.index()) {
+            Some(&t) => t,
+            None => {
+                let t = self.load_texture(tex)?;
+                self.texture_map.insert(tex.index(), t);
+                t
+            }
+        };
+        if texture.is_none() {
+            self.warn(format!(
+                "material '{material}': {slot} uses texture {} whose image is not PNG or JPEG in core glTF; it is ignored",
+                tex.index()
+            ));
+        }
+        Ok(texture.map(|texture| TextureRef {
+            texture,
+            tex_coord,
+            transform,
+        }))
+    }
+
+    fn load_texture(&mut self, tex: &gltf::Texture) -> Result<Option<usize>, Error> {
+        let Some(source) = tex.source() else {
+            return Ok(None);
+        };
+        let image = match self.image_map.get(&source.index()) {
+            Some(&i) => i,
+            None => {
+                let decoded = texture::load_image(&source, self.base, self.buffers).map_err(|e| {
+                    let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
+                    scene_err(self.path, format!("image {}{name}: {e}", source.index()))
+                })?;
+                self.scene.images.push(decoded);
+                let i = self.scene.images.len() - 1;
+                self.image_map.insert(source.index(), i);
+                i
+            }
+        };
+        let sampler = tex.sampler();
+        self.scene.textures.push(Texture {
+            image,
+            wrap_s: texture::wrap_of(sampler.wrap_s()),
+            wrap_t: texture::wrap_of(sampler.wrap_t()),
+            nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+        });
+        Ok(Some(self.scene.textures.len() - 1))
     }
 
     /// Takes in one node's camera and meshes; returns its world transform for its children.
@@ -702,12 +905,15 @@ impl Loader<'_> {
         what: &str,
         types: &[DataType],
         dims: Dimensions,
+        normalized_ints: bool,
     ) -> Result<Contents, Error> {
         let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
         if acc.count() == 0 {
             return Err(err("count is 0".into()));
         }
-        if !types.contains(&acc.data_type()) || acc.dimensions() != dims || acc.normalized() {
+        // Integer texture coordinates must be normalized; nothing else may be.
+        let normalized_ok = acc.normalized() == (normalized_ints && acc.data_type() != DataType::F32);
+        if !types.contains(&acc.data_type()) || acc.dimensions() != dims || !normalized_ok {
             return Err(err(format!(
                 "expected {dims:?} of {types:?}, found {:?} of {:?}{}",
                 acc.dimensions(),
@@ -773,7 +979,7 @@ impl Loader<'_> {
             return Ok(());
         };
         // All-zero positions or indices make every triangle degenerate.
-        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3)? == Contents::Zeros {
+        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
             self.warn(format!(
                 "mesh '{mesh_name}': POSITION accessor {} has no bufferView (all zeros); the primitive is skipped",
                 pos_acc.index()
@@ -782,7 +988,7 @@ impl Loader<'_> {
         }
         let mut normal_acc = prim.get(&gltf::Semantic::Normals);
         if let Some(n) = &normal_acc {
-            if self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3)? == Contents::Zeros {
+            if self.check_accessor(n, "NORMAL", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
                 self.warn(format!(
                     "mesh '{mesh_name}': NORMAL accessor {} has no bufferView (all zeros); face normals are used",
                     n.index()
@@ -796,6 +1002,7 @@ impl Loader<'_> {
                 "indices",
                 &[DataType::U8, DataType::U16, DataType::U32],
                 Dimensions::Scalar,
+                false,
             )? == Contents::Zeros
             {
                 self.warn(format!(
@@ -805,8 +1012,60 @@ impl Loader<'_> {
                 return Ok(());
             }
         }
+        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let mat = self.scene.materials[material as usize].clone();
+        // Texture coordinates and tangents matter only to textured materials; other primitives skip reading them.
+        let mut uv_accessors = [None, None];
+        if mat.texture_refs().iter().any(Option::is_some) {
+            for (set, slot) in uv_accessors.iter_mut().enumerate() {
+                if let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) {
+                    let what = format!("TEXCOORD_{set}");
+                    let types = [DataType::F32, DataType::U8, DataType::U16];
+                    if self.check_accessor(&acc, &what, &types, Dimensions::Vec2, true)? == Contents::Data {
+                        *slot = Some(acc);
+                    }
+                }
+            }
+            for r in mat.texture_refs().iter().flatten() {
+                if uv_accessors[r.tex_coord as usize].is_none() {
+                    self.warn(format!(
+                        "mesh '{mesh_name}': material '{}' reads TEXCOORD_{}, which the primitive lacks; its texture is \
+                         sampled at uv (0, 0)",
+                        mat.name, r.tex_coord
+                    ));
+                }
+            }
+        }
+        let mut tangent_acc = None;
+        if mat.normal_texture.is_some() {
+            if let Some(acc) = prim.get(&gltf::Semantic::Tangents) {
+                if self.check_accessor(&acc, "TANGENT", &[DataType::F32], Dimensions::Vec4, false)? == Contents::Data {
+                    tangent_acc = Some(acc);
+                }
+            }
+        }
         let buffers = self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+        let mut uv_sets: [Option<Vec<Vec2>>; 2] = [None, None];
+        for (set, acc) in uv_accessors.iter().enumerate() {
+            if acc.is_some() {
+                let uvs: Vec<Vec2> = reader
+                    .read_tex_coords(set as u32)
+                    .map(|t| t.into_f32().map(Vec2::from).collect())
+                    .unwrap_or_default();
+                if uvs.iter().any(|uv| !uv.is_finite()) {
+                    return Err(scene_err(
+                        self.path,
+                        format!("mesh '{mesh_name}': TEXCOORD_{set} holds a non-finite value"),
+                    ));
+                }
+                uv_sets[set] = Some(uvs);
+            }
+        }
+        let file_tangents: Option<Vec<Vec4>> = match tangent_acc {
+            Some(_) => reader.read_tangents().map(|t| t.map(Vec4::from).collect()),
+            None => None,
+        };
         let positions: Vec<Vec3> = reader
             .read_positions()
             .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
@@ -821,6 +1080,13 @@ impl Loader<'_> {
             Some(i) => i.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
         };
+        let short = |n: usize| n != positions.len();
+        if uv_sets.iter().flatten().any(|u| short(u.len())) || file_tangents.as_ref().is_some_and(|t| short(t.len())) {
+            return Err(scene_err(
+                self.path,
+                format!("mesh '{mesh_name}': TEXCOORD or TANGENT and POSITION have different counts"),
+            ));
+        }
         if normals.as_ref().is_some_and(|n| n.len() != positions.len()) {
             return Err(scene_err(
                 self.path,
@@ -858,10 +1124,10 @@ impl Loader<'_> {
                 .map(|i| [indices[0], indices[i - 1], indices[i]])
                 .collect(),
         };
-        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         // A mirroring transform turns counter-clockwise into clockwise; swap two vertices to keep the front face.
         let flip = Mat3::from_mat4(world).determinant() < 0.0;
+        let first_triangle = self.scene.triangles.len();
         for [a, b, c] in triangles {
             let (a, b, c) = if flip { (a, c, b) } else { (a, b, c) };
             let v = [a, b, c].map(|i| world.transform_point3(positions[i as usize]));
@@ -881,9 +1147,48 @@ impl Loader<'_> {
                 }),
                 None => [face_n; 3],
             };
+            let uv = |set: usize, i: u32| uv_sets[set].as_ref().map_or(Vec2::ZERO, |u| u[i as usize]);
+            let texcoords = [a, b, c].map(|i| {
+                let (t0, t1) = (uv(0, i), uv(1, i));
+                Vec4::new(t0.x, t0.y, t1.x, t1.y)
+            });
+            let tangents = match &file_tangents {
+                // A mirroring transform flips the bitangent relative to cross(normal, tangent).
+                Some(ts) => [a, b, c].map(|i| {
+                    let t = ts[i as usize];
+                    let tw = (Mat3::from_mat4(world) * t.truncate()).normalize_or_zero();
+                    let sign = if (t.w < 0.0) != flip { -1.0 } else { 1.0 };
+                    tw.extend(sign)
+                }),
+                None => [Vec4::ZERO; 3],
+            };
             self.scene.triangles.push(v);
             self.scene.normals.push(n);
+            self.scene.texcoords.push(texcoords);
+            self.scene.tangents.push(tangents);
             self.scene.material_of.push(material);
+        }
+        if let (Some(r), None) = (mat.normal_texture, &file_tangents) {
+            let range = first_triangle..self.scene.triangles.len();
+            let set = r.tex_coord as usize;
+            let uvs: Vec<[Vec2; 3]> = self.scene.texcoords[range.clone()]
+                .iter()
+                .map(|t| {
+                    t.map(|v| {
+                        if set == 0 {
+                            Vec2::new(v.x, v.y)
+                        } else {
+                            Vec2::new(v.z, v.w)
+                        }
+                    })
+                })
+                .collect();
+            let generated = tangent::generate(
+                &self.scene.triangles[range.clone()],
+                &self.scene.normals[range.clone()],
+                &uvs,
+            );
+            self.scene.tangents[range].copy_from_slice(&generated);
         }
         Ok(())
     }

@@ -13,6 +13,9 @@ pub struct GltfBuilder {
     nodes: Vec<Value>,
     cameras: Vec<Value>,
     lights: Vec<Value>,
+    images: Vec<Value>,
+    samplers: Vec<Value>,
+    textures: Vec<Value>,
     extensions: Vec<&'static str>,
 }
 
@@ -21,7 +24,7 @@ impl GltfBuilder {
         Self::default()
     }
 
-    fn use_extension(&mut self, ext: &'static str) {
+    pub fn use_extension(&mut self, ext: &'static str) {
         if !self.extensions.contains(&ext) {
             self.extensions.push(ext);
         }
@@ -104,6 +107,71 @@ impl GltfBuilder {
         self.views.len() - 1
     }
 
+    /// The JSON of material `i`, to add textures, alpha modes or extensions.
+    pub fn material_json(&mut self, i: usize) -> &mut Value {
+        &mut self.materials[i]
+    }
+
+    /// A PNG image (RGBA8, rows from the top) embedded in the buffer.
+    pub fn png_image(&mut self, width: u32, height: u32, rgba: &[[u8; 4]]) -> usize {
+        assert_eq!(rgba.len(), (width * height) as usize);
+        let mut bytes = Vec::new();
+        {
+            let mut enc = png::Encoder::new(&mut bytes, width, height);
+            enc.set_color(png::ColorType::Rgba);
+            enc.set_depth(png::BitDepth::Eight);
+            let mut w = enc.write_header().unwrap();
+            w.write_image_data(rgba.as_flattened()).unwrap();
+        }
+        let view = self.push_view(&bytes, 0);
+        self.views[view].as_object_mut().unwrap().remove("target");
+        self.images.push(json!({ "bufferView": view, "mimeType": "image/png" }));
+        self.images.len() - 1
+    }
+
+    /// A texture of `image` with a sampler (e.g. json!({"magFilter": 9728, "wrapS": 33648})).
+    pub fn texture(&mut self, image: usize, sampler: Value) -> usize {
+        self.samplers.push(sampler);
+        self.textures
+            .push(json!({ "source": image, "sampler": self.samplers.len() - 1 }));
+        self.textures.len() - 1
+    }
+
+    /// A mesh with TEXCOORD_0 and optional normals and tangents.
+    #[allow(clippy::too_many_arguments)]
+    pub fn mesh_with_attributes(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        uvs: &[[f32; 2]],
+        tangents: Option<&[[f32; 4]]>,
+        indices: &[u32],
+        material: usize,
+    ) {
+        self.mesh_with_normals(name, positions, normals, indices, material);
+        let uv_bytes: Vec<u8> = uvs.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let v = self.push_view(&uv_bytes, 34962);
+        self.accessors
+            .push(json!({ "bufferView": v, "componentType": 5126, "count": uvs.len(), "type": "VEC2" }));
+        let uv_acc = self.accessors.len() - 1;
+        let prim = &mut self.meshes.last_mut().unwrap()["primitives"][0]["attributes"];
+        prim["TEXCOORD_0"] = json!(uv_acc);
+        if let Some(t) = tangents {
+            let bytes: Vec<u8> = t.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+            let v = self.push_view(&bytes, 34962);
+            self.accessors
+                .push(json!({ "bufferView": v, "componentType": 5126, "count": t.len(), "type": "VEC4" }));
+            let acc = self.accessors.len() - 1;
+            self.meshes.last_mut().unwrap()["primitives"][0]["attributes"]["TANGENT"] = json!(acc);
+        }
+    }
+
+    /// A quad with texture coordinates per corner; corners wind counter-clockwise seen from the front.
+    pub fn textured_quad(&mut self, name: &str, corners: [[f32; 3]; 4], uvs: [[f32; 2]; 4], material: usize) {
+        self.mesh_with_attributes(name, &corners, None, &uvs, None, &[0, 1, 2, 0, 2, 3], material);
+    }
+
     /// An indexed triangle mesh on its own node; front faces wind counter-clockwise.
     pub fn mesh(&mut self, name: &str, positions: &[[f32; 3]], indices: &[u32], material: usize) {
         self.mesh_with_normals(name, positions, None, indices, material);
@@ -156,10 +224,23 @@ impl GltfBuilder {
 
     /// A UV sphere, with smooth vertex normals or faceted (geometric normals only: exact energy balance).
     pub fn uv_sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize, smooth: bool) {
+        let (positions, normals, _, indices) = Self::sphere_mesh(center, radius);
+        self.mesh_with_normals(name, &positions, smooth.then_some(&normals[..]), &indices, material);
+    }
+
+    /// A smooth UV sphere with TEXCOORD_0: u around the equator, v from the north pole (0) to the south (1).
+    pub fn textured_sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize) {
+        let (positions, normals, uvs, indices) = Self::sphere_mesh(center, radius);
+        self.mesh_with_attributes(name, &positions, Some(&normals), &uvs, None, &indices, material);
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn sphere_mesh(center: [f32; 3], radius: f32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<u32>) {
         let (rings, segments) = (32u32, 64u32);
         let c = Vec3::from(center);
         let mut positions = Vec::new();
         let mut normals = Vec::new();
+        let mut uvs = Vec::new();
         for i in 0..=rings {
             let theta = std::f32::consts::PI * i as f32 / rings as f32;
             for j in 0..=segments {
@@ -167,6 +248,7 @@ impl GltfBuilder {
                 let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
                 positions.push((c + n * radius).to_array());
                 normals.push(n.to_array());
+                uvs.push([j as f32 / segments as f32, i as f32 / rings as f32]);
             }
         }
         let at = |i: u32, j: u32| i * (segments + 1) + j;
@@ -178,7 +260,7 @@ impl GltfBuilder {
                 indices.extend([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
             }
         }
-        self.mesh_with_normals(name, &positions, smooth.then_some(&normals[..]), &indices, material);
+        (positions, normals, uvs, indices)
     }
 
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
@@ -306,6 +388,11 @@ impl GltfBuilder {
         }
         if !self.lights.is_empty() {
             doc["extensions"]["KHR_lights_punctual"] = json!({ "lights": self.lights });
+        }
+        if !self.images.is_empty() {
+            doc["images"] = json!(self.images);
+            doc["samplers"] = json!(self.samplers);
+            doc["textures"] = json!(self.textures);
         }
         doc
     }

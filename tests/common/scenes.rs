@@ -315,3 +315,138 @@ pub fn punctual_lights() -> GltfBuilder {
     b.camera([0.0, 2.0, 4.5], [0.0, 0.4, 0.0], [0.0, 1.0, 0.0], 40.0);
     b
 }
+
+/// Procedural textures on every supported slot: a tiled floor (sRGB base colour and a bevelled normal map, repeated
+/// by KHR_texture_transform), a sphere striped metal/plastic by its metallic-roughness texture, a perforated screen
+/// (alphaMode MASK) that casts dotted shadows, a half-transparent pane (BLEND), and a glowing sign whose emissive
+/// texture lights the room.
+pub fn textured() -> GltfBuilder {
+    use serde_json::json;
+    let mut b = GltfBuilder::new();
+    let (size, tile, bevel) = (128usize, 32usize, 4usize);
+    let tile_of = |x: usize, y: usize| (x / tile + y / tile) % 2;
+    let checker: Vec<[u8; 4]> = (0..size * size)
+        .map(|k| match tile_of(k % size, k / size) {
+            0 => [235, 225, 200, 255],
+            _ => [170, 80, 55, 255],
+        })
+        .collect();
+    // Tangent-space normals (+x right, +y up the image) tilted outwards over each tile's bevel.
+    let bumps: Vec<[u8; 4]> = (0..size * size)
+        .map(|k| {
+            let (lx, ly) = (k % size % tile, k / size % tile);
+            let nx = if lx < bevel {
+                -0.6
+            } else if lx >= tile - bevel {
+                0.6
+            } else {
+                0.0
+            };
+            let ny = if ly < bevel {
+                0.6
+            } else if ly >= tile - bevel {
+                -0.6
+            } else {
+                0.0
+            };
+            let n = glam::Vec3::new(nx, ny, 1.0).normalize();
+            let e = |c: f32| ((c + 1.0) * 0.5 * 255.0).round() as u8;
+            [e(n.x), e(n.y), e(n.z), 255]
+        })
+        .collect();
+    let floor = b.pbr_material("tiles", [1.0; 3], 0.0, 0.6, [0.0; 3], false);
+    let repeat = json!({ "wrapS": 10497, "wrapT": 10497 });
+    let checker_img = b.png_image(size as u32, size as u32, &checker);
+    let checker_tex = b.texture(checker_img, repeat.clone());
+    let bumps_img = b.png_image(size as u32, size as u32, &bumps);
+    let bumps_tex = b.texture(bumps_img, repeat);
+    let tiled = json!({ "KHR_texture_transform": { "scale": [3.0, 3.0] } });
+    b.use_extension("KHR_texture_transform");
+    let fm = b.material_json(floor);
+    fm["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": checker_tex, "extensions": tiled });
+    fm["normalTexture"] = json!({ "index": bumps_tex, "extensions": tiled });
+    b.textured_quad(
+        "floor",
+        [[-4.0, 0.0, -4.0], [-4.0, 0.0, 4.0], [4.0, 0.0, 4.0], [4.0, 0.0, -4.0]],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+        floor,
+    );
+
+    // Stripes: metal (blue 255) with roughness 0.2 (green 51), plastic with roughness 0.6.
+    let stripes: Vec<[u8; 4]> = (0..64 * 64)
+        .map(|k| {
+            if (k / 64 / 8) % 2 == 0 {
+                [0, 51, 255, 255]
+            } else {
+                [0, 153, 0, 255]
+            }
+        })
+        .collect();
+    let sphere = b.pbr_material("striped", [0.95, 0.7, 0.35], 1.0, 1.0, [0.0; 3], false);
+    let stripes_img = b.png_image(64, 64, &stripes);
+    let stripes_tex = b.texture(stripes_img, json!({ "magFilter": 9728 }));
+    b.material_json(sphere)["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({ "index": stripes_tex });
+    b.textured_sphere("striped sphere", [-1.1, 0.7, 0.3], 0.7, sphere);
+
+    // A screen with round holes: alpha 0 inside circles, 1 between them.
+    let holes: Vec<[u8; 4]> = (0..64 * 64)
+        .map(|k| {
+            let (x, y) = ((k % 64) % 16, (k / 64) % 16);
+            let (dx, dy) = (x as f32 - 7.5, y as f32 - 7.5);
+            let inside = dx * dx + dy * dy < 30.0;
+            [240, 240, 240, if inside { 0 } else { 255 }]
+        })
+        .collect();
+    let screen = b.material("perforated screen", [1.0; 3], [0.0; 3], true);
+    let holes_img = b.png_image(64, 64, &holes);
+    let holes_tex = b.texture(holes_img, json!({ "magFilter": 9728 }));
+    let sm = b.material_json(screen);
+    sm["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": holes_tex });
+    sm["alphaMode"] = json!("MASK");
+    b.textured_quad(
+        "screen",
+        [[0.2, 2.2, -0.6], [0.2, 0.6, -0.6], [1.8, 0.6, -0.6], [1.8, 2.2, -0.6]],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+        screen,
+    );
+
+    let pane = b.material("blue veil", [0.2, 0.4, 0.9], [0.0; 3], true);
+    let pm = b.material_json(pane);
+    pm["alphaMode"] = json!("BLEND");
+    pm["pbrMetallicRoughness"]["baseColorFactor"][3] = json!(0.5);
+    b.quad(
+        "veil",
+        [[-0.2, 0.0, 1.2], [1.4, 0.0, 1.2], [1.4, 1.2, 1.2], [-0.2, 1.2, 1.2]],
+        pane,
+        Some([0.0, 0.0, 1.0]),
+    );
+
+    // The sign: a horizontal rainbow-ish gradient, brighter towards the middle.
+    let gradient: Vec<[u8; 4]> = (0..32 * 8)
+        .map(|k| {
+            let t = (k % 32) as f32 / 31.0;
+            let c = |phase: f32| (((t * 6.0 + phase).sin() * 0.5 + 0.5) * 255.0) as u8;
+            [c(0.0), c(2.1), c(4.2), 255]
+        })
+        .collect();
+    let sign = b.pbr_material("sign", [0.0; 3], 0.0, 1.0, [4.0; 3], false);
+    let gradient_img = b.png_image(32, 8, &gradient);
+    let gradient_tex = b.texture(gradient_img, json!({}));
+    b.material_json(sign)["emissiveTexture"] = json!({ "index": gradient_tex });
+    b.textured_quad(
+        "sign",
+        [[-2.0, 2.4, -2.5], [-2.0, 1.6, -2.5], [1.0, 1.6, -2.5], [1.0, 2.4, -2.5]],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+        sign,
+    );
+    // Behind the screen, so its holes throw spots of light towards the camera.
+    let light = b.material("light", [0.0; 3], [120.0; 3], false);
+    b.quad(
+        "light",
+        [[0.8, 3.0, -1.9], [1.2, 3.0, -1.9], [1.2, 3.0, -1.5], [0.8, 3.0, -1.5]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.camera([0.3, 2.4, 5.2], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 45.0);
+    b
+}

@@ -1,0 +1,74 @@
+// A material at a hit point: glTF's factors times its textures at the hit's texture coordinates, and alpha testing.
+#ifndef SURFACE_GLSL
+#define SURFACE_GLSL
+
+#include "rng.glsl"
+#include "textures.glsl"
+
+bool slot_used(TextureSlot s) {
+    return floatBitsToUint(s.u.w) != TEXTURE_NONE;
+}
+
+// The slot's texture at barycentrics b (of vertices 1 and 2) of triangle tri, after KHR_texture_transform.
+vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
+    TriTexcoords tc = tri_texcoords[tri];
+    vec4 w = (1.0 - b.x - b.y) * tc.t0 + b.x * tc.t1 + b.y * tc.t2;
+    vec2 uv = floatBitsToUint(s.v.w) == 0u ? w.xy : w.zw;
+    vec2 st = vec2(dot(s.u.xyz, vec3(uv, 1.0)), dot(s.v.xyz, vec3(uv, 1.0)));
+    return texture_sample(floatBitsToUint(s.u.w), st, srgb);
+}
+
+float material_alpha(Material m, uint tri, vec2 b) {
+    float a = m.base_color.w;
+    if (slot_used(m.textures[TEX_BASE_COLOR])) a *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true).a;
+    return a;
+}
+
+// How much of the surface is there: 1 or 0 under MASK, alpha under BLEND (which rays realise stochastically).
+float material_coverage(Material m, uint tri, vec2 b) {
+    uint mode = floatBitsToUint(m.alpha.x);
+    if (mode == ALPHA_OPAQUE) return 1.0;
+    float a = material_alpha(m, tri, b);
+    if (mode == ALPHA_MASK) return a >= m.alpha.y ? 1.0 : 0.0;
+    return clamp(a, 0.0, 1.0);
+}
+
+// Whether a ray stops at this candidate hit on an alpha-tested triangle. BLEND stops with probability alpha, decided
+// by a hash of the ray's key and the triangle, so revisiting the triangle in one traversal gives the same answer.
+bool alpha_stops(uint tri, vec2 b, uint key) {
+    Material m = materials[floatBitsToUint(tri_verts[tri].v0.w)];
+    float c = material_coverage(m, tri, b);
+    if (c >= 1.0) return true;
+    if (c <= 0.0) return false;
+    uint h = pcg4d(uvec4(key, tri, 0x2545F491u, frame.seed)).x;
+    return float(h >> 8u) * (1.0 / 16777216.0) < c;
+}
+
+// The material with its textures applied at the hit: base colour and alpha, metallic and roughness, emission.
+Material material_at(Material m, uint tri, vec2 b) {
+    if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true);
+    if (slot_used(m.textures[TEX_METALLIC_ROUGHNESS])) {
+        vec4 mr = sample_slot(m.textures[TEX_METALLIC_ROUGHNESS], tri, b, false);
+        m.params.x *= mr.b;
+        m.params.y *= mr.g;
+    }
+    if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true).rgb;
+    return m;
+}
+
+// The shading normal with the normal map applied; ns is the interpolated vertex normal (unit length).
+vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns) {
+    if (!slot_used(m.textures[TEX_NORMAL])) return ns;
+    TriTangents tt = tri_tangents[tri];
+    vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
+    vec3 t = t4.xyz - ns * dot(ns, t4.xyz);
+    if (!(dot(t, t) > 1e-12)) return ns;
+    t = normalize(t);
+    vec3 bt = cross(ns, t) * (t4.w < 0.0 ? -1.0 : 1.0);
+    vec3 c = sample_slot(m.textures[TEX_NORMAL], tri, b, false).xyz * 2.0 - 1.0;
+    c.xy *= m.alpha.z;
+    vec3 n = c.x * t + c.y * bt + c.z * ns;
+    return dot(n, n) > 1e-12 ? normalize(n) : ns;
+}
+
+#endif
