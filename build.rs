@@ -71,6 +71,28 @@ fn main() {
         ));
     }
     table.push_str("];\n");
+    // The GLSL itself, so a release binary can hand users the stages to edit (`pathwave export-shaders`).
+    table.push_str("/// Every GLSL source, by path relative to shaders/.\npub const SOURCES: &[(&str, &str)] = &[\n");
+    let mut sources: Vec<PathBuf> = stages.clone();
+    let mut includes: Vec<PathBuf> = std::fs::read_dir(&include)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "glsl"))
+        .collect();
+    includes.sort();
+    sources.extend(includes);
+    for p in &sources {
+        let rel = p.strip_prefix(&shaders).unwrap().to_str().unwrap().replace('\\', "/");
+        table.push_str(&format!(
+            "    ({rel:?}, include_str!({:?})),\n",
+            p.display().to_string()
+        ));
+    }
+    table.push_str("];\n");
+    table.push_str(&format!(
+        "/// shared_constants.glsl, generated from src/constants.rs.\npub const SHARED_CONSTANTS: &str = include_str!({:?});\n",
+        generated.join("shared_constants.glsl").display().to_string()
+    ));
     if failed {
         panic!("shader compilation failed; see the glslang messages above");
     }

@@ -5,6 +5,7 @@ pub mod layout;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod shaders;
 pub mod vk;
 
 pub use render::{Estimator, Film, RenderSettings, RenderStats, Renderer};
@@ -22,6 +23,9 @@ pub enum Error {
     Vulkan(String),
     #[error("{0}")]
     Settings(String),
+    /// A user shader that does not compile (glslang's report, with file:line) or a shader folder that cannot be read.
+    #[error("{0}")]
+    Shader(String),
     #[error("the validation layer reported {count} error(s); the first: {first}")]
     Validation { count: usize, first: String },
 }

@@ -1,4 +1,4 @@
-//! The pathwave command line: render, info.
+//! The pathwave command line: render, info, export-shaders.
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -29,6 +29,11 @@ enum Command {
         /// List the Vulkan devices instead (their index is what --device takes).
         #[arg(long)]
         devices: bool,
+    },
+    /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
+    ExportShaders {
+        /// The folder to write into (created if missing).
+        dir: PathBuf,
     },
 }
 
@@ -87,6 +92,13 @@ struct RenderArgs {
     /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
     #[arg(long)]
     no_energy_compensation: bool,
+    /// A folder of GLSL stages (as written by `export-shaders`) replacing the built-in ones of the same name.
+    #[arg(long)]
+    shader_dir: Option<PathBuf>,
+    /// With --shader-dir: after writing the image, watch the folder and render again whenever a stage or an
+    /// include changes. A stage that fails to compile is reported and the last image is kept. Stop with Ctrl-C.
+    #[arg(long, requires = "shader_dir")]
+    watch: bool,
 }
 
 fn positive(s: &str) -> Result<u32, String> {
@@ -120,6 +132,7 @@ fn main() {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Info { scene, devices } => info(scene, devices),
+        Command::ExportShaders { dir } => export_shaders(dir),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -146,10 +159,25 @@ fn render(args: RenderArgs) -> Result<()> {
         env.rotation = args.env_rotation.to_radians();
     }
     scene.environment = environment;
-    let mut renderer = Renderer::new(&scene, &args.device.unwrap_or_default())?;
+    let mut renderer = Renderer::new(&scene, &args.device.clone().unwrap_or_default())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
     }
+    let shader_dir = match &args.shader_dir {
+        Some(dir) => {
+            let dir = pathwave::shaders::ShaderDir::open(dir)?;
+            for unknown in dir.unknown_stages() {
+                eprintln!(
+                    "warning: {}: {unknown}.comp is not a pathwave stage and is not used",
+                    dir.root().display()
+                );
+            }
+            let used = renderer.load_shaders(&dir, None)?;
+            eprintln!("using {} from {}", used.join(", "), dir.root().display());
+            Some(dir)
+        }
+        None => None,
+    };
     let settings = RenderSettings {
         width: args.size.0,
         height: args.size.1,
@@ -162,13 +190,44 @@ fn render(args: RenderArgs) -> Result<()> {
         aperture: args.aperture,
         focus_distance: args.focus_distance,
     };
+    render_and_write(&mut renderer, &settings, &args, start)?;
+    let Some(dir) = shader_dir.filter(|_| args.watch) else {
+        return Ok(());
+    };
+    let watcher = pathwave::shaders::ShaderWatcher::new(&dir)?;
+    eprintln!("watching {} for changes (Ctrl-C to stop)", dir.root().display());
+    loop {
+        let changed = watcher.changed(std::time::Duration::from_secs(3600));
+        let stale = dir.affected(&changed);
+        if stale.is_empty() {
+            continue;
+        }
+        // A stage that does not compile keeps its last good pipeline, and the last image stays on disk.
+        match renderer.load_shaders(&dir, Some(&stale)) {
+            Ok(rebuilt) => {
+                eprintln!("rebuilt {}", rebuilt.join(", "));
+                if let Err(e) = render_and_write(&mut renderer, &settings, &args, Instant::now()) {
+                    eprintln!("error: {e:#}");
+                }
+            }
+            Err(e) => eprintln!("error: {e}\nkeeping the previous pipelines; watching for the next change"),
+        }
+    }
+}
+
+fn render_and_write(
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    args: &RenderArgs,
+    start: Instant,
+) -> Result<()> {
     let bar = ProgressBar::new(args.spp as u64);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {per_sec}  eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let device = renderer.context().device_name();
-    let (film, stats) = renderer.render(&settings, &mut |done| bar.set_position(done as u64))?;
+    let (film, stats) = renderer.render(settings, &mut |done| bar.set_position(done as u64))?;
     bar.finish_and_clear();
     let pixels = film.mean();
     for out in &args.output {
@@ -183,6 +242,17 @@ fn render(args: RenderArgs) -> Result<()> {
         film.spp,
         start.elapsed().as_secs_f64(),
         stats.summary()
+    );
+    Ok(())
+}
+
+fn export_shaders(dir: PathBuf) -> Result<()> {
+    let written = pathwave::shaders::export_builtin(&dir)?;
+    eprintln!(
+        "wrote {} files into {}; use them with --shader-dir {}",
+        written.len(),
+        dir.display(),
+        dir.display()
     );
     Ok(())
 }

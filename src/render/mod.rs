@@ -224,18 +224,16 @@ pub struct Renderer {
     ctx: Context,
 }
 
-/// Compiled stages embedded by build.rs.
-mod spirv {
-    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
-}
-
 /// The SPIR-V of a built-in stage, by name (e.g. "shade").
 pub fn builtin_spirv(name: &str) -> Option<&'static [u8]> {
-    spirv::STAGES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
+    crate::shaders::BUILTIN_SPIRV
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
 }
 
 pub fn builtin_stage_names() -> impl Iterator<Item = &'static str> {
-    spirv::STAGES.iter().map(|(n, _)| *n)
+    crate::shaders::BUILTIN_SPIRV.iter().map(|(n, _)| *n)
 }
 
 impl Renderer {
@@ -280,7 +278,7 @@ impl Renderer {
             tri_tangents: upload(&ctx, range, "tangents", &packed.tri_tangents)?,
         };
         let env = scene.environment.as_ref();
-        let pipelines = Pipelines::new(&ctx, spirv::STAGES)?;
+        let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
         let timestamps = Timestamps::new(&ctx, 2048)?;
         let mut r = Renderer {
             timestamps,
@@ -352,6 +350,25 @@ impl Renderer {
         let mut t: Vec<f32> = energy.download(&self.ctx)?;
         t.truncate(ENERGY_TABLE_FLOATS as usize);
         Ok(t)
+    }
+
+    /// Rebuilds the pipelines of `stages` (every stage the folder overrides when None) from a shader folder. All
+    /// compile before any is replaced, so a compile error leaves the renderer exactly as it was. Returns the stages
+    /// rebuilt.
+    pub fn load_shaders(
+        &mut self,
+        dir: &crate::shaders::ShaderDir,
+        stages: Option<&[String]>,
+    ) -> Result<Vec<String>, Error> {
+        let names = stages.map(<[String]>::to_vec).unwrap_or_else(|| dir.stages());
+        let mut compiled = Vec::with_capacity(names.len());
+        for name in &names {
+            compiled.push(dir.compile(name)?);
+        }
+        for (name, spv) in names.iter().zip(&compiled) {
+            self.pipelines.replace(&self.ctx, name, spv)?;
+        }
+        Ok(names)
     }
 
     pub fn context(&self) -> &Context {

@@ -1,0 +1,219 @@
+//! User shader folders: exported stages compile back to the built-in pipelines' behaviour, an edited stage replaces
+//! its built-in headless (`render --shader-dir`), a broken one is refused with glslang's file:line, and `--watch`
+//! rebuilds only what changed, keeps running through a compile error, and keeps the last good image.
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+const CONSTANT: [f32; 3] = [0.25, 0.5, 0.75];
+
+fn pathwave() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    if common::validation() == pathwave::vk::Validation::On {
+        c.env("PATHWAVE_VALIDATION", "1");
+    }
+    c
+}
+
+fn cornell() -> PathBuf {
+    common::scenes_dir().join("cornell-box.gltf")
+}
+
+fn exported() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    pathwave::shaders::export_builtin(dir.path()).unwrap();
+    dir
+}
+
+/// Makes the shade stage end every path with one radiance, whatever it hit.
+fn make_shade_constant(dir: &Path) {
+    let path = dir.join("shade.comp");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let anchor = "    vec4 hit = path_get(PATH_HIT, path);";
+    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
+    let [r, g, b] = CONSTANT;
+    let patched = src.replacen(
+        anchor,
+        &format!("    finish(path, vec3({r}, {g}, {b}));\n    return;\n{anchor}"),
+        1,
+    );
+    std::fs::write(&path, patched).unwrap();
+}
+
+fn break_shade(dir: &Path) -> usize {
+    let path = dir.join("shade.comp");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let line = src.lines().position(|l| l.contains("void main()")).unwrap() + 2;
+    let mut lines: Vec<&str> = src.lines().collect();
+    lines.insert(line - 1, "    this is not glsl;");
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    line
+}
+
+fn is_constant(exr: &Path) -> bool {
+    let (_, _, px) = pathwave::output::read_exr(exr).unwrap();
+    px.iter().all(|p| (0..3).all(|c| (p[c] - CONSTANT[c]).abs() < 1e-6))
+}
+
+#[test]
+fn exported_stages_reproduce_the_builtin_image() {
+    let dir = exported();
+    let out = tempfile::tempdir().unwrap();
+    let (a, b) = (out.path().join("builtin.exr"), out.path().join("exported.exr"));
+    let common_args = ["--size", "24x24", "--spp", "4", "--seed", "5"];
+    let run = |extra: &[&str], o: &Path| {
+        let s = pathwave()
+            .arg("render")
+            .arg(cornell())
+            .arg("-o")
+            .arg(o)
+            .args(common_args)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(s.status.success(), "{}", String::from_utf8_lossy(&s.stderr));
+        String::from_utf8_lossy(&s.stderr).into_owned()
+    };
+    run(&[], &a);
+    let log = run(&["--shader-dir", dir.path().to_str().unwrap()], &b);
+    assert!(
+        log.contains("using accumulate, connect, energy_tables, extend, generate"),
+        "{log}"
+    );
+    assert_eq!(
+        std::fs::read(&a).unwrap(),
+        std::fs::read(&b).unwrap(),
+        "same sources, same bytes"
+    );
+}
+
+#[test]
+fn an_edited_stage_replaces_the_builtin_and_a_broken_one_is_refused() {
+    let dir = exported();
+    for f in std::fs::read_dir(dir.path()).unwrap() {
+        let p = f.unwrap().path();
+        if p.extension().is_some_and(|e| e == "comp") && !p.ends_with("shade.comp") {
+            std::fs::remove_file(p).unwrap(); // only the stage under test is overridden
+        }
+    }
+    make_shade_constant(dir.path());
+    let out = tempfile::tempdir().unwrap();
+    let exr = out.path().join("constant.exr");
+    let o = pathwave()
+        .arg("render")
+        .arg(cornell())
+        .arg("-o")
+        .arg(&exr)
+        .args(["--size", "16x16", "--spp", "2", "--shader-dir"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && log.contains("using shade from"), "{log}");
+    assert!(is_constant(&exr), "the edited shade stage was not used");
+
+    let line = break_shade(dir.path());
+    let broken = out.path().join("broken.exr");
+    let o = pathwave()
+        .arg("render")
+        .arg(cornell())
+        .arg("-o")
+        .arg(&broken)
+        .args(["--size", "16x16", "--spp", "2", "--shader-dir"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && !log.contains("panicked"), "{log}");
+    let want = format!("shade.comp:{line}:");
+    assert!(log.contains("ERROR:") && log.contains(&want), "no '{want}' in: {log}");
+    assert!(!broken.exists(), "a refused render wrote an image");
+}
+
+#[test]
+fn includes_decide_which_stages_are_stale() {
+    let dir = exported();
+    let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
+    let root = shaders.root().to_path_buf();
+    let bsdf = shaders.affected(&[root.join("include/bsdf.glsl")]);
+    assert_eq!(bsdf, ["energy_tables", "probe_bsdf", "shade"]);
+    let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);
+    assert_eq!(traverse, ["connect", "extend", "probe_trace"]);
+    assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);
+    assert!(shaders.affected(&[root.join("notes.txt")]).is_empty());
+}
+
+/// The headless hot-reload session: `render --watch` re-renders when shade.comp changes, and survives a broken edit.
+#[test]
+fn watch_rebuilds_on_change_and_survives_a_compile_error() {
+    let dir = exported();
+    let out = tempfile::tempdir().unwrap();
+    let exr = out.path().join("watched.exr");
+    let mut child = pathwave()
+        .arg("render")
+        .arg(cornell())
+        .arg("-o")
+        .arg(&exr)
+        .args(["--size", "16x16", "--spp", "2", "--watch", "--shader-dir"])
+        .arg(dir.path())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, lines) = mpsc::channel::<String>();
+    let stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut log = Vec::new();
+    let wait_for = |needle: &str, log: &mut Vec<String>| {
+        let deadline = Instant::now() + Duration::from_secs(120);
+        while Instant::now() < deadline {
+            if let Ok(l) = lines.recv_timeout(Duration::from_millis(200)) {
+                log.push(l.clone());
+                if l.contains(needle) {
+                    return true;
+                }
+            }
+        }
+        false
+    };
+    let result = (|| -> Result<(), String> {
+        if !wait_for("watching", &mut log) {
+            return Err("never started watching".into());
+        }
+        if is_constant(&exr) {
+            return Err("the first image is already constant".into());
+        }
+        make_shade_constant(dir.path());
+        if !wait_for("rebuilt shade", &mut log) || !wait_for("watched.exr", &mut log) {
+            return Err("the change was not picked up".into());
+        }
+        if !is_constant(&exr) {
+            return Err("the rebuilt stage's image is not constant".into());
+        }
+        let line = break_shade(dir.path());
+        let want = format!("shade.comp:{line}:");
+        if !wait_for(&want, &mut log) {
+            return Err(format!("no compile error naming {want}"));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        if child.try_wait().unwrap().is_some() {
+            return Err("the process stopped on a compile error".into());
+        }
+        if !is_constant(&exr) {
+            return Err("the last good image was not kept".into());
+        }
+        Ok(())
+    })();
+    let _ = child.kill();
+    let _ = child.wait();
+    if let Err(e) = result {
+        panic!("{e}; stderr so far:\n{}", log.join("\n"));
+    }
+}
