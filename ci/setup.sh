@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what a fresh Debian machine lacks to build and test pathwave: Vulkan loader, lavapipe, glslang, validation layers.
+# Installs what a fresh Debian machine lacks to build and test pathwave: Vulkan loader, lavapipe, glslang, validation
+# layers, and an X server for the viewer.
 set -euo pipefail
 
 PACKAGES=(
@@ -10,6 +11,8 @@ PACKAGES=(
   spirv-tools
   vulkan-tools          # vulkaninfo, for diagnosing a machine
   pkg-config
+  xvfb xauth            # a headless X server for the viewer's tests (xvfb-run)
+  libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0   # loaded by winit at run time
 )
 
 missing=()

@@ -39,6 +39,14 @@ pub const WRAP_MIRROR: u32 = 2;
 pub const TEXTURE_WRAP_T_SHIFT: u32 = 2;
 pub const TEXTURE_NEAREST: u32 = 16;
 
+/// ToneMap.op: the viewer's tone curve (low bits) and whether to pack pixels as BGRA instead of RGBA.
+pub const TONEMAP_CLAMP: u32 = 0;
+pub const TONEMAP_ACES: u32 = 1;
+pub const TONEMAP_NEUTRAL: u32 = 2;
+pub const TONEMAP_BGRA: u32 = 16;
+/// Workgroups of the 2D tone-map stage are TONEMAP_TILE x TONEMAP_TILE pixels.
+pub const TONEMAP_TILE: u32 = 8;
+
 /// Material.alpha.x: glTF alphaMode.
 pub const ALPHA_OPAQUE: u32 = 0;
 pub const ALPHA_MASK: u32 = 1;

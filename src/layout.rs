@@ -151,6 +151,24 @@ pub struct Frame {
     pub env_height: u32,
 }
 
+/// 32 bytes: the tone-map stage's push constants (its own block inside the shared 128-byte range).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ToneMap {
+    pub film_width: u32,
+    pub film_height: u32,
+    pub out_width: u32,
+    pub out_height: u32,
+    /// Samples per pixel in the film (its sums are divided by this).
+    pub samples: u32,
+    /// TONEMAP_* curve, | TONEMAP_BGRA for BGRA byte order.
+    pub op: u32,
+    /// Linear scale before the curve: 2^stops.
+    pub exposure: f32,
+    pub pad: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<ToneMap>() == 32);
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);

@@ -6,9 +6,10 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod shaders;
+pub mod viewer;
 pub mod vk;
 
-pub use render::{Estimator, Film, RenderSettings, RenderStats, Renderer};
+pub use render::{Estimator, Film, RenderSettings, RenderStats, Renderer, Session};
 pub use scene::Scene;
 
 use std::path::PathBuf;

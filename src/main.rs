@@ -1,4 +1,4 @@
-//! The pathwave command line: render, info, export-shaders.
+//! The pathwave command line: render, view, info, export-shaders.
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -22,6 +22,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene to an EXR (linear) or PNG (sRGB) file.
     Render(RenderArgs),
+    /// Show a scene in a window, rendering progressively; see README for the controls.
+    View(ViewArgs),
     /// Describe a scene (triangles, materials, lights, BVH) or list the Vulkan devices.
     Info {
         /// The glTF (.gltf or .glb) scene.
@@ -35,6 +37,62 @@ enum Command {
         /// The folder to write into (created if missing).
         dir: PathBuf,
     },
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// The glTF (.gltf or .glb) scene.
+    scene: PathBuf,
+    /// Window size as WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x480", value_parser = parse_size, allow_hyphen_values = true)]
+    size: (u32, u32),
+    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
+    #[arg(long, value_parser = clap::value_parser!(u32))]
+    max_depth: Option<u32>,
+    /// Seed of the random sequences.
+    #[arg(long, default_value = "0")]
+    seed: u32,
+    /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
+    #[arg(long)]
+    device: Option<DeviceChoice>,
+    /// Which camera of the file to start from, counting from 0.
+    #[arg(long)]
+    camera: Option<usize>,
+    /// Exposure in stops (+ and - change it in the window).
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    exposure: f32,
+    /// Tone curve (T cycles through them in the window).
+    #[arg(long, value_enum, default_value = "aces")]
+    tonemap: pathwave::viewer::ToneCurve,
+    /// Environment map (.hdr or .exr), as for render.
+    #[arg(long, conflicts_with = "env_color")]
+    env: Option<PathBuf>,
+    /// A uniform environment colour, as for render.
+    #[arg(long, value_parser = parse_rgb)]
+    env_color: Option<[f32; 3]>,
+    #[arg(long, default_value = "1", allow_hyphen_values = true)]
+    env_intensity: f32,
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    env_rotation: f32,
+    #[arg(long)]
+    hide_env: bool,
+    /// Thin-lens aperture radius (F toggles depth of field; right click focuses).
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    aperture: f32,
+    #[arg(long, allow_hyphen_values = true)]
+    focus_distance: Option<f32>,
+    /// Shader folder to use and watch: edited stages are rebuilt while the window stays open.
+    #[arg(long)]
+    shader_dir: Option<PathBuf>,
+    /// Close after this many frames (for scripts and tests).
+    #[arg(long, value_parser = positive)]
+    frames: Option<u32>,
+    /// Where P saves (default pathwave.exr and pathwave.png), and what --frames writes before closing.
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Milliseconds per frame the adaptive sampler aims at.
+    #[arg(long, default_value = "33", value_parser = positive)]
+    frame_budget_ms: u32,
 }
 
 #[derive(clap::Args)]
@@ -131,6 +189,7 @@ fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::View(args) => view(args),
         Command::Info { scene, devices } => info(scene, devices),
         Command::ExportShaders { dir } => export_shaders(dir),
     };
@@ -147,18 +206,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     let mut scene = scene::load(&args.scene, args.camera)?;
-    if !(args.env_intensity.is_finite() && args.env_intensity >= 0.0) {
-        bail!("--env-intensity must be a non-negative number");
-    }
-    let mut environment = match (&args.env, args.env_color) {
-        (Some(path), _) => Some(scene::Environment::load(path, args.env_intensity)?),
-        (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * args.env_intensity))),
-        (None, None) => None,
-    };
-    if let Some(env) = &mut environment {
-        env.rotation = args.env_rotation.to_radians();
-    }
-    scene.environment = environment;
+    scene.environment = environment(&args.env, args.env_color, args.env_intensity, args.env_rotation)?;
     let mut renderer = Renderer::new(&scene, &args.device.clone().unwrap_or_default())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
@@ -243,6 +291,57 @@ fn render_and_write(
         start.elapsed().as_secs_f64(),
         stats.summary()
     );
+    Ok(())
+}
+
+fn environment(
+    path: &Option<PathBuf>,
+    color: Option<[f32; 3]>,
+    intensity: f32,
+    rotation: f32,
+) -> Result<Option<scene::Environment>> {
+    if !(intensity.is_finite() && intensity >= 0.0) {
+        bail!("--env-intensity must be a non-negative number");
+    }
+    let mut environment = match (path, color) {
+        (Some(path), _) => Some(scene::Environment::load(path, intensity)?),
+        (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * intensity))),
+        (None, None) => None,
+    };
+    if let Some(env) = &mut environment {
+        env.rotation = rotation.to_radians();
+    }
+    Ok(environment)
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    if let Some(out) = &args.screenshot {
+        output::format_of(out)?;
+    }
+    let mut scene = scene::load(&args.scene, args.camera)?;
+    scene.environment = environment(&args.env, args.env_color, args.env_intensity, args.env_rotation)?;
+    let options = pathwave::viewer::ViewOptions {
+        device: args.device.unwrap_or_default(),
+        settings: RenderSettings {
+            width: args.size.0,
+            height: args.size.1,
+            // Only sizes the paths in flight: up to this many samples per pixel share a pass.
+            spp: 256,
+            max_depth: args.max_depth,
+            seed: args.seed,
+            hide_environment: args.hide_env,
+            aperture: args.aperture,
+            focus_distance: args.focus_distance,
+            ..Default::default()
+        },
+        exposure: args.exposure,
+        tonemap: args.tonemap,
+        shader_dir: args.shader_dir,
+        frames: args.frames,
+        screenshot: args.screenshot,
+        budget: std::time::Duration::from_millis(args.frame_budget_ms as u64),
+    };
+    pathwave::viewer::run(scene, options)?;
     Ok(())
 }
 

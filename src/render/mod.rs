@@ -3,7 +3,7 @@ pub mod gpu_scene;
 
 use crate::constants::*;
 use crate::layout::{Counters, Frame, COUNTERS_DISPATCH_OFFSET};
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 use crate::vk::{Buffer, Context, DeviceChoice, Pipelines, Timestamps, Validation};
 use crate::Error;
 use ash::vk;
@@ -205,6 +205,37 @@ struct SceneBuffers {
     tri_tangents: Buffer,
 }
 
+/// A progressive render: the film and path state stay on the device between `Renderer::advance` calls, so a
+/// viewer can add samples frame by frame and show the running mean.
+pub struct Session {
+    pub settings: RenderSettings,
+    frame: Frame,
+    pixels: u64,
+    capacity: u32,
+    paths: Buffer,
+    queues: Buffer,
+    counters: Buffer,
+    film: Buffer,
+    probe: Buffer,
+    /// Samples per pixel accumulated so far.
+    pub done: u32,
+    /// Tallies since the last (re)start.
+    pub stats: RenderStats,
+    started: Instant,
+}
+
+impl Session {
+    /// Samples (paths) per second since the session last (re)started.
+    pub fn samples_per_sec(&self) -> f64 {
+        self.stats.samples as f64 / self.started.elapsed().as_secs_f64().max(1e-9)
+    }
+
+    /// The film buffer on the device: running sums, then running sums of squares (see layout.glsl).
+    pub fn film_buffer(&self) -> &Buffer {
+        &self.film
+    }
+}
+
 /// A scene uploaded to one device, ready to render any number of images.
 pub struct Renderer {
     // Field order is drop order: everything device-owned goes before the context.
@@ -242,7 +273,11 @@ impl Renderer {
     }
 
     pub fn with_validation(scene: &Scene, device: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
-        let ctx = Context::new(device, validation)?;
+        Self::with_context(scene, Context::new(device, validation)?)
+    }
+
+    /// A renderer on a context made by the caller (e.g. one that can present to a window).
+    pub fn with_context(scene: &Scene, ctx: Context) -> Result<Self, Error> {
         let packed = gpu_scene::pack(scene);
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
@@ -450,6 +485,24 @@ impl Renderer {
         settings: &RenderSettings,
         progress: &mut dyn FnMut(u32),
     ) -> Result<(Film, RenderStats), Error> {
+        let mut session = self.begin(settings)?;
+        while session.done < settings.spp {
+            let remaining = settings.spp - session.done;
+            self.advance(&mut session, remaining)?;
+            progress(session.done);
+        }
+        let film = self.film(&session)?;
+        let mut stats = std::mem::take(&mut session.stats);
+        stats.wall = session.started.elapsed();
+        if stats.passes == 1 {
+            stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
+        }
+        Ok((film, stats))
+    }
+
+    /// Starts a progressive render: allocates the film and path state and clears the film. `settings.spp` is not
+    /// used; `advance` adds samples until the caller stops.
+    pub fn begin(&mut self, settings: &RenderSettings) -> Result<Session, Error> {
         let s = settings;
         if s.width == 0 || s.height == 0 {
             return Err(Error::Settings(format!(
@@ -476,7 +529,6 @@ impl Renderer {
                 s.width, s.height
             )));
         }
-        // Paths in flight per pass: all pixels when they fit, otherwise the image is covered in chunks.
         let per_path = PATH_FIELDS as u64 * 16;
         // Paths in flight: every pixel times as many samples as fit in the budget, or chunks of pixels when one sample
         // of the image alone is larger. 2^18 paths (32 MiB of path state) keep lavapipe's lanes busy without hoarding memory.
@@ -500,60 +552,171 @@ impl Renderer {
         )?;
         let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
         let probe = Buffer::new(ctx, "probe (unused)", 16, storage, MemoryLocation::GpuOnly)?;
+        let mut session = Session {
+            settings: s.clone(),
+            frame: Frame::default(),
+            pixels,
+            capacity,
+            paths,
+            queues,
+            counters,
+            film,
+            probe,
+            done: 0,
+            stats: RenderStats::default(),
+            started: Instant::now(),
+        };
+        self.restart(&mut session)?;
+        Ok(session)
+    }
+
+    /// Clears a session's film and starts again from sample 0 with the renderer's current camera and the session's
+    /// settings (the image size must stay the same).
+    pub fn restart(&mut self, session: &mut Session) -> Result<(), Error> {
+        let mut frame = self.frame(&session.settings);
+        frame.path_capacity = session.capacity;
+        session.frame = frame;
+        session.done = 0;
+        session.stats = RenderStats::default();
+        session.started = Instant::now();
+        let (ctx, film) = (&self.ctx, &session.film);
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })
+    }
+
+    /// Runs one pass: up to `samples` more samples per pixel (as many as fit in flight; one when the image must be
+    /// covered in chunks). Returns how many were added.
+    pub fn advance(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
         self.bind_scene(&[
-            (BINDING_PATHS, &paths),
-            (BINDING_QUEUES, &queues),
-            (BINDING_COUNTERS, &counters),
-            (BINDING_FILM, &film),
-            (BINDING_PROBE, &probe),
+            (BINDING_PATHS, &session.paths),
+            (BINDING_QUEUES, &session.queues),
+            (BINDING_COUNTERS, &session.counters),
+            (BINDING_FILM, &session.film),
+            (BINDING_PROBE, &session.probe),
         ]);
-        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })?;
-
-        let mut stats = RenderStats::default();
-        let start = Instant::now();
-        let mut frame = self.frame(s);
-        frame.path_capacity = capacity;
-
-        let mut done = 0u32;
-        while done < s.spp {
-            frame.sample_index = done;
-            if pixels <= capacity as u64 {
-                // Whole samples of every pixel, as many as fit.
-                let k = ((capacity as u64 / pixels) as u32).min(s.spp - done);
-                frame.pixel_offset = 0;
-                frame.pass_pixels = pixels as u32;
-                frame.path_count = pixels as u32 * k;
-                self.run_pass(&frame, &counters, &mut stats)?;
-                done += k;
-            } else {
-                // One sample, the image in chunks of `capacity` pixels.
-                for chunk in 0..pixels.div_ceil(capacity as u64) as u32 {
-                    frame.pixel_offset = chunk * capacity;
-                    frame.pass_pixels = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
-                    frame.path_count = frame.pass_pixels;
-                    self.run_pass(&frame, &counters, &mut stats)?;
+        let (pixels, capacity) = (session.pixels, session.capacity);
+        let mut frame = session.frame;
+        frame.sample_index = session.done;
+        let mut stats = std::mem::take(&mut session.stats);
+        let added = if pixels <= capacity as u64 {
+            // Whole samples of every pixel, as many as fit.
+            let k = ((capacity as u64 / pixels) as u32).min(samples.max(1));
+            frame.pixel_offset = 0;
+            frame.pass_pixels = pixels as u32;
+            frame.path_count = pixels as u32 * k;
+            let r = self.run_pass(&frame, &session.counters, &mut stats);
+            session.stats = stats;
+            r?;
+            k
+        } else {
+            // One sample, the image in chunks of `capacity` pixels.
+            for chunk in 0..pixels.div_ceil(capacity as u64) as u32 {
+                frame.pixel_offset = chunk * capacity;
+                frame.pass_pixels = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
+                frame.path_count = frame.pass_pixels;
+                if let Err(e) = self.run_pass(&frame, &session.counters, &mut stats) {
+                    session.stats = stats;
+                    return Err(e);
                 }
-                done += 1;
             }
-            progress(done);
-        }
-        stats.wall = start.elapsed();
-        if stats.passes == 1 {
-            stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
-        }
-        let raw: Vec<[f32; 4]> = film.download(&self.ctx)?;
+            session.stats = stats;
+            1
+        };
+        session.done += added;
         self.check_validation()?;
-        let (sum, sum_sq) = raw.split_at(pixels as usize);
-        Ok((
-            Film {
-                width: s.width,
-                height: s.height,
-                spp: s.spp,
-                sum: sum.to_vec(),
-                sum_sq: sum_sq[..pixels as usize].to_vec(),
-            },
-            stats,
-        ))
+        Ok(added)
+    }
+
+    /// The session's film so far (running sums over `done` samples per pixel).
+    pub fn film(&self, session: &Session) -> Result<Film, Error> {
+        let raw: Vec<[f32; 4]> = session.film.download(&self.ctx)?;
+        self.check_validation()?;
+        let pixels = session.pixels as usize;
+        let (sum, sum_sq) = raw.split_at(pixels);
+        Ok(Film {
+            width: session.settings.width,
+            height: session.settings.height,
+            spp: session.done,
+            sum: sum.to_vec(),
+            sum_sq: sum_sq[..pixels].to_vec(),
+        })
+    }
+
+    /// Writes the session's running mean into `out` as packed 8-bit sRGB pixels of `out_size` (nearest-scaled from
+    /// the film), through `op`'s tone curve after scaling by `exposure` (linear). Recorded into `cmd`, which the
+    /// caller submits; a barrier after it makes the pixels ready for transfers.
+    pub fn record_tonemap(
+        &self,
+        cmd: vk::CommandBuffer,
+        session: &Session,
+        out: &Buffer,
+        out_size: [u32; 2],
+        op: u32,
+        exposure: f32,
+    ) {
+        self.bind_scene(&[
+            (BINDING_PATHS, &session.paths),
+            (BINDING_QUEUES, &session.queues),
+            (BINDING_COUNTERS, &session.counters),
+            (BINDING_FILM, &session.film),
+            (BINDING_PROBE, out),
+        ]);
+        let tone = crate::layout::ToneMap {
+            film_width: session.settings.width,
+            film_height: session.settings.height,
+            out_width: out_size[0],
+            out_height: out_size[1],
+            samples: session.done,
+            op,
+            exposure,
+            pad: 0,
+        };
+        let groups = [out_size[0].div_ceil(TONEMAP_TILE), out_size[1].div_ceil(TONEMAP_TILE)];
+        self.pipelines
+            .dispatch_2d(cmd, "tonemap", bytemuck::bytes_of(&tone), groups);
+        let barrier = vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+        unsafe {
+            self.ctx.device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            )
+        };
+    }
+
+    /// The distance along the view direction to the first surface under image position (x, y) in [0, 1]^2 (0, 0 at
+    /// the top left), for click-to-focus; None when the ray escapes.
+    pub fn focus_distance_at(&mut self, x: f32, y: f32, aspect: f32) -> Result<Option<f32>, Error> {
+        let (right, up, forward) = self.camera.basis();
+        let t = (self.camera.yfov * 0.5).tan();
+        let dir = (forward + right * ((2.0 * x - 1.0) * t * aspect) + up * ((1.0 - 2.0 * y) * t)).normalize();
+        let ray = crate::bvh::Ray {
+            origin: self.camera.origin(),
+            dir,
+            tmin: 0.0,
+            tmax: f32::INFINITY,
+        };
+        let hit = self.probe_trace(&[ray], false)?[0];
+        Ok((hit.tri != NO_HIT).then(|| hit.t * dir.dot(forward)))
+    }
+
+    /// The camera renders use; `set_camera` changes it for the next `begin` or `restart`.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera = camera;
+    }
+
+    /// The focus distance used when the settings give none: the camera's distance to the scene's centre.
+    pub fn default_focus(&self) -> f32 {
+        self.default_focus
     }
 
     /// Runs one pass and adds its ray tallies and (after the first pass, which also compiles) GPU stage times.

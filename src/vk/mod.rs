@@ -131,7 +131,22 @@ pub struct Context {
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     debug_device: Option<ash::ext::debug_utils::Device>,
     log: Box<ValidationLog>,
-    _entry: ash::Entry,
+    /// The window surface this device presents to (the viewer), if any; its queue can present to it.
+    pub surface: Option<Surface>,
+    pub entry: ash::Entry,
+}
+
+/// A window's Vulkan surface and the instance functions that query it.
+pub struct Surface {
+    pub loader: ash::khr::surface::Instance,
+    pub raw: vk::SurfaceKHR,
+}
+
+/// The native handles of a window to present to.
+#[derive(Clone, Copy)]
+pub struct WindowHandles {
+    pub display: raw_window_handle::RawDisplayHandle,
+    pub window: raw_window_handle::RawWindowHandle,
 }
 
 fn load_entry() -> Result<ash::Entry, Error> {
@@ -143,13 +158,20 @@ fn load_entry() -> Result<ash::Entry, Error> {
     })
 }
 
-fn create_instance(entry: &ash::Entry, validation: Validation) -> Result<ash::Instance, Error> {
+fn create_instance(
+    entry: &ash::Entry,
+    validation: Validation,
+    window: Option<WindowHandles>,
+) -> Result<ash::Instance, Error> {
     let app = vk::ApplicationInfo::default()
         .application_name(c"pathwave")
         .engine_name(c"pathwave")
         .api_version(vk::API_VERSION_1_2);
     let mut layers = Vec::new();
     let mut extensions = Vec::new();
+    if let Some(w) = window {
+        extensions.extend_from_slice(ash_window::enumerate_required_extensions(w.display)?);
+    }
     if validation != Validation::Off {
         let available = unsafe { entry.enumerate_instance_layer_properties() }?;
         let has = available
@@ -197,18 +219,10 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
     }
 }
 
-fn compute_queue_family(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<u32> {
-    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-    families
-        .iter()
-        .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
-        .map(|i| i as u32)
-}
-
 /// Every Vulkan device on this machine, in the loader's order (the index `--device` takes).
 pub fn list_devices() -> Result<Vec<DeviceInfo>, Error> {
     let entry = load_entry()?;
-    let instance = create_instance(&entry, Validation::Off)?;
+    let instance = create_instance(&entry, Validation::Off, None)?;
     let devices = unsafe { instance.enumerate_physical_devices() }?;
     let infos = devices
         .iter()
@@ -221,8 +235,17 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>, Error> {
 
 impl Context {
     pub fn new(choice: &DeviceChoice, validation: Validation) -> Result<Self, Error> {
+        Self::create(choice, validation, None)
+    }
+
+    /// A context whose queue can also present to `window` (VK_KHR_swapchain enabled).
+    pub fn for_window(choice: &DeviceChoice, validation: Validation, window: WindowHandles) -> Result<Self, Error> {
+        Self::create(choice, validation, Some(window))
+    }
+
+    fn create(choice: &DeviceChoice, validation: Validation, window: Option<WindowHandles>) -> Result<Self, Error> {
         let entry = load_entry()?;
-        let instance = create_instance(&entry, validation)?;
+        let instance = create_instance(&entry, validation, window)?;
         let log = Box::<ValidationLog>::default();
         let debug = if validation != Validation::Off {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -242,12 +265,34 @@ impl Context {
         } else {
             None
         };
+        let surface = match window {
+            Some(w) => {
+                let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) }?;
+                Some(Surface {
+                    loader: ash::khr::surface::Instance::new(&entry, &instance),
+                    raw,
+                })
+            }
+            None => None,
+        };
+        // With a window, the one queue must compute and present.
+        let queue_family_of = |pd: vk::PhysicalDevice| -> Option<u32> {
+            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+            (0..families.len() as u32).find(|&i| {
+                families[i as usize].queue_flags.contains(vk::QueueFlags::COMPUTE)
+                    && surface.as_ref().is_none_or(|s| unsafe {
+                        s.loader
+                            .get_physical_device_surface_support(pd, i, s.raw)
+                            .unwrap_or(false)
+                    })
+            })
+        };
         let devices = unsafe { instance.enumerate_physical_devices() }?;
         let usable: Vec<(usize, vk::PhysicalDevice)> = devices
             .iter()
             .copied()
             .enumerate()
-            .filter(|(_, pd)| compute_queue_family(&instance, *pd).is_some())
+            .filter(|(_, pd)| queue_family_of(*pd).is_some())
             .collect();
         let picked = match choice {
             DeviceChoice::Best => usable
@@ -276,8 +321,16 @@ impl Context {
                 .enumerate()
                 .map(|(i, &pd)| format!("{i}: {}", describe(&instance, i, pd).name))
                 .collect();
-            unsafe { instance.destroy_instance(None) };
+            unsafe {
+                if let Some(s) = &surface {
+                    s.loader.destroy_surface(s.raw, None);
+                }
+                instance.destroy_instance(None)
+            };
             return Err(Error::Vulkan(match choice {
+                DeviceChoice::Best if window.is_some() => {
+                    "no Vulkan device can both compute and present to this window".into()
+                }
                 DeviceChoice::Best => {
                     "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into()
                 }
@@ -285,7 +338,7 @@ impl Context {
             }));
         };
         let properties = unsafe { instance.get_physical_device_properties(physical) };
-        let queue_family = compute_queue_family(&instance, physical).expect("filtered above");
+        let queue_family = queue_family_of(physical).expect("filtered above");
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamps_valid =
             families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
@@ -293,7 +346,10 @@ impl Context {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device_extensions = [ash::khr::swapchain::NAME.as_ptr()];
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(if surface.is_some() { &device_extensions[..] } else { &[] });
         let device = unsafe { instance.create_device(physical, &device_info, None) }?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -336,7 +392,8 @@ impl Context {
             debug,
             debug_device,
             log,
-            _entry: entry,
+            surface,
+            entry,
         })
     }
 
@@ -459,6 +516,9 @@ impl Drop for Context {
             self.device.destroy_command_pool(self.pool, None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
+            if let Some(s) = self.surface.take() {
+                s.loader.destroy_surface(s.raw, None);
+            }
             if let Some((du, m)) = self.debug.take() {
                 du.destroy_debug_utils_messenger(m, None);
             }

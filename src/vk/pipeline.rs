@@ -120,6 +120,27 @@ impl Pipelines {
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
+    /// A 2D dispatch with a stage's own push constants (within the shared range), e.g. the tone map.
+    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, name: &str, push: &[u8], groups: [u32; 2]) {
+        assert!(
+            push.len() <= std::mem::size_of::<Frame>(),
+            "push constants past the shared range"
+        );
+        let pipeline = *self
+            .pipelines
+            .get(name)
+            .unwrap_or_else(|| panic!("no pipeline named {name}"));
+        unsafe {
+            self.device
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+            self.device
+                .cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
+            self.device
+                .cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            self.device.cmd_dispatch(cmd, groups[0], groups[1], 1);
+        }
+    }
+
     fn bind(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame) {
         let pipeline = *self
             .pipelines

@@ -1,0 +1,582 @@
+//! `pathwave view`: a window on the progressive render, camera controls, adaptive samples per frame, hot reload.
+mod swapchain;
+
+use crate::render::{RenderSettings, Renderer, Session};
+use crate::scene::{Camera, Scene};
+use crate::shaders::{ShaderDir, ShaderWatcher};
+use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
+use crate::Error;
+use glam::{Mat4, Vec3};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+use swapchain::Swapchain;
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+/// What `pathwave view` was asked for.
+pub struct ViewOptions {
+    pub device: DeviceChoice,
+    /// Window size; `settings.width/height` follow the window.
+    pub settings: RenderSettings,
+    /// Stops of exposure before the tone curve.
+    pub exposure: f32,
+    pub tonemap: ToneCurve,
+    pub shader_dir: Option<PathBuf>,
+    /// Stop after this many frames (writing `screenshot` first, if given).
+    pub frames: Option<u32>,
+    pub screenshot: Option<PathBuf>,
+    /// Time per frame the adaptive sampler aims at.
+    pub budget: Duration,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ToneCurve {
+    /// Linear, clipped at 1 (what PNG output does).
+    Clamp,
+    /// Narkowicz's ACES filmic fit.
+    Aces,
+    /// Khronos PBR Neutral.
+    Neutral,
+}
+
+impl ToneCurve {
+    fn code(self) -> u32 {
+        use crate::constants::*;
+        match self {
+            ToneCurve::Clamp => TONEMAP_CLAMP,
+            ToneCurve::Aces => TONEMAP_ACES,
+            ToneCurve::Neutral => TONEMAP_NEUTRAL,
+        }
+    }
+    fn next(self) -> Self {
+        match self {
+            ToneCurve::Clamp => ToneCurve::Aces,
+            ToneCurve::Aces => ToneCurve::Neutral,
+            ToneCurve::Neutral => ToneCurve::Clamp,
+        }
+    }
+}
+
+/// Opens the window and runs until it is closed (or `frames` are done).
+pub fn run(scene: Scene, options: ViewOptions) -> Result<(), Error> {
+    let event_loop = EventLoop::new().map_err(|e| Error::Settings(format!("cannot open a window: {e}")))?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App {
+        scene: Some(scene),
+        options,
+        state: None,
+        error: None,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| Error::Settings(format!("the window's event loop failed: {e}")))?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App {
+    scene: Option<Scene>,
+    options: ViewOptions,
+    state: Option<State>,
+    error: Option<Error>,
+}
+
+/// An orbit camera: the eye circles `target`; flying moves both.
+#[derive(Clone, Copy)]
+struct Orbit {
+    eye: Vec3,
+    target: Vec3,
+    yfov: f32,
+}
+
+impl Orbit {
+    fn from_camera(c: &Camera, distance: f32) -> Self {
+        let (_, _, forward) = c.basis();
+        Orbit {
+            eye: c.origin(),
+            target: c.origin() + forward * distance,
+            yfov: c.yfov,
+        }
+    }
+
+    fn basis(&self) -> (Vec3, Vec3, Vec3) {
+        let forward = (self.target - self.eye).normalize_or(-Vec3::Z);
+        let right = forward.cross(Vec3::Y).normalize_or(Vec3::X);
+        (right, right.cross(forward), forward)
+    }
+
+    fn camera(&self) -> Camera {
+        let (right, up, forward) = self.basis();
+        Camera {
+            world_from_camera: Mat4::from_cols(
+                right.extend(0.0),
+                up.extend(0.0),
+                (-forward).extend(0.0),
+                self.eye.extend(1.0),
+            ),
+            yfov: self.yfov,
+        }
+    }
+
+    fn orbit(&mut self, dx: f32, dy: f32) {
+        let offset = self.eye - self.target;
+        let (right, _, _) = self.basis();
+        let yaw = glam::Quat::from_axis_angle(Vec3::Y, -dx);
+        let pitched = glam::Quat::from_axis_angle(right, -dy) * offset;
+        // Stop short of the poles, where "up" would flip.
+        let offset = if pitched.normalize().dot(Vec3::Y).abs() < 0.99 {
+            pitched
+        } else {
+            offset
+        };
+        self.eye = self.target + yaw * offset;
+    }
+
+    fn pan(&mut self, dx: f32, dy: f32) {
+        let (right, up, _) = self.basis();
+        let d = (self.eye - self.target).length();
+        let shift = (-right * dx + up * dy) * d;
+        self.eye += shift;
+        self.target += shift;
+    }
+
+    fn zoom(&mut self, steps: f32) {
+        let offset = self.eye - self.target;
+        self.eye = self.target + offset * 0.9f32.powf(steps);
+    }
+
+    fn fly(&mut self, local: Vec3) {
+        let (right, up, forward) = self.basis();
+        let shift = right * local.x + up * local.y + forward * local.z;
+        self.eye += shift;
+        self.target += shift;
+    }
+}
+
+// Field order is drop order: device objects before the renderer's device, the window after its surface.
+struct State {
+    session: Session,
+    swapchain: Swapchain,
+    pixels: Buffer,
+    shaders: Option<(ShaderDir, ShaderWatcher)>,
+    renderer: Renderer,
+    window: Window,
+    orbit: Orbit,
+    fly_speed: f32,
+    curve: ToneCurve,
+    exposure: f32,
+    dof: bool,
+    aperture: f32,
+    /// Samples per pixel each pass asks for, adapted to the frame budget.
+    samples_per_pass: u32,
+    /// Render resolution divisor while the camera moves on a slow device.
+    scale: u32,
+    last_move: Option<Instant>,
+    /// Until the user moves, the file's camera is used as is (so a still view matches a headless render exactly).
+    camera_moved: bool,
+    held: Vec<KeyCode>,
+    cursor: (f64, f64),
+    dragging: Option<MouseButton>,
+    frames: u32,
+    started: Instant,
+    last_frame: Instant,
+    frame_ms: f32,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        let Some(scene) = self.scene.take() else { return };
+        match State::new(event_loop, &scene, &self.options) {
+            Ok(s) => self.state = Some(s),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(state) = self.state.as_mut() else { return };
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                event_loop.exit();
+                Ok(())
+            }
+            WindowEvent::Resized(size) => state.resize(size),
+            WindowEvent::RedrawRequested => match state.frame(&self.options) {
+                Ok(true) => Ok(()),
+                Ok(false) => {
+                    event_loop.exit();
+                    Ok(())
+                }
+                Err(e) => Err(e),
+            },
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else {
+                    return;
+                };
+                if event.state == ElementState::Pressed {
+                    if code == KeyCode::Escape {
+                        event_loop.exit();
+                    }
+                    state.key(code, &self.options)
+                } else {
+                    state.held.retain(|k| *k != code);
+                    Ok(())
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => state.cursor_moved((position.x, position.y)),
+            WindowEvent::MouseInput {
+                state: pressed, button, ..
+            } => state.mouse(button, pressed == ElementState::Pressed),
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                state.orbit.zoom(steps);
+                state.moved()
+            }
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.error = Some(e);
+            event_loop.exit();
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(s) = &self.state {
+            s.window.request_redraw();
+        }
+    }
+}
+
+impl State {
+    fn new(event_loop: &ActiveEventLoop, scene: &Scene, options: &ViewOptions) -> Result<Self, Error> {
+        use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+        let s = &options.settings;
+        let attributes = Window::default_attributes()
+            .with_title("pathwave")
+            .with_inner_size(PhysicalSize::new(s.width, s.height));
+        let window = event_loop
+            .create_window(attributes)
+            .map_err(|e| Error::Settings(format!("cannot open a window: {e}")))?;
+        let handle_err = |e: winit::raw_window_handle::HandleError| Error::Settings(format!("window handle: {e}"));
+        let handles = WindowHandles {
+            display: window.display_handle().map_err(handle_err)?.as_raw(),
+            window: window.window_handle().map_err(handle_err)?.as_raw(),
+        };
+        let ctx = Context::for_window(&options.device, Validation::from_env(), handles)?;
+        let mut renderer = Renderer::with_context(scene, ctx)?;
+        for w in &renderer.warnings {
+            eprintln!("warning: {}: {w}", scene.path.display());
+        }
+        let shaders = match &options.shader_dir {
+            Some(dir) => {
+                let dir = ShaderDir::open(dir)?;
+                let used = renderer.load_shaders(&dir, None)?;
+                eprintln!("using {} from {}", used.join(", "), dir.root().display());
+                let watcher = ShaderWatcher::new(&dir)?;
+                Some((dir, watcher))
+            }
+            None => None,
+        };
+        let size = window.inner_size();
+        let swapchain = Swapchain::new(renderer.context(), [size.width.max(1), size.height.max(1)])?;
+        let focus = s.focus_distance.unwrap_or(renderer.default_focus());
+        let orbit = Orbit::from_camera(&renderer.camera(), focus);
+        let (lo, hi) = scene.bounds();
+        let extent = (hi - lo).length().max(1e-3);
+        let mut settings = s.clone();
+        settings.width = swapchain.extent[0];
+        settings.height = swapchain.extent[1];
+        settings.focus_distance = Some(focus);
+        let session = renderer.begin(&settings)?;
+        let pixels = pixel_buffer(renderer.context(), swapchain.extent)?;
+        Ok(State {
+            window,
+            renderer,
+            session,
+            swapchain,
+            pixels,
+            shaders,
+            orbit,
+            fly_speed: extent * 0.5,
+            curve: options.tonemap,
+            exposure: options.exposure,
+            dof: s.aperture > 0.0,
+            aperture: if s.aperture > 0.0 { s.aperture } else { extent * 0.01 },
+            samples_per_pass: 1,
+            scale: 1,
+            last_move: None,
+            camera_moved: false,
+            held: Vec::new(),
+            cursor: (0.0, 0.0),
+            dragging: None,
+            frames: 0,
+            started: Instant::now(),
+            last_frame: Instant::now(),
+            frame_ms: 0.0,
+        })
+    }
+
+    /// Starts the accumulation again (camera, settings or shaders changed), at 1/scale of the window's resolution.
+    fn reset(&mut self) -> Result<(), Error> {
+        if self.camera_moved {
+            self.renderer.set_camera(self.orbit.camera());
+        }
+        let mut settings = self.session.settings.clone();
+        settings.aperture = if self.dof { self.aperture } else { 0.0 };
+        let w = (self.swapchain.extent[0] / self.scale).max(1);
+        let h = (self.swapchain.extent[1] / self.scale).max(1);
+        if (w, h) != (settings.width, settings.height) {
+            settings.width = w;
+            settings.height = h;
+            self.session = self.renderer.begin(&settings)?;
+        } else {
+            self.session.settings = settings;
+            self.renderer.restart(&mut self.session)?;
+        }
+        Ok(())
+    }
+
+    fn moved(&mut self) -> Result<(), Error> {
+        self.last_move = Some(Instant::now());
+        self.camera_moved = true;
+        self.reset()
+    }
+
+    fn resize(&mut self, size: PhysicalSize<u32>) -> Result<(), Error> {
+        if size.width == 0 || size.height == 0 {
+            return Ok(());
+        }
+        self.swapchain
+            .recreate(self.renderer.context(), [size.width, size.height])?;
+        self.pixels = pixel_buffer(self.renderer.context(), self.swapchain.extent)?;
+        self.reset()
+    }
+
+    fn key(&mut self, code: KeyCode, options: &ViewOptions) -> Result<(), Error> {
+        match code {
+            KeyCode::KeyP => self.save(
+                &options
+                    .screenshot
+                    .clone()
+                    .unwrap_or_else(|| PathBuf::from("pathwave.exr")),
+            )?,
+            KeyCode::KeyR => self.reset()?,
+            KeyCode::KeyT => {
+                self.curve = self.curve.next();
+                eprintln!("tone curve: {:?}", self.curve);
+            }
+            KeyCode::Equal | KeyCode::NumpadAdd => self.exposure += 0.5,
+            KeyCode::Minus | KeyCode::NumpadSubtract => self.exposure -= 0.5,
+            KeyCode::KeyF => {
+                self.dof = !self.dof;
+                self.reset()?;
+            }
+            KeyCode::KeyW | KeyCode::KeyA | KeyCode::KeyS | KeyCode::KeyD | KeyCode::KeyQ | KeyCode::KeyE
+                if !self.held.contains(&code) =>
+            {
+                self.held.push(code)
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn cursor_moved(&mut self, to: (f64, f64)) -> Result<(), Error> {
+        let (dx, dy) = ((to.0 - self.cursor.0) as f32, (to.1 - self.cursor.1) as f32);
+        self.cursor = to;
+        let h = self.swapchain.extent[1].max(1) as f32;
+        match self.dragging {
+            Some(MouseButton::Left) => {
+                self.orbit.orbit(dx / h * 3.0, dy / h * 3.0);
+                self.moved()
+            }
+            Some(MouseButton::Middle) => {
+                self.orbit.pan(dx / h, dy / h);
+                self.moved()
+            }
+            _ => Ok(()),
+        }
+    }
+
+    fn mouse(&mut self, button: MouseButton, pressed: bool) -> Result<(), Error> {
+        if !pressed {
+            self.dragging = None;
+            return Ok(());
+        }
+        if button != MouseButton::Right {
+            self.dragging = Some(button);
+            return Ok(());
+        }
+        // Right click: focus on the surface under the cursor.
+        let [w, h] = self.swapchain.extent;
+        let (x, y) = (self.cursor.0 as f32 / w as f32, self.cursor.1 as f32 / h as f32);
+        if let Some(d) = self.renderer.focus_distance_at(x, y, w as f32 / h as f32)? {
+            eprintln!("focus distance {d:.3}");
+            self.session.settings.focus_distance = Some(d);
+            self.dof = true;
+            self.reset()?;
+        }
+        Ok(())
+    }
+
+    /// One frame: hot reload, fly keys, samples until the budget is spent, tone map, present. False when done.
+    fn frame(&mut self, options: &ViewOptions) -> Result<bool, Error> {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f32().min(0.1);
+        self.last_frame = now;
+        self.reload_shaders()?;
+        if !self.held.is_empty() {
+            let mut v = Vec3::ZERO;
+            for k in &self.held {
+                v += match k {
+                    KeyCode::KeyW => Vec3::Z,
+                    KeyCode::KeyS => -Vec3::Z,
+                    KeyCode::KeyD => Vec3::X,
+                    KeyCode::KeyA => -Vec3::X,
+                    KeyCode::KeyE => Vec3::Y,
+                    KeyCode::KeyQ => -Vec3::Y,
+                    _ => Vec3::ZERO,
+                };
+            }
+            self.orbit.fly(v * self.fly_speed * dt);
+            self.moved()?;
+        }
+        // Back to full resolution once the camera has been still for a moment.
+        let still = self.last_move.is_none_or(|t| t.elapsed() > Duration::from_millis(300));
+        if still && self.scale > 1 {
+            self.scale = 1;
+            self.reset()?;
+        }
+        let budget = options.budget;
+        let start = Instant::now();
+        loop {
+            let pass_start = Instant::now();
+            self.renderer.advance(&mut self.session, self.samples_per_pass)?;
+            let pass = pass_start.elapsed();
+            // Fewer, larger passes amortise dispatch overhead; smaller ones keep the window responsive.
+            if pass < budget / 4 {
+                self.samples_per_pass = (self.samples_per_pass * 2).min(256);
+            } else if pass > budget && self.samples_per_pass > 1 {
+                self.samples_per_pass /= 2;
+            } else if pass > budget && !still && self.scale < 8 {
+                self.scale *= 2;
+                self.reset()?;
+                break;
+            }
+            if start.elapsed() + pass > budget {
+                break;
+            }
+        }
+        self.present()?;
+        self.frames += 1;
+        self.frame_ms = 0.9 * self.frame_ms + 0.1 * now.elapsed().as_secs_f32() * 1e3;
+        let rate = self.session.samples_per_sec();
+        self.window.set_title(&format!(
+            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}",
+            self.session.done,
+            rate * 1e-6,
+            self.frame_ms,
+            self.curve,
+            self.exposure,
+            if self.dof { ", depth of field" } else { "" }
+        ));
+        if options.frames.is_some_and(|n| self.frames >= n) {
+            let secs = self.started.elapsed().as_secs_f64();
+            eprintln!(
+                "{} frames in {secs:.2} s ({:.1} frames/s) at {}x{}: {} spp, {:.2} M samples/s",
+                self.frames,
+                self.frames as f64 / secs,
+                self.swapchain.extent[0],
+                self.swapchain.extent[1],
+                self.session.done,
+                rate * 1e-6
+            );
+            if let Some(path) = &options.screenshot {
+                self.save(path)?;
+            }
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    fn reload_shaders(&mut self) -> Result<(), Error> {
+        let Some((dir, watcher)) = &self.shaders else {
+            return Ok(());
+        };
+        let changed = watcher.changed(Duration::ZERO);
+        let stale = dir.affected(&changed);
+        if stale.is_empty() {
+            return Ok(());
+        }
+        match self.renderer.load_shaders(dir, Some(&stale)) {
+            Ok(rebuilt) => {
+                eprintln!("rebuilt {}", rebuilt.join(", "));
+                self.reset()
+            }
+            Err(e) => {
+                // The previous pipelines keep running, and so does the accumulation.
+                eprintln!("error: {e}\nkeeping the previous pipelines");
+                Ok(())
+            }
+        }
+    }
+
+    fn present(&mut self) -> Result<(), Error> {
+        let bgra = self.swapchain.bgra;
+        let op = self.curve.code() | if bgra { crate::constants::TONEMAP_BGRA } else { 0 };
+        let exposure = 2f32.powf(self.exposure);
+        let (renderer, session, pixels) = (&self.renderer, &self.session, &self.pixels);
+        let ok = self.swapchain.present(renderer.context(), pixels, |cmd, extent| {
+            renderer.record_tonemap(cmd, session, pixels, extent, op, exposure)
+        })?;
+        if !ok {
+            let size = self.window.inner_size();
+            self.resize(size)?;
+        }
+        Ok(())
+    }
+
+    /// Writes the running mean as EXR (linear) and PNG (this view's exposure), or just the format `path` names.
+    fn save(&mut self, path: &std::path::Path) -> Result<(), Error> {
+        let film = self.renderer.film(&self.session)?;
+        let pixels = film.mean();
+        let mut paths = vec![path.to_path_buf()];
+        if options_wants_both(path) {
+            paths.push(path.with_extension("png"));
+        }
+        for p in paths {
+            crate::output::write_image(&p, film.width, film.height, &pixels, self.exposure)?;
+            eprintln!("saved {} ({} spp)", p.display(), film.spp);
+        }
+        Ok(())
+    }
+}
+
+/// The P key's default file is an EXR with a PNG beside it; an explicit --screenshot writes what it names.
+fn options_wants_both(path: &std::path::Path) -> bool {
+    path == std::path::Path::new("pathwave.exr")
+}
+
+fn pixel_buffer(ctx: &Context, extent: [u32; 2]) -> Result<Buffer, Error> {
+    Buffer::new(
+        ctx,
+        "display pixels",
+        extent[0] as u64 * extent[1] as u64 * 4,
+        ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::TRANSFER_SRC,
+        gpu_allocator::MemoryLocation::GpuOnly,
+    )
+}
