@@ -37,8 +37,9 @@ pub fn export_builtin(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     Ok(written)
 }
 
-/// A folder of GLSL stages (`*.comp`, with shared code in `include/`) compiled on demand. The constants generated
-/// from src/constants.rs always come from this binary, so user stages cannot drift from the host's layout.
+/// A folder of GLSL stages (`*.comp`, with shared code in `include/`) compiled on demand. Includes the folder lacks
+/// come from the built-in ones, and the constants generated from src/constants.rs always come from this binary, so
+/// user stages cannot drift from the host's layout.
 pub struct ShaderDir {
     root: PathBuf,
     generated: tempfile::TempDir,
@@ -56,6 +57,13 @@ impl ShaderDir {
             embedded::SHARED_CONSTANTS,
         )
         .map_err(|e| bad(format!("cannot write the shared constants: {e}")))?;
+        // The built-in includes come last on the include path, so a folder may hold only the stages it changes.
+        for (rel, text) in embedded::SOURCES {
+            if let Some(name) = rel.strip_prefix("include/") {
+                std::fs::write(generated.path().join(name), text)
+                    .map_err(|e| bad(format!("cannot write the built-in {name}: {e}")))?;
+            }
+        }
         let root = root.canonicalize().map_err(|e| bad(e.to_string()))?;
         Ok(ShaderDir { root, generated })
     }

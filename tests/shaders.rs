@@ -217,3 +217,33 @@ fn watch_rebuilds_on_change_and_survives_a_compile_error() {
         panic!("{e}; stderr so far:\n{}", log.join("\n"));
     }
 }
+
+/// examples/shaders/bvh-cost holds only extend.comp and shade.comp (its includes are the built-in ones): a false
+/// colour of the nodes each camera ray visited: rays over the open floor visit few (blue), rays grazing the spheres'
+/// silhouettes many (red).
+#[test]
+fn the_bvh_cost_example_renders_a_false_colour_image() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/shaders/bvh-cost");
+    let out = tempfile::tempdir().unwrap();
+    let exr = out.path().join("cost.exr");
+    let o = pathwave()
+        .arg("render")
+        .arg(common::scenes_dir().join("material-grid.gltf"))
+        .arg("-o")
+        .arg(&exr)
+        .args(["--size", "32x24", "--spp", "1", "--shader-dir"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && log.contains("using extend, shade from"), "{log}");
+    let (_, _, px) = pathwave::output::read_exr(&exr).unwrap();
+    // Under 16 nodes: blue to half green, no red. Over 32: some red.
+    let cheap = px.iter().filter(|p| p[0] == 0.0 && p[1] < 0.5).count();
+    let costly = px.iter().filter(|p| p[0] > 0.0).count();
+    assert!(
+        cheap > px.len() / 10 && costly > px.len() / 100,
+        "{cheap} cheap and {costly} costly pixels of {}",
+        px.len()
+    );
+}

@@ -47,6 +47,12 @@ vec3 safe_inverse(vec3 d) {
     return vec3(d.x != 0.0 ? 1.0 / d.x : big, d.y != 0.0 ? 1.0 / d.y : big, d.z != 0.0 ? 1.0 / d.z : big);
 }
 
+#ifdef TRAVERSE_COUNT_NODES
+// Nodes visited by the last trace(): a stage that defines TRAVERSE_COUNT_NODES before including this file can show
+// traversal cost (see examples/shaders/bvh-cost). Off by default, so it costs nothing.
+uint traverse_node_visits = 0u;
+#endif
+
 // any_hit: stop at the first intersection (shadow rays). alpha_key: the ray's hash for stochastic transparency
 // (alphaMode BLEND); alpha-tested triangles the ray passes through are not hits.
 Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
@@ -60,6 +66,9 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
     uint node = 0u;
     // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
     bool empty = floatBitsToUint(nodes[0].lo.w) == 0u && floatBitsToUint(nodes[0].hi.w) == 0u;
+#ifdef TRAVERSE_COUNT_NODES
+    traverse_node_visits = 1u;
+#endif
     if (empty || intersect_box(nodes[0].lo.xyz, nodes[0].hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
         return hit;
     }
@@ -83,6 +92,9 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
             uint right = first + 1u;
             float tl = intersect_box(nodes[left].lo.xyz, nodes[left].hi.xyz, o, inv_d, tmin, hit.t);
             float tr = intersect_box(nodes[right].lo.xyz, nodes[right].hi.xyz, o, inv_d, tmin, hit.t);
+#ifdef TRAVERSE_COUNT_NODES
+            traverse_node_visits += 2u;
+#endif
             bool hl = tl != uintBitsToFloat(0x7F800000u);
             bool hr = tr != uintBitsToFloat(0x7F800000u);
             if (hl && hr) {
