@@ -1,4 +1,5 @@
 //! pathwave: a physically based wavefront path tracer on Vulkan compute. This is the API a Rust program embeds.
+pub mod bench;
 pub mod bvh;
 pub mod constants;
 pub mod layout;
@@ -6,6 +7,7 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod shaders;
+pub mod variants;
 pub mod viewer;
 pub mod vk;
 

@@ -1,4 +1,4 @@
-//! The pathwave command line: render, view, info, export-shaders.
+//! The pathwave command line: render, view, bench, info, export-shaders.
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -31,6 +31,20 @@ enum Command {
         /// List the Vulkan devices instead (their index is what --device takes).
         #[arg(long)]
         devices: bool,
+    },
+    /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
+    Bench {
+        /// Also write the figures as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Fewer samples and a smaller terrain, for a quick look.
+        #[arg(long)]
+        quick: bool,
+        /// Folder holding cornell-box.gltf and glass.gltf (default: ./scenes, else the source tree's).
+        #[arg(long)]
+        scenes: Option<PathBuf>,
+        #[arg(long)]
+        device: Option<DeviceChoice>,
     },
     /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
     ExportShaders {
@@ -192,6 +206,12 @@ fn main() {
         Command::View(args) => view(args),
         Command::Info { scene, devices } => info(scene, devices),
         Command::ExportShaders { dir } => export_shaders(dir),
+        Command::Bench {
+            json,
+            quick,
+            scenes,
+            device,
+        } => bench(json, quick, scenes, device),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -342,6 +362,29 @@ fn view(args: ViewArgs) -> Result<()> {
         budget: std::time::Duration::from_millis(args.frame_budget_ms as u64),
     };
     pathwave::viewer::run(scene, options)?;
+    Ok(())
+}
+
+fn bench(json: Option<PathBuf>, quick: bool, scenes: Option<PathBuf>, device: Option<DeviceChoice>) -> Result<()> {
+    let scenes = scenes.unwrap_or_else(|| {
+        let here = PathBuf::from("scenes");
+        if here.join("cornell-box.gltf").exists() {
+            here
+        } else {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")
+        }
+    });
+    let options = pathwave::bench::BenchOptions {
+        device: device.unwrap_or_default(),
+        scenes,
+        exe: std::env::current_exe()?,
+        quick,
+    };
+    let report = pathwave::bench::run(&options, &mut |case| eprintln!("bench: {case}"))?;
+    print!("{}", report.table());
+    if let Some(path) = json {
+        std::fs::write(&path, report.json() + "\n").with_context(|| format!("cannot write {}", path.display()))?;
+    }
     Ok(())
 }
 

@@ -72,13 +72,16 @@ impl ShaderDir {
         &self.root
     }
 
-    /// The built-in stages this folder overrides (its `*.comp` files with a built-in stage's name), sorted.
-    /// Other `.comp` files are reported by `unknown_stages`.
+    /// The built-in stages this folder overrides (its `*.comp` files with a built-in stage's name, and their
+    /// variants), sorted. Other `.comp` files are reported by `unknown_stages`.
     pub fn stages(&self) -> Vec<String> {
-        self.comp_files()
-            .into_iter()
-            .filter(|s| BUILTIN_SPIRV.iter().any(|(n, _)| n == s))
-            .collect()
+        let mut names: Vec<String> = BUILTIN_SPIRV
+            .iter()
+            .map(|(n, _)| n.to_string())
+            .filter(|n| self.comp_files().contains(&source_of(n).0))
+            .collect();
+        names.sort();
+        names
     }
 
     pub fn unknown_stages(&self) -> Vec<String> {
@@ -112,11 +115,15 @@ impl ShaderDir {
     /// Compiles one stage to SPIR-V. The error is glslang's own report, whose lines read
     /// `ERROR: /path/stage.comp:LINE: message`.
     pub fn compile(&self, stage: &str) -> Result<Vec<u8>, Error> {
-        let src = self.root.join(format!("{stage}.comp"));
+        let (base, define) = source_of(stage);
+        let src = self.root.join(format!("{base}.comp"));
         let out = self.generated.path().join(format!("{stage}.spv"));
         let mut cmd = Command::new(glslang());
         // Vulkan 1.1 / SPIR-V 1.3 like build.rs: the same compiler flags as the built-in stages.
         cmd.args(["-V", "--target-env", "vulkan1.1"]);
+        if let Some(d) = define {
+            cmd.arg(format!("-D{d}"));
+        }
         for dir in self.include_dirs() {
             cmd.arg(format!("-I{}", dir.display()));
         }
@@ -142,7 +149,7 @@ impl ShaderDir {
     /// The files a stage reads: its `.comp` and everything it includes, transitively, as canonical paths.
     pub fn dependencies(&self, stage: &str) -> BTreeSet<PathBuf> {
         let mut seen = BTreeSet::new();
-        let mut todo = vec![self.root.join(format!("{stage}.comp"))];
+        let mut todo = vec![self.root.join(format!("{}.comp", source_of(stage).0))];
         while let Some(file) = todo.pop() {
             let file = file.canonicalize().unwrap_or(file);
             if !seen.insert(file.clone()) {
@@ -182,11 +189,21 @@ impl ShaderDir {
         stages.retain(|s| {
             let deps = self.dependencies(s);
             // A stage file that appeared since the last look is affected too.
-            let own = self.root.join(format!("{s}.comp"));
+            let own = self.root.join(format!("{}.comp", source_of(s).0));
             changed.iter().any(|c| deps.contains(c) || *c == own)
         });
         stages
     }
+}
+
+/// The source file (without `.comp`) a stage is compiled from, and the define of its variant, if it is one.
+pub fn source_of(stage: &str) -> (String, Option<&'static str>) {
+    for (base, suffix, define) in crate::variants::STAGE_VARIANTS {
+        if stage.strip_prefix(base).and_then(|r| r.strip_prefix('_')) == Some(suffix) {
+            return (base.to_string(), Some(define));
+        }
+    }
+    (stage.to_string(), None)
 }
 
 /// Watches a shader folder for changes (notify), so a caller can rebuild only the stale stages.

@@ -336,3 +336,33 @@ fn environment_lights_the_scene_and_hide_env_keeps_it_from_the_camera() {
         "the floor is lit the same either way"
     );
 }
+
+/// `pathwave bench --quick` runs every case and writes JSON with a positive figure for each measurement.
+#[test]
+fn bench_reports_every_case() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let o = pathwave(&["bench", "--quick", "--json", json.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let table = String::from_utf8_lossy(&o.stdout);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert!(v["startup_s"].as_f64().unwrap() > 0.0);
+    let cases = v["cases"].as_array().unwrap();
+    let names: Vec<&str> = cases.iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert_eq!(names.len(), 3, "{names:?}");
+    assert!(names[0] == "cornell-box" && names[1] == "glass" && names[2].starts_with("terrain-"));
+    for c in cases {
+        for key in [
+            "render_s",
+            "samples_per_s",
+            "extension_rays_per_s",
+            "bvh_build_s",
+            "bytes_per_triangle",
+            "image_mean",
+        ] {
+            assert!(c[key].as_f64().unwrap() > 0.0, "{}: {key} is {}", c["name"], c[key]);
+        }
+        assert!(table.contains(c["name"].as_str().unwrap()), "{table}");
+    }
+    assert!(cases[2]["triangles"].as_u64().unwrap() > 30_000);
+}

@@ -81,7 +81,7 @@ fn exported_stages_reproduce_the_builtin_image() {
     run(&[], &a);
     let log = run(&["--shader-dir", dir.path().to_str().unwrap()], &b);
     assert!(
-        log.contains("using accumulate, connect, energy_tables, extend, generate"),
+        log.contains("using accumulate, connect, connect_alpha, energy_tables, extend, extend_alpha, generate"),
         "{log}"
     );
     assert_eq!(
@@ -113,7 +113,10 @@ fn an_edited_stage_replaces_the_builtin_and_a_broken_one_is_refused() {
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success() && log.contains("using shade from"), "{log}");
+    assert!(
+        o.status.success() && log.contains("using shade, shade_textured from"),
+        "{log}"
+    );
     assert!(is_constant(&exr), "the edited shade stage was not used");
 
     let line = break_shade(dir.path());
@@ -140,9 +143,12 @@ fn includes_decide_which_stages_are_stale() {
     let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
     let root = shaders.root().to_path_buf();
     let bsdf = shaders.affected(&[root.join("include/bsdf.glsl")]);
-    assert_eq!(bsdf, ["energy_tables", "probe_bsdf", "shade"]);
+    assert_eq!(bsdf, ["energy_tables", "probe_bsdf", "shade", "shade_textured"]);
     let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);
-    assert_eq!(traverse, ["connect", "extend", "probe_trace"]);
+    assert_eq!(
+        traverse,
+        ["connect", "connect_alpha", "extend", "extend_alpha", "probe_trace"]
+    );
     assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);
     assert!(shaders.affected(&[root.join("notes.txt")]).is_empty());
 }
@@ -236,7 +242,10 @@ fn the_bvh_cost_example_renders_a_false_colour_image() {
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success() && log.contains("using extend, shade from"), "{log}");
+    assert!(
+        o.status.success() && log.contains("using extend, extend_alpha, shade, shade_textured from"),
+        "{log}"
+    );
     let (_, _, px) = pathwave::output::read_exr(&exr).unwrap();
     // Under 16 nodes: blue to half green, no red. Over 32: some red.
     let cheap = px.iter().filter(|p| p[0] == 0.0 && p[1] < 0.5).count();

@@ -88,7 +88,11 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
     if (!faces) return ls;
     // Emissive textures and cut-out or blended parts, as a ray hitting the point would find them.
+#ifdef TEXTURED
     ls.radiance = material_at(lm, tri, b).emission.rgb * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
+#else
+    ls.radiance = lm.emission.rgb;
+#endif
     ls.pdf = l.prob / l.area * dist2 / abs(cos_l);
     return ls;
 }

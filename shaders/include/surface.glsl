@@ -1,4 +1,6 @@
 // A material at a hit point: glTF's factors times its textures at the hit's texture coordinates, and alpha testing.
+// Textures and alpha apply only with TEXTURED defined (the shade_textured variant, used for scenes that have either):
+// without it the factors alone are used, and the texture code is not compiled into the stage at all.
 #ifndef SURFACE_GLSL
 #define SURFACE_GLSL
 
@@ -46,6 +48,7 @@ bool alpha_stops(uint tri, vec2 b, uint key) {
 
 // The material with its textures applied at the hit: base colour and alpha, metallic and roughness, emission.
 Material material_at(Material m, uint tri, vec2 b) {
+#ifdef TEXTURED
     if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true);
     if (slot_used(m.textures[TEX_METALLIC_ROUGHNESS])) {
         vec4 mr = sample_slot(m.textures[TEX_METALLIC_ROUGHNESS], tri, b, false);
@@ -53,11 +56,13 @@ Material material_at(Material m, uint tri, vec2 b) {
         m.params.y *= mr.g;
     }
     if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true).rgb;
+#endif
     return m;
 }
 
 // The shading normal with the normal map applied; ns is the interpolated vertex normal (unit length).
 vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns) {
+#ifdef TEXTURED
     if (!slot_used(m.textures[TEX_NORMAL])) return ns;
     TriTangents tt = tri_tangents[tri];
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
@@ -69,6 +74,9 @@ vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns) {
     c.xy *= m.alpha.z;
     vec3 n = c.x * t + c.y * bt + c.z * ns;
     return dot(n, n) > 1e-12 ? normalize(n) : ns;
+#else
+    return ns;
+#endif
 }
 
 #endif

@@ -135,6 +135,12 @@ impl RenderStats {
         let (n, t) = self.steady_counts(self.extension_rays + self.shadow_rays);
         n / t
     }
+    /// Extension and shadow rays per second, apart.
+    pub fn rays_per_sec_split(&self) -> (f64, f64) {
+        let (e, t) = self.steady_counts(self.extension_rays);
+        let (s, _) = self.steady_counts(self.shadow_rays);
+        (e / t, s / t)
+    }
     fn steady_counts(&self, total: u64) -> (f64, f64) {
         if self.passes > 1 && !self.steady().is_zero() {
             let per_pass = total as f64 / self.passes as f64;
@@ -245,6 +251,10 @@ pub struct Renderer {
     /// Built once per device at start-up; None only while it is being built.
     energy: Option<Buffer>,
     light_count: u32,
+    /// Some triangle's material is alpha-tested: traversal runs the *_alpha variants.
+    alpha_tested: bool,
+    /// Some material has a texture or alpha: shading runs the textured variant.
+    textured: bool,
     env_prob: f32,
     env_size: (u32, u32),
     env_rotation: f32,
@@ -321,6 +331,8 @@ impl Renderer {
             scene: buffers,
             energy: None,
             light_count: packed.lights.len() as u32,
+            alpha_tested: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0),
+            textured: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0) || !packed.tri_texcoords.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
@@ -746,6 +758,13 @@ impl Renderer {
 
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
     fn pass(&mut self, frame: &Frame, counters: &Buffer) -> Result<(), Error> {
+        // The variants with alpha testing and textures cost up to 4x in traversal: only scenes that need them use them.
+        let (extend, connect) = if self.alpha_tested {
+            ("extend_alpha", "connect_alpha")
+        } else {
+            ("extend", "connect")
+        };
+        let shade = if self.textured { "shade_textured" } else { "shade" };
         let ctx = &self.ctx;
         let p = &self.pipelines;
         let ts = &mut self.timestamps;
@@ -762,16 +781,16 @@ impl Renderer {
                 ts.time(cmd, "queue_args", || p.dispatch(cmd, "queue_args", &f, 1));
                 ctx.barrier(cmd);
                 ts.time(cmd, "extend", || {
-                    p.dispatch_indirect(cmd, "extend", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                    p.dispatch_indirect(cmd, extend, &f, counters, COUNTERS_DISPATCH_OFFSET)
                 });
                 ctx.barrier(cmd);
                 ts.time(cmd, "shade", || {
-                    p.dispatch_indirect(cmd, "shade", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                    p.dispatch_indirect(cmd, shade, &f, counters, COUNTERS_DISPATCH_OFFSET)
                 });
                 ctx.barrier(cmd);
                 // Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
                 ts.time(cmd, "connect", || {
-                    p.dispatch_indirect(cmd, "connect", &f, counters, COUNTERS_DISPATCH_OFFSET)
+                    p.dispatch_indirect(cmd, connect, &f, counters, COUNTERS_DISPATCH_OFFSET)
                 });
                 ctx.barrier(cmd);
             }

@@ -1,0 +1,315 @@
+//! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
+use crate::render::{gpu_scene, RenderSettings, Renderer};
+use crate::scene::{self, Camera, Environment, Material, Scene};
+use crate::vk::{Context, DeviceChoice, Validation};
+use crate::Error;
+use glam::{Mat4, Vec3, Vec4};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// One measured render.
+#[derive(Clone, Debug, Default)]
+pub struct CaseResult {
+    pub name: String,
+    pub triangles: usize,
+    pub size: (u32, u32),
+    pub spp: u32,
+    /// The whole `pathwave render` process (load, device, shaders, render, write), when the case has a file.
+    pub process_s: Option<f64>,
+    /// Renderer::render inside this process.
+    pub render_s: f64,
+    /// The first pass, which includes the device compiling the pipelines.
+    pub first_pass_s: f64,
+    pub samples_per_s: f64,
+    pub extension_rays_per_s: f64,
+    pub shadow_rays_per_s: f64,
+    /// Extension rays per second of GPU time in the extend stage alone: traversal speed inside the wavefront.
+    pub extend_stage_rays_per_s: f64,
+    pub stage_ms: Vec<(String, f64)>,
+    pub bvh_build_s: f64,
+    /// Device bytes per triangle: BVH nodes, triangle vertices and shading data.
+    pub bytes_per_triangle: f64,
+    pub image_mean: f64,
+}
+
+pub struct BenchOptions {
+    pub device: DeviceChoice,
+    /// Where cornell-box.gltf and glass.gltf are.
+    pub scenes: PathBuf,
+    /// This program, spawned for whole-process timings.
+    pub exe: PathBuf,
+    /// Fewer samples, for a quick look (and the tests).
+    pub quick: bool,
+}
+
+/// A heightfield of `side`^2 quads (2 side^2 triangles) of rolling hills under a uniform sky.
+pub fn terrain(side: usize) -> Scene {
+    let h = |x: f32, z: f32| {
+        0.08 * (x * 9.0).sin() * (z * 7.0).cos() + 0.03 * (x * 31.0 + z * 17.0).sin() + 0.01 * (x * 97.0).cos()
+    };
+    let n = side + 1;
+    let mut p = Vec::with_capacity(n * n);
+    let mut nrm = Vec::with_capacity(n * n);
+    let e = 1e-3;
+    for j in 0..n {
+        for i in 0..n {
+            let (x, z) = (i as f32 / side as f32 * 2.0 - 1.0, j as f32 / side as f32 * 2.0 - 1.0);
+            p.push(Vec3::new(x, h(x, z), z));
+            let dx = (h(x + e, z) - h(x - e, z)) / (2.0 * e);
+            let dz = (h(x, z + e) - h(x, z - e)) / (2.0 * e);
+            nrm.push(Vec3::new(-dx, 1.0, -dz).normalize());
+        }
+    }
+    let mut s = Scene {
+        path: PathBuf::from(format!("terrain-{side}")),
+        ..Default::default()
+    };
+    s.materials.push(Material {
+        name: "ground".into(),
+        base_color: Vec3::splat(0.6),
+        metallic: 0.0,
+        specular: 0.0,
+        ..Default::default()
+    });
+    for j in 0..side {
+        for i in 0..side {
+            let a = j * n + i;
+            let (b, c, d) = (a + 1, a + n, a + n + 1);
+            // Counter-clockwise seen from above (+y).
+            for t in [[a, c, b], [b, c, d]] {
+                s.triangles.push(t.map(|k| p[k]));
+                s.normals.push(t.map(|k| nrm[k]));
+                s.texcoords.push([Vec4::ZERO; 3]);
+                s.tangents.push([Vec4::ZERO; 3]);
+                s.material_of.push(0);
+            }
+        }
+    }
+    let eye = Vec3::new(0.0, 1.2, 2.2);
+    let forward = (Vec3::new(0.0, 0.0, 0.0) - eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    s.camera = Some(Camera {
+        world_from_camera: Mat4::from_cols(
+            right.extend(0.0),
+            up.extend(0.0),
+            (-forward).extend(0.0),
+            eye.extend(1.0),
+        ),
+        yfov: 45f32.to_radians(),
+    });
+    s.environment = Some(Environment::constant([1.0, 1.0, 1.0]));
+    s
+}
+
+fn measure(name: &str, scene: &Scene, size: (u32, u32), spp: u32, device: &DeviceChoice) -> Result<CaseResult, Error> {
+    let start = Instant::now();
+    let packed = gpu_scene::pack(scene);
+    let bvh_build_s = start.elapsed().as_secs_f64();
+    let bytes = std::mem::size_of_val(&packed.bvh.nodes[..])
+        + std::mem::size_of_val(&packed.tri_verts[..])
+        + std::mem::size_of_val(&packed.tri_shading[..]);
+    drop(packed);
+    let ctx = Context::new(device, Validation::Off)?;
+    let mut r = Renderer::with_context(scene, ctx)?;
+    let settings = RenderSettings {
+        width: size.0,
+        height: size.1,
+        spp,
+        ..Default::default()
+    };
+    let (film, stats) = r.render(&settings, &mut |_| {})?;
+    let extend_ms = stats.stage_ms.iter().find(|(l, _)| *l == "extend").map_or(0.0, |s| s.1);
+    // Stage times cover the passes after the first (or the only one): scale the ray count to match.
+    let steady_share = if stats.passes > 1 {
+        (stats.passes - 1) as f64 / stats.passes as f64
+    } else {
+        1.0
+    };
+    let mean = film.mean();
+    Ok(CaseResult {
+        name: name.into(),
+        triangles: scene.triangles.len(),
+        size,
+        spp,
+        process_s: None,
+        render_s: stats.wall.as_secs_f64(),
+        first_pass_s: stats.first_pass.as_secs_f64(),
+        samples_per_s: stats.samples_per_sec(),
+        extension_rays_per_s: stats.rays_per_sec_split().0,
+        shadow_rays_per_s: stats.rays_per_sec_split().1,
+        extend_stage_rays_per_s: if extend_ms > 0.0 {
+            stats.extension_rays as f64 * steady_share / (extend_ms * 1e-3)
+        } else {
+            0.0
+        },
+        stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
+        bvh_build_s,
+        bytes_per_triangle: bytes as f64 / scene.triangles.len().max(1) as f64,
+        image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,
+    })
+}
+
+/// Wall time of a whole `pathwave render` process.
+fn process_time(exe: &Path, scene: &Path, size: (u32, u32), spp: u32) -> Result<f64, Error> {
+    let out = tempfile::Builder::new()
+        .suffix(".exr")
+        .tempfile()
+        .map_err(|e| Error::Settings(format!("bench: {e}")))?;
+    let start = Instant::now();
+    let status = Command::new(exe)
+        .arg("render")
+        .arg(scene)
+        .args([
+            "--size",
+            &format!("{}x{}", size.0, size.1),
+            "--spp",
+            &spp.to_string(),
+            "-o",
+        ])
+        .arg(out.path())
+        .env_remove("PATHWAVE_VALIDATION")
+        .output()
+        .map_err(|e| Error::Settings(format!("bench: cannot run {}: {e}", exe.display())))?;
+    let t = start.elapsed().as_secs_f64();
+    if !status.status.success() {
+        return Err(Error::Settings(format!(
+            "bench: pathwave render {} failed: {}",
+            scene.display(),
+            String::from_utf8_lossy(&status.stderr)
+        )));
+    }
+    Ok(t)
+}
+
+pub struct BenchReport {
+    pub device: String,
+    pub cases: Vec<CaseResult>,
+    /// A 64x64, 1-spp Cornell box render as a whole process, after one run warmed the shader cache.
+    pub startup_s: f64,
+    pub total: Duration,
+}
+
+pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchReport, Error> {
+    let start = Instant::now();
+    let cornell = o.scenes.join("cornell-box.gltf");
+    let glass = o.scenes.join("glass.gltf");
+    for p in [&cornell, &glass] {
+        if !p.exists() {
+            return Err(Error::Settings(format!(
+                "bench: {} not found; run from the repository or pass --scenes DIR",
+                p.display()
+            )));
+        }
+    }
+    let (spp_cornell, spp_glass, spp_mesh, side) = if o.quick { (4, 2, 1, 128) } else { (64, 16, 4, 708) };
+    progress("start-up");
+    process_time(&o.exe, &cornell, (64, 64), 1)?;
+    let startup_s = process_time(&o.exe, &cornell, (64, 64), 1)?;
+    let mut cases = Vec::new();
+    for (name, path, spp) in [("cornell-box", &cornell, spp_cornell), ("glass", &glass, spp_glass)] {
+        progress(name);
+        let scene = scene::load(path, None)?;
+        let mut c = measure(name, &scene, (256, 256), spp, &o.device)?;
+        c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
+        cases.push(c);
+    }
+    progress("terrain");
+    let t = terrain(side);
+    cases.push(measure(
+        &format!("terrain-{}k", t.triangles.len() / 1000),
+        &t,
+        (256, 256),
+        spp_mesh,
+        &o.device,
+    )?);
+    let device = Context::new(&o.device, Validation::Off)?.device_name();
+    Ok(BenchReport {
+        device,
+        cases,
+        startup_s,
+        total: start.elapsed(),
+    })
+}
+
+impl BenchReport {
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "pathwave bench on {} ({:.0} s in all); start-up, 64x64 at 1 spp, whole process: {:.2} s\n",
+            self.device,
+            self.total.as_secs_f64(),
+            self.startup_s
+        );
+        s += &format!(
+            "{:<14} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
+            "case",
+            "tris",
+            "process",
+            "render",
+            "1st pass",
+            "samples/s",
+            "ext Mr/s",
+            "shd Mr/s",
+            "extend Mr/s",
+            "bvh s",
+            "B/tri"
+        );
+        for c in &self.cases {
+            s += &format!(
+                "{:<14} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10.2} {:>8.3} {:>7.0}\n",
+                c.name,
+                c.triangles,
+                c.process_s.map_or("-".into(), |t| format!("{t:.2}")),
+                c.render_s,
+                c.first_pass_s,
+                c.samples_per_s,
+                c.extension_rays_per_s * 1e-6,
+                c.shadow_rays_per_s * 1e-6,
+                c.extend_stage_rays_per_s * 1e-6,
+                c.bvh_build_s,
+                c.bytes_per_triangle
+            );
+        }
+        s += "GPU ms per stage (the passes after the first, or the only one):\n";
+        for c in &self.cases {
+            let stages: Vec<String> = c.stage_ms.iter().map(|(l, ms)| format!("{l} {ms:.1}")).collect();
+            s += &format!("  {:<12} {}\n", c.name, stages.join(", "));
+        }
+        s
+    }
+
+    pub fn json(&self) -> String {
+        let cases: Vec<serde_json::Value> = self
+            .cases
+            .iter()
+            .map(|c| {
+                serde_json::json!({
+                    "name": c.name,
+                    "triangles": c.triangles,
+                    "width": c.size.0,
+                    "height": c.size.1,
+                    "spp": c.spp,
+                    "process_s": c.process_s,
+                    "render_s": c.render_s,
+                    "first_pass_s": c.first_pass_s,
+                    "samples_per_s": c.samples_per_s,
+                    "extension_rays_per_s": c.extension_rays_per_s,
+                    "shadow_rays_per_s": c.shadow_rays_per_s,
+                    "extend_stage_rays_per_s": c.extend_stage_rays_per_s,
+                    "stage_ms": c.stage_ms.iter().map(|(l, ms)| (l.clone(), serde_json::json!(ms))).collect::<serde_json::Map<_, _>>(),
+                    "bvh_build_s": c.bvh_build_s,
+                    "bytes_per_triangle": c.bytes_per_triangle,
+                    "image_mean": c.image_mean,
+                })
+            })
+            .collect();
+        serde_json::to_string_pretty(&serde_json::json!({
+            "device": self.device,
+            "startup_s": self.startup_s,
+            "total_s": self.total.as_secs_f64(),
+            "cases": cases,
+        }))
+        .unwrap_or_default()
+    }
+}
