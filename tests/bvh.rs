@@ -150,11 +150,15 @@ fn agrees(tris: &[TriVerts], ray: &Ray, h: &TraceHit, r: &TraceHit) -> Result<bo
 }
 
 fn check_mesh(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64) {
+    check_mesh_with(name, triangles, seed, 12_000);
+}
+
+fn check_mesh_with(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64, ray_count: usize) {
     let mut rng = Rng(seed);
     let scene = scene_of(triangles);
     let packed = gpu_scene::pack(&scene);
     let (lo, hi) = scene.bounds();
-    let rays = rays(&mut rng, &scene.triangles, lo, hi, 12_000);
+    let rays = rays(&mut rng, &scene.triangles, lo, hi, ray_count);
     let reference: Vec<TraceHit> = rays.iter().map(|r| brute_force(&packed.tri_verts, r)).collect();
 
     // The CPU traversal of the exact GPU layout does the same arithmetic as the brute force: the distance must
@@ -237,6 +241,26 @@ fn check_mesh(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64) {
 fn random_triangle_soup() {
     let mut rng = Rng(1);
     check_mesh("soup", soup(&mut rng, 3000), 2);
+}
+
+/// 80k triangles: enough for the build to split across threads and splice subtrees (past 32k triangles).
+#[test]
+fn large_soup_built_in_parallel() {
+    let mut rng = Rng(11);
+    let tris: Vec<[Vec3; 3]> = (0..80_000)
+        .map(|_| {
+            let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
+            let s = rng.range(0.005, 0.05);
+            [c + rng.dir() * s, c + rng.dir() * s, c + rng.dir() * s]
+        })
+        .collect();
+    let one = bvh::build_with_threads(&tris, 1);
+    let four = bvh::build_with_threads(&tris, 4);
+    assert!(
+        one.nodes == four.nodes && one.order == four.order,
+        "the layout depends on the thread count"
+    );
+    check_mesh_with("large soup", tris, 12, 2_000);
 }
 
 #[test]

@@ -66,8 +66,34 @@ fn node(b: &Aabb, first: u32, count: u32) -> BvhNode {
     }
 }
 
+/// Subtrees with fewer triangles than this are built on the current thread.
+const PARALLEL_MIN_TRIS: usize = 32 * 1024;
+
+/// What every subtree build reads.
+struct Inputs<'a> {
+    centroids: &'a [Vec3],
+    boxes: &'a [Aabb],
+    root_area: f32,
+}
+
+impl Inputs<'_> {
+    fn bounds_of(&self, range: &[u32]) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        range.iter().for_each(|&i| b.merge(&self.boxes[i as usize]));
+        b
+    }
+}
+
 /// Builds over world-space triangles. An empty input gives one empty leaf that every ray misses.
+///
+/// The top of the tree splits across threads; each subtree is built into its own node array and spliced in a fixed
+/// order, so the result is the same bytes whatever the number of threads.
 pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+    build_with_threads(triangles, std::thread::available_parallelism().map_or(1, |t| t.get()))
+}
+
+/// `build` on at most `threads` threads (the result does not depend on it; tests check that).
+pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
     let n = triangles.len();
     let mut boxes = Vec::with_capacity(n);
     let mut centroids = Vec::with_capacity(n);
@@ -78,34 +104,114 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         centroids.push((b.lo + b.hi) * 0.5);
     }
     let mut order: Vec<u32> = (0..n as u32).collect();
-    let mut nodes = vec![BvhNode::default()];
-    let mut stats = BvhStats::default();
     if n == 0 {
         // first = 0 and count = 0 marks the empty tree; both traversals return at once.
-        nodes[0] = node(&Aabb::EMPTY, 0, 0);
-        stats.nodes = 1;
-        return Bvh { nodes, order, stats };
+        let stats = BvhStats {
+            nodes: 1,
+            ..Default::default()
+        };
+        return Bvh {
+            nodes: vec![node(&Aabb::EMPTY, 0, 0)],
+            order,
+            stats,
+        };
     }
-    let bounds_of = |range: &[u32]| {
-        let mut b = Aabb::EMPTY;
-        range.iter().for_each(|&i| b.merge(&boxes[i as usize]));
-        b
+    let inputs = Inputs {
+        centroids: &centroids,
+        boxes: &boxes,
+        root_area: 0.0,
     };
-    let root_box = bounds_of(&order);
-    let root_area = root_box.area().max(f32::MIN_POSITIVE);
-    // (node index, start, end, depth, bounds)
-    let mut work = vec![(0usize, 0usize, n, 0u32, root_box)];
-    while let Some((index, start, end, depth, bounds)) = work.pop() {
+    let root_box = inputs.bounds_of(&order);
+    let inputs = Inputs {
+        root_area: root_box.area().max(f32::MIN_POSITIVE),
+        ..inputs
+    };
+    let (nodes, mut stats) = build_range(&inputs, &mut order, 0, root_box, 0, threads);
+    stats.nodes = nodes.len();
+    Bvh { nodes, order, stats }
+}
+
+/// Builds the subtree over `order` (the triangles at global positions start..) with its root at index 0 and child
+/// indices local to the returned array. `threads` > 1 builds the two halves of a split at the same time.
+fn build_range(
+    inputs: &Inputs,
+    order: &mut [u32],
+    start: usize,
+    bounds: Aabb,
+    depth: u32,
+    threads: usize,
+) -> (Vec<BvhNode>, BvhStats) {
+    // The shape of the splice depends on the triangle count only, never on `threads`: same bytes on any machine.
+    if order.len() < PARALLEL_MIN_TRIS {
+        return build_sequential(inputs, order, start, bounds, depth);
+    }
+    let Some(mid) = choose_split(order, inputs.centroids, inputs.boxes, &bounds, depth) else {
+        return build_sequential(inputs, order, start, bounds, depth);
+    };
+    let (lo, hi) = order.split_at_mut(mid);
+    let (lb, rb) = (inputs.bounds_of(lo), inputs.bounds_of(hi));
+    let ((left, ls), (right, rs)) = if threads > 1 {
+        std::thread::scope(|scope| {
+            let r = scope.spawn(|| build_range(inputs, hi, start + mid, rb, depth + 1, threads / 2));
+            let l = build_range(inputs, lo, start, lb, depth + 1, threads - threads / 2);
+            (l, r.join().expect("a BVH build thread panicked"))
+        })
+    } else {
+        (
+            build_range(inputs, lo, start, lb, depth + 1, 1),
+            build_range(inputs, hi, start + mid, rb, depth + 1, 1),
+        )
+    };
+    // [root, left root, right root, rest of left, rest of right]: children stay adjacent.
+    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+    nodes.push(node(&bounds, 1, 0));
+    let left_base = 3;
+    let right_base = 3 + left.len() - 1;
+    let place = |local: usize, base: usize| if local == 0 { usize::MAX } else { base + local - 1 };
+    let remap = |n: &BvhNode, base: usize| {
+        let mut n = *n;
+        if !n.is_leaf() {
+            n.lo[3] = f32::from_bits(place(n.first() as usize, base) as u32);
+        }
+        n
+    };
+    nodes.push(remap(&left[0], left_base));
+    nodes.push(remap(&right[0], right_base));
+    nodes.extend(left[1..].iter().map(|n| remap(n, left_base)));
+    nodes.extend(right[1..].iter().map(|n| remap(n, right_base)));
+    let stats = BvhStats {
+        nodes: 0,
+        leaves: ls.leaves + rs.leaves,
+        depth: ls.depth.max(rs.depth),
+        max_leaf_tris: ls.max_leaf_tris.max(rs.max_leaf_tris),
+        sah_cost: TRAVERSAL_COST * bounds.area() / inputs.root_area + ls.sah_cost + rs.sah_cost,
+    };
+    (nodes, stats)
+}
+
+fn build_sequential(
+    inputs: &Inputs,
+    order: &mut [u32],
+    start: usize,
+    bounds: Aabb,
+    depth0: u32,
+) -> (Vec<BvhNode>, BvhStats) {
+    let mut nodes = vec![BvhNode::default()];
+    let mut stats = BvhStats::default();
+    let root_area = inputs.root_area;
+    // (node index, start, end, depth, bounds), positions local to `order`
+    let mut work = vec![(0usize, 0usize, order.len(), depth0, bounds)];
+    while let Some((index, s, e, depth, bounds)) = work.pop() {
         stats.depth = stats.depth.max(depth);
-        let count = end - start;
+        let count = e - s;
         let split = if count <= 1 {
             None
         } else {
-            choose_split(&mut order[start..end], &centroids, &boxes, &bounds, depth)
+            choose_split(&mut order[s..e], inputs.centroids, inputs.boxes, &bounds, depth)
         };
         match split {
             None => {
-                nodes[index] = node(&bounds, start as u32, count as u32);
+                nodes[index] = node(&bounds, (start + s) as u32, count as u32);
                 stats.leaves += 1;
                 stats.max_leaf_tris = stats.max_leaf_tris.max(count as u32);
                 stats.sah_cost += bounds.area() / root_area * count as f32;
@@ -116,15 +222,14 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
                 nodes.push(BvhNode::default());
                 nodes[index] = node(&bounds, left as u32, 0);
                 stats.sah_cost += TRAVERSAL_COST * bounds.area() / root_area;
-                let lb = bounds_of(&order[start..start + mid]);
-                let rb = bounds_of(&order[start + mid..end]);
-                work.push((left + 1, start + mid, end, depth + 1, rb));
-                work.push((left, start, start + mid, depth + 1, lb));
+                let lb = inputs.bounds_of(&order[s..s + mid]);
+                let rb = inputs.bounds_of(&order[s + mid..e]);
+                work.push((left + 1, s + mid, e, depth + 1, rb));
+                work.push((left, s, s + mid, depth + 1, lb));
             }
         }
     }
-    stats.nodes = nodes.len();
-    Bvh { nodes, order, stats }
+    (nodes, stats)
 }
 
 /// A leaf when few enough triangles remain, otherwise the halves by centroid along `axis`.
