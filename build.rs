@@ -54,7 +54,12 @@ fn main() {
         let spv = out.join(format!("{name}.spv"));
         let result = Command::new(&glslang)
             .args(["-V", "--target-env", "vulkan1.1"])
-            .args(define.map(|d| format!("-D{d}")))
+            .args(
+                define
+                    .into_iter()
+                    .flat_map(|d| d.split_whitespace())
+                    .map(|d| format!("-D{d}")),
+            )
             .arg(format!("-I{}", include.display()))
             .arg(format!("-I{}", generated.display()))
             .arg("-o")

@@ -1,5 +1,5 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
-use crate::render::{gpu_scene, RenderSettings, Renderer};
+use crate::render::{gpu_scene, BvhReads, RenderSettings, Renderer};
 use crate::scene::{self, Camera, Environment, Material, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use crate::Error;
@@ -103,7 +103,14 @@ pub fn terrain(side: usize) -> Scene {
     s
 }
 
-fn measure(name: &str, scene: &Scene, size: (u32, u32), spp: u32, device: &DeviceChoice) -> Result<CaseResult, Error> {
+fn measure(
+    name: &str,
+    scene: &Scene,
+    size: (u32, u32),
+    spp: u32,
+    device: &DeviceChoice,
+    reads: Option<BvhReads>,
+) -> Result<CaseResult, Error> {
     let start = Instant::now();
     let packed = gpu_scene::pack(scene);
     let bvh_build_s = start.elapsed().as_secs_f64();
@@ -113,6 +120,9 @@ fn measure(name: &str, scene: &Scene, size: (u32, u32), spp: u32, device: &Devic
     drop(packed);
     let ctx = Context::new(device, Validation::Off)?;
     let mut r = Renderer::with_context(scene, ctx)?;
+    if let Some(reads) = reads {
+        r.set_bvh_reads(reads)?;
+    }
     let settings = RenderSettings {
         width: size.0,
         height: size.1,
@@ -211,18 +221,27 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     for (name, path, spp) in [("cornell-box", &cornell, spp_cornell), ("glass", &glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(name, &scene, (256, 256), spp, &o.device)?;
+        let mut c = measure(name, &scene, (256, 256), spp, &o.device, None)?;
         c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
         cases.push(c);
+        if name == "cornell-box" {
+            // The same render with the BVH read from storage buffers: the texel path's gain, measured in this run.
+            let storage = Some(BvhReads::Storage);
+            cases.push(measure("cornell-storage", &scene, (256, 256), spp, &o.device, storage)?);
+        }
     }
     progress("terrain");
     let t = terrain(side);
+    let name = format!("terrain-{}k", t.triangles.len() / 1000);
+    cases.push(measure(&name, &t, (256, 256), spp_mesh, &o.device, None)?);
+    let storage = Some(BvhReads::Storage);
     cases.push(measure(
-        &format!("terrain-{}k", t.triangles.len() / 1000),
+        "terrain-storage",
         &t,
         (256, 256),
         spp_mesh,
         &o.device,
+        storage,
     )?);
     let device = Context::new(&o.device, Validation::Off)?.device_name();
     Ok(BenchReport {

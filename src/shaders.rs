@@ -121,7 +121,7 @@ impl ShaderDir {
         let mut cmd = Command::new(glslang());
         // Vulkan 1.1 / SPIR-V 1.3 like build.rs: the same compiler flags as the built-in stages.
         cmd.args(["-V", "--target-env", "vulkan1.1"]);
-        if let Some(d) = define {
+        for d in define.into_iter().flat_map(|d| d.split_whitespace()) {
             cmd.arg(format!("-D{d}"));
         }
         for dir in self.include_dirs() {

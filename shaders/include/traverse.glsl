@@ -4,6 +4,30 @@
 
 #include "surface.glsl"
 
+#ifdef TEXEL_BVH
+// The same bytes as nodes[] and tri_verts[], fetched as RGBA32UI texels: 2 per node, 3 per triangle.
+layout(set = 0, binding = BINDING_NODE_TEXELS) uniform usamplerBuffer node_texels;
+layout(set = 0, binding = BINDING_TRI_TEXELS) uniform usamplerBuffer tri_texels;
+
+BvhNode load_node(uint i) {
+    return BvhNode(uintBitsToFloat(texelFetch(node_texels, int(2u * i))), uintBitsToFloat(texelFetch(node_texels, int(2u * i + 1u))));
+}
+
+TriVerts load_tri(uint i) {
+    int t = int(3u * i);
+    return TriVerts(uintBitsToFloat(texelFetch(tri_texels, t)), uintBitsToFloat(texelFetch(tri_texels, t + 1)),
+                    uintBitsToFloat(texelFetch(tri_texels, t + 2)));
+}
+#else
+BvhNode load_node(uint i) {
+    return nodes[i];
+}
+
+TriVerts load_tri(uint i) {
+    return tri_verts[i];
+}
+#endif
+
 struct Hit {
     float t;
     uint tri;
@@ -12,7 +36,7 @@ struct Hit {
 
 // Moller-Trumbore. Returns t in (tmin, tmax) or -1 (callers keep tmin >= 0); uv are the barycentrics of v1 and v2.
 float intersect_triangle(uint tri, vec3 o, vec3 d, float tmin, float tmax, out vec2 uv) {
-    TriVerts tv = tri_verts[tri];
+    TriVerts tv = load_tri(tri);
     vec3 pvec = cross(d, tv.e2.xyz);
     float det = dot(tv.e1.xyz, pvec);
     uv = vec2(0.0);
@@ -67,15 +91,16 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
     uint sp = 0u;
     uint node = 0u;
     // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
-    bool empty = floatBitsToUint(nodes[0].lo.w) == 0u && floatBitsToUint(nodes[0].hi.w) == 0u;
+    BvhNode root = load_node(0u);
+    bool empty = floatBitsToUint(root.lo.w) == 0u && floatBitsToUint(root.hi.w) == 0u;
 #ifdef TRAVERSE_COUNT_NODES
     traverse_node_visits = 1u;
 #endif
-    if (empty || intersect_box(nodes[0].lo.xyz, nodes[0].hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
+    if (empty || intersect_box(root.lo.xyz, root.hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
         return hit;
     }
     while (true) {
-        BvhNode n = nodes[node];
+        BvhNode n = load_node(node);
         uint count = floatBitsToUint(n.hi.w);
         uint first = floatBitsToUint(n.lo.w);
         if (count > 0u) {
@@ -96,8 +121,10 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         } else {
             uint left = first;
             uint right = first + 1u;
-            float tl = intersect_box(nodes[left].lo.xyz, nodes[left].hi.xyz, o, inv_d, tmin, hit.t);
-            float tr = intersect_box(nodes[right].lo.xyz, nodes[right].hi.xyz, o, inv_d, tmin, hit.t);
+            BvhNode ln = load_node(left);
+            BvhNode rn = load_node(right);
+            float tl = intersect_box(ln.lo.xyz, ln.hi.xyz, o, inv_d, tmin, hit.t);
+            float tr = intersect_box(rn.lo.xyz, rn.hi.xyz, o, inv_d, tmin, hit.t);
 #ifdef TRAVERSE_COUNT_NODES
             traverse_node_visits += 2u;
 #endif
@@ -122,7 +149,8 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         bool found = false;
         while (sp > 0u) {
             uint cand = stack[--sp];
-            if (intersect_box(nodes[cand].lo.xyz, nodes[cand].hi.xyz, o, inv_d, tmin, hit.t) != uintBitsToFloat(0x7F800000u)) {
+            BvhNode cn = load_node(cand);
+            if (intersect_box(cn.lo.xyz, cn.hi.xyz, o, inv_d, tmin, hit.t) != uintBitsToFloat(0x7F800000u)) {
                 node = cand;
                 found = true;
                 break;

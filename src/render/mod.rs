@@ -211,6 +211,58 @@ struct SceneBuffers {
     tri_tangents: Buffer,
 }
 
+/// How traversal reads the BVH nodes and triangle vertices (the same bytes either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhReads {
+    /// Storage-buffer loads: works everywhere.
+    Storage,
+    /// Uniform texel buffers (RGBA32UI): on lavapipe several times faster; used when the device's
+    /// maxTexelBufferElements holds the scene. PATHWAVE_BVH_READS=storage forces the other path.
+    Texel,
+}
+
+/// Buffer views of the BVH buffers for BvhReads::Texel.
+struct TexelViews {
+    nodes: vk::BufferView,
+    tris: vk::BufferView,
+    device: ash::Device,
+}
+
+impl TexelViews {
+    fn new(ctx: &Context, nodes: &Buffer, tris: &Buffer) -> Result<Self, Error> {
+        let view = |b: &Buffer| {
+            let info = vk::BufferViewCreateInfo::default()
+                .buffer(b.raw)
+                .format(vk::Format::R32G32B32A32_UINT)
+                .offset(0)
+                .range(vk::WHOLE_SIZE);
+            unsafe { ctx.device.create_buffer_view(&info, None) }
+        };
+        let nodes = view(nodes)?;
+        let tris = match view(tris) {
+            Ok(t) => t,
+            Err(e) => {
+                unsafe { ctx.device.destroy_buffer_view(nodes, None) };
+                return Err(e.into());
+            }
+        };
+        Ok(TexelViews {
+            nodes,
+            tris,
+            device: ctx.device.clone(),
+        })
+    }
+}
+
+impl Drop for TexelViews {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.destroy_buffer_view(self.nodes, None);
+            self.device.destroy_buffer_view(self.tris, None);
+        }
+    }
+}
+
 /// A progressive render: the film and path state stay on the device between `Renderer::advance` calls, so a
 /// viewer can add samples frame by frame and show the running mean.
 pub struct Session {
@@ -247,12 +299,16 @@ pub struct Renderer {
     // Field order is drop order: everything device-owned goes before the context.
     timestamps: Timestamps,
     pipelines: Pipelines,
+    /// Views of scene buffers: dropped before them.
+    texel_views: Option<TexelViews>,
     scene: SceneBuffers,
     /// Built once per device at start-up; None only while it is being built.
     energy: Option<Buffer>,
     light_count: u32,
     /// Some triangle's material is alpha-tested: traversal runs the *_alpha variants.
     alpha_tested: bool,
+    /// How traversal reads the BVH; Texel needs `texel_views`.
+    bvh_reads: BvhReads,
     /// Some material has a texture or alpha: shading runs the textured variant.
     textured: bool,
     env_prob: f32,
@@ -309,9 +365,45 @@ impl Renderer {
             }
             Buffer::with_data(ctx, name, data)
         }
+        // The BVH is also readable as texels when the device can hold it that way (BvhReads::Texel).
+        let max_texels = ctx.properties.limits.max_texel_buffer_elements as usize;
+        let uint4 = unsafe {
+            ctx.instance
+                .get_physical_device_format_properties(ctx.physical, vk::Format::R32G32B32A32_UINT)
+        };
+        let texel_ok = uint4
+            .buffer_features
+            .contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER)
+            && 2 * packed.bvh.nodes.len() <= max_texels
+            && 3 * packed.tri_verts.len().max(1) <= max_texels;
+        let bvh_usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | if texel_ok {
+                vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+            } else {
+                vk::BufferUsageFlags::empty()
+            };
+        let check = |name: &str, bytes: usize| -> Result<(), Error> {
+            if bytes as u64 > range {
+                return Err(Error::Settings(format!(
+                    "the scene's {name} take {} MiB, more than this device's storage-buffer range of {} MiB",
+                    bytes >> 20,
+                    range >> 20
+                )));
+            }
+            Ok(())
+        };
+        check("bvh nodes", std::mem::size_of_val(&packed.bvh.nodes[..]))?;
+        check("triangle vertices", std::mem::size_of_val(&packed.tri_verts[..]))?;
+        let nodes = Buffer::with_data_usage(&ctx, "bvh nodes", &packed.bvh.nodes, bvh_usage)?;
+        let tri_verts = Buffer::with_data_usage(&ctx, "triangle vertices", &packed.tri_verts, bvh_usage)?;
+        let texel_views = if texel_ok {
+            Some(TexelViews::new(&ctx, &nodes, &tri_verts)?)
+        } else {
+            None
+        };
         let buffers = SceneBuffers {
-            nodes: upload(&ctx, range, "bvh nodes", &packed.bvh.nodes)?,
-            tri_verts: upload(&ctx, range, "triangle vertices", &packed.tri_verts)?,
+            nodes,
+            tri_verts,
             tri_shading: upload(&ctx, range, "triangle shading", &packed.tri_shading)?,
             materials: upload(&ctx, range, "materials", &packed.materials)?,
             lights: upload(&ctx, range, "lights", &packed.lights)?,
@@ -324,6 +416,9 @@ impl Renderer {
         };
         let env = scene.environment.as_ref();
         let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
+        if let Some(v) = &texel_views {
+            pipelines.bind_texel_views(&ctx, &[(BINDING_NODE_TEXELS, v.nodes), (BINDING_TRI_TEXELS, v.tris)]);
+        }
         let timestamps = Timestamps::new(&ctx, 2048)?;
         let mut r = Renderer {
             timestamps,
@@ -332,6 +427,11 @@ impl Renderer {
             energy: None,
             light_count: packed.lights.len() as u32,
             alpha_tested: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0),
+            bvh_reads: match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
+                (_, Ok("storage")) | (None, _) => BvhReads::Storage,
+                (Some(_), _) => BvhReads::Texel,
+            },
+            texel_views,
             textured: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0) || !packed.tri_texcoords.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
@@ -717,6 +817,22 @@ impl Renderer {
         Ok((hit.tri != NO_HIT).then(|| hit.t * dir.dot(forward)))
     }
 
+    /// How traversal reads the BVH.
+    pub fn bvh_reads(&self) -> BvhReads {
+        self.bvh_reads
+    }
+
+    /// Chooses how traversal reads the BVH; Texel fails on a device (or scene size) without texel-buffer support.
+    pub fn set_bvh_reads(&mut self, reads: BvhReads) -> Result<(), Error> {
+        if reads == BvhReads::Texel && self.texel_views.is_none() {
+            return Err(Error::Settings(
+                "this device cannot read the scene's BVH through texel buffers".into(),
+            ));
+        }
+        self.bvh_reads = reads;
+        Ok(())
+    }
+
     /// The camera renders use; `set_camera` changes it for the next `begin` or `restart`.
     pub fn camera(&self) -> Camera {
         self.camera
@@ -759,10 +875,11 @@ impl Renderer {
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
     fn pass(&mut self, frame: &Frame, counters: &Buffer) -> Result<(), Error> {
         // The variants with alpha testing and textures cost up to 4x in traversal: only scenes that need them use them.
-        let (extend, connect) = if self.alpha_tested {
-            ("extend_alpha", "connect_alpha")
-        } else {
-            ("extend", "connect")
+        let (extend, connect) = match (self.alpha_tested, self.bvh_reads) {
+            (false, BvhReads::Storage) => ("extend", "connect"),
+            (true, BvhReads::Storage) => ("extend_alpha", "connect_alpha"),
+            (false, BvhReads::Texel) => ("extend_texel", "connect_texel"),
+            (true, BvhReads::Texel) => ("extend_alpha_texel", "connect_alpha_texel"),
         };
         let shade = if self.textured { "shade_textured" } else { "shade" };
         let ctx = &self.ctx;
@@ -817,8 +934,12 @@ impl Renderer {
             );
         }
         words.resize(rays.len() * 12, 0);
+        let stage = match self.bvh_reads {
+            BvhReads::Storage => "probe_trace",
+            BvhReads::Texel => "probe_trace_texel",
+        };
         let out = self.run_probe(
-            "probe_trace",
+            stage,
             &words,
             Frame {
                 path_count: n,

@@ -65,14 +65,18 @@ impl Buffer {
 
     /// A device-local storage buffer holding `data`.
     pub fn with_data<T: bytemuck::Pod>(ctx: &Context, name: &str, data: &[T]) -> Result<Self, Error> {
+        Self::with_data_usage(ctx, name, data, vk::BufferUsageFlags::STORAGE_BUFFER)
+    }
+
+    /// As `with_data`, with other usages (e.g. also a uniform texel buffer).
+    pub fn with_data_usage<T: bytemuck::Pod>(
+        ctx: &Context,
+        name: &str,
+        data: &[T],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Self, Error> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let mut b = Buffer::new(
-            ctx,
-            name,
-            bytes.len() as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
+        let mut b = Buffer::new(ctx, name, bytes.len() as u64, usage, MemoryLocation::GpuOnly)?;
         b.upload(ctx, bytes)?;
         Ok(b)
     }

@@ -1,10 +1,19 @@
 //! Compute pipelines that share one descriptor set layout and one push-constant block, and per-stage GPU timers.
 use super::{Buffer, Context};
-use crate::constants::BINDING_COUNT;
+use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL};
 use crate::layout::Frame;
 use crate::Error;
 use ash::vk;
 use std::collections::HashMap;
+
+/// Storage buffers, then the texel-buffer bindings (see BINDING_FIRST_TEXEL).
+fn descriptor_type(binding: u32) -> vk::DescriptorType {
+    if binding >= BINDING_FIRST_TEXEL {
+        vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+    } else {
+        vk::DescriptorType::STORAGE_BUFFER
+    }
+}
 
 pub struct Pipelines {
     pub set_layout: vk::DescriptorSetLayout,
@@ -22,7 +31,7 @@ impl Pipelines {
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(descriptor_type(b))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -43,9 +52,14 @@ impl Pipelines {
                 None,
             )
         }?;
-        let sizes = [vk::DescriptorPoolSize::default()
-            .ty(vk::DescriptorType::STORAGE_BUFFER)
-            .descriptor_count(BINDING_COUNT)];
+        let sizes = [
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(BINDING_FIRST_TEXEL),
+            vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                .descriptor_count(BINDING_COUNT - BINDING_FIRST_TEXEL),
+        ];
         let pool = unsafe {
             d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes),
@@ -115,6 +129,23 @@ impl Pipelines {
                     .dst_binding(*binding)
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .buffer_info(info)
+            })
+            .collect();
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Points texel-buffer bindings at buffer views.
+    pub fn bind_texel_views(&self, ctx: &Context, views: &[(u32, vk::BufferView)]) {
+        let raw: Vec<[vk::BufferView; 1]> = views.iter().map(|(_, v)| [*v]).collect();
+        let writes: Vec<_> = views
+            .iter()
+            .zip(&raw)
+            .map(|((binding, _), view)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(*binding)
+                    .descriptor_type(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                    .texel_buffer_view(view)
             })
             .collect();
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
