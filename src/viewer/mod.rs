@@ -368,12 +368,13 @@ impl State {
 
     fn key(&mut self, code: KeyCode, options: &ViewOptions) -> Result<(), Error> {
         match code {
-            KeyCode::KeyP => self.save(
-                &options
+            KeyCode::KeyP => {
+                let path = options
                     .screenshot
                     .clone()
-                    .unwrap_or_else(|| PathBuf::from("pathwave.exr")),
-            )?,
+                    .unwrap_or_else(|| PathBuf::from("pathwave.exr"));
+                self.save(&path, true)?
+            }
             KeyCode::KeyR => self.reset()?,
             KeyCode::KeyT => {
                 self.curve = self.curve.next();
@@ -506,7 +507,7 @@ impl State {
                 rate * 1e-6
             );
             if let Some(path) = &options.screenshot {
-                self.save(path)?;
+                self.save(path, false)?;
             }
             return Ok(false);
         }
@@ -550,25 +551,21 @@ impl State {
         Ok(())
     }
 
-    /// Writes the running mean as EXR (linear) and PNG (this view's exposure), or just the format `path` names.
-    fn save(&mut self, path: &std::path::Path) -> Result<(), Error> {
+    /// Writes the running mean to `path`, and with `both` as EXR (linear) and PNG (this view's exposure) side by side.
+    fn save(&mut self, path: &std::path::Path, both: bool) -> Result<(), Error> {
         let film = self.renderer.film(&self.session)?;
         let pixels = film.mean();
-        let mut paths = vec![path.to_path_buf()];
-        if options_wants_both(path) {
-            paths.push(path.with_extension("png"));
-        }
+        let paths = if both {
+            vec![path.with_extension("exr"), path.with_extension("png")]
+        } else {
+            vec![path.to_path_buf()]
+        };
         for p in paths {
             crate::output::write_image(&p, film.width, film.height, &pixels, self.exposure)?;
             eprintln!("saved {} ({} spp)", p.display(), film.spp);
         }
         Ok(())
     }
-}
-
-/// The P key's default file is an EXR with a PNG beside it; an explicit --screenshot writes what it names.
-fn options_wants_both(path: &std::path::Path) -> bool {
-    path == std::path::Path::new("pathwave.exr")
 }
 
 fn pixel_buffer(ctx: &Context, extent: [u32; 2]) -> Result<Buffer, Error> {
