@@ -974,6 +974,11 @@ impl Loader<'_> {
         if prim.morph_targets().next().is_some() {
             self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
         }
+        if prim.get(&gltf::Semantic::Colors(0)).is_some() {
+            self.warn(format!(
+                "mesh '{mesh_name}': vertex colours (COLOR_0) are ignored; the base colour is the material's"
+            ));
+        }
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
             return Ok(());
