@@ -99,18 +99,37 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
     if (empty || intersect_box(root.lo.xyz, root.hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
         return hit;
     }
+#ifdef ALPHA_TEST
+    // Alpha is decided outside the traversal loops: a candidate on an alpha-tested triangle leaves the loop, is
+    // tested here, and traversal resumes in the same leaf after it. Inside the loop the test cost 4x on lavapipe.
+    uint resume = NO_HIT;
+    while (true) {
+        uint pending = NO_HIT;
+        float pending_t = 0.0;
+        vec2 pending_uv = vec2(0.0);
+#endif
     while (true) {
         BvhNode n = load_node(node);
         uint count = floatBitsToUint(n.hi.w);
         uint first = floatBitsToUint(n.lo.w);
         if (count > 0u) {
+#ifdef ALPHA_TEST
+            uint i = resume == NO_HIT ? first : resume;
+            resume = NO_HIT;
+            for (; i < first + count; ++i) {
+#else
             for (uint i = first; i < first + count; ++i) {
+#endif
                 vec2 uv;
                 float t = intersect_triangle(i, o, d, tmin, hit.t, uv);
-#ifdef ALPHA_TEST
-                if (t >= 0.0 && (tri_verts[i].e1.w == 0.0 || alpha_stops(i, uv, alpha_key))) {
-#else
                 if (t >= 0.0) {
+#ifdef ALPHA_TEST
+                    if (tri_verts[i].e1.w != 0.0) {
+                        pending = i;
+                        pending_t = t;
+                        pending_uv = uv;
+                        break;
+                    }
 #endif
                     hit.t = t;
                     hit.tri = i;
@@ -118,6 +137,9 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
                     if (any_hit) return hit;
                 }
             }
+#ifdef ALPHA_TEST
+            if (pending != NO_HIT) break;
+#endif
         } else {
             uint left = first;
             uint right = first + 1u;
@@ -158,6 +180,18 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         }
         if (!found) break;
     }
+#ifdef ALPHA_TEST
+        if (pending == NO_HIT) break;
+        if (alpha_stops(pending, pending_uv, alpha_key)) {
+            hit.t = pending_t;
+            hit.tri = pending;
+            hit.uv = pending_uv;
+            if (any_hit) return hit;
+        }
+        // `node` is still the leaf: carry on after the pending triangle.
+        resume = pending + 1u;
+    }
+#endif
     return hit;
 }
 
