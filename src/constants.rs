@@ -25,10 +25,11 @@ pub const BINDING_TRI_TANGENTS: u32 = 16;
 /// The BVH nodes and triangle vertices again, as uniform texel buffers (RGBA32UI): the TEXEL_BVH stage variants read
 /// them there, which lavapipe serves much faster than storage-buffer loads in a loop. Every binding before
 /// BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 17;
-pub const BINDING_NODE_TEXELS: u32 = 17;
-pub const BINDING_TRI_TEXELS: u32 = 18;
-pub const BINDING_COUNT: u32 = 19;
+pub const BINDING_TRI_COLORS: u32 = 17;
+pub const BINDING_FIRST_TEXEL: u32 = 18;
+pub const BINDING_NODE_TEXELS: u32 = 18;
+pub const BINDING_TRI_TEXELS: u32 = 19;
+pub const BINDING_COUNT: u32 = 20;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -70,6 +71,8 @@ pub const ENERGY_TABLE_FLOATS: u32 = 2 * ENERGY_RES * ENERGY_RES + 2 * ENERGY_RE
 pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
 /// Camera rays do not see the environment (it still lights the scene).
 pub const FLAG_HIDE_ENV: u32 = 2;
+/// The scene has COLOR_0 vertex colours (tri_colors is bound): they multiply the base colour.
+pub const FLAG_VERTEX_COLORS: u32 = 4;
 
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.
 pub const LIGHT_KIND_SHIFT: u32 = 30;

@@ -85,6 +85,15 @@ pub struct TriTexcoords {
     pub t2: [f32; 4],
 }
 
+/// 48 bytes per triangle: each vertex's COLOR_0 (linear RGBA).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriColors {
+    pub c0: [f32; 4],
+    pub c1: [f32; 4],
+    pub c2: [f32; 4],
+}
+
 /// 48 bytes per triangle: each vertex's tangent (xyz) and bitangent sign (w).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -177,6 +186,7 @@ const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);
 const _: () = assert!(std::mem::size_of::<TriTexcoords>() == 48);
 const _: () = assert!(std::mem::size_of::<TriTangents>() == 48);
+const _: () = assert!(std::mem::size_of::<TriColors>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
 const _: () = assert!(std::mem::size_of::<Counters>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuPunctual>() == 48);

@@ -1,7 +1,7 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
-    BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, ToneMap, TriShading,
-    TriTangents, TriTexcoords, TriVerts,
+    BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, ToneMap, TriColors,
+    TriShading, TriTangents, TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
@@ -52,6 +52,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(GpuTexture => "TextureInfo", [offset, width, height, flags]),
         mirror!(TriTexcoords => "TriTexcoords", [t0, t1, t2]),
         mirror!(TriTangents => "TriTangents", [t0, t1, t2]),
+        mirror!(TriColors => "TriColors", [c0, c1, c2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),

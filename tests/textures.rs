@@ -478,3 +478,43 @@ fn emissive_textures_light_the_scene_the_same_for_both_estimators() {
     );
     assert!(sigma < 0.02 * light_mean, "too noisy to tell: sigma {sigma}");
 }
+
+/// COLOR_0 multiplies the base colour: a grey Lambertian quad with red, green, blue and white corners under a white
+/// sky (one bounce, BSDF sampling) shows half the colour interpolated across each of its two triangles.
+#[test]
+fn vertex_colours_multiply_the_base_colour() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("quad", [0.5; 3], [0.0; 3], false);
+    screen_quad(&mut b, m, 0.0);
+    // Corners: top-left, bottom-left, bottom-right, top-right.
+    let colors = [
+        [1.0, 0.0, 0.0, 1.0],
+        [0.0, 1.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0, 1.0],
+        [1.0, 1.0, 1.0, 1.0],
+    ];
+    b.add_colors(&colors);
+    view(&mut b);
+    let film = render(&b, Some([1.0; 3]), |s| {
+        s.max_depth = Some(1);
+        s.estimator = pathwave::Estimator::Bsdf;
+        s.spp = 64;
+    });
+    let corner = |k: usize| glam::DVec3::new(colors[k][0] as f64, colors[k][1] as f64, colors[k][2] as f64);
+    for (k, px) in film.mean().iter().enumerate() {
+        let (i, j) = (k % N, k / N);
+        let (u, v) = ((i as f64 + 0.5) / N as f64, (j as f64 + 0.5) / N as f64);
+        // Triangles (top-left, bottom-left, bottom-right) below the diagonal, (top-left, bottom-right, top-right) above.
+        let c = if v >= u {
+            corner(0) * (1.0 - v) + corner(1) * (v - u) + corner(2) * u
+        } else {
+            corner(0) * (1.0 - u) + corner(2) * v + corner(3) * (u - v)
+        };
+        let want = c * 0.5;
+        let got = glam::DVec3::new(px[0] as f64, px[1] as f64, px[2] as f64);
+        assert!(
+            (got - want).abs().max_element() < 0.03,
+            "pixel ({i}, {j}): {got}, want {want}"
+        );
+    }
+}

@@ -62,6 +62,13 @@ struct TriTexcoords {
     vec4 t2;
 };
 
+// 48 bytes per triangle: per vertex, COLOR_0 as linear RGBA (only bound when FLAG_VERTEX_COLORS is set).
+struct TriColors {
+    vec4 c0;
+    vec4 c1;
+    vec4 c2;
+};
+
 // 48 bytes per triangle: per vertex, the tangent in xyz and the bitangent's sign in w (glTF: b = cross(n, t) * w).
 struct TriTangents {
     vec4 t0;
@@ -149,6 +156,7 @@ layout(std430, set = 0, binding = BINDING_TEXTURES) readonly buffer Textures { T
 layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexcoordsBuf { TriTexcoords tri_texcoords[]; };
 layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
+layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
 
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }

@@ -20,6 +20,13 @@ vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
     return texture_sample(floatBitsToUint(s.u.w), st, srgb);
 }
 
+// COLOR_0 at the hit, white without vertex colours. Its alpha is not applied (coverage comes from the material).
+vec4 vertex_color(uint tri, vec2 b) {
+    if ((frame.flags & FLAG_VERTEX_COLORS) == 0u) return vec4(1.0);
+    TriColors c = tri_colors[tri];
+    return (1.0 - b.x - b.y) * c.c0 + b.x * c.c1 + b.y * c.c2;
+}
+
 float material_alpha(Material m, uint tri, vec2 b) {
     float a = m.base_color.w;
     if (slot_used(m.textures[TEX_BASE_COLOR])) a *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true).a;
@@ -49,6 +56,7 @@ bool alpha_stops(uint tri, vec2 b, uint key) {
 // The material with its textures applied at the hit: base colour and alpha, metallic and roughness, emission.
 Material material_at(Material m, uint tri, vec2 b) {
 #ifdef TEXTURED
+    m.base_color.rgb *= vertex_color(tri, b).rgb;
     if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true);
     if (slot_used(m.textures[TEX_METALLIC_ROUGHNESS])) {
         vec4 mr = sample_slot(m.textures[TEX_METALLIC_ROUGHNESS], tri, b, false);

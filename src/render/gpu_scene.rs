@@ -2,7 +2,8 @@
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
 use crate::layout::{
-    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriShading, TriTangents, TriTexcoords, TriVerts,
+    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriColors, TriShading, TriTangents, TriTexcoords,
+    TriVerts,
 };
 use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, Wrap};
 
@@ -27,6 +28,8 @@ pub struct PackedScene {
     pub tri_texcoords: Vec<TriTexcoords>,
     /// Empty when no material has a normal map.
     pub tri_tangents: Vec<TriTangents>,
+    /// Empty when no mesh has COLOR_0.
+    pub tri_colors: Vec<TriColors>,
 }
 
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
@@ -140,6 +143,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
     let mut tri_texcoords = Vec::with_capacity(if textured { n } else { 0 });
     let mut tri_tangents = Vec::with_capacity(if normal_mapped { n } else { 0 });
+    let mut tri_colors = Vec::with_capacity(scene.colors.len());
     // (light id, power, area)
     let mut powers: Vec<(u32, f64, f32)> = Vec::new();
     for (slot, &orig) in bvh.order.iter().enumerate() {
@@ -160,6 +164,10 @@ pub fn pack(scene: &Scene) -> PackedScene {
         if normal_mapped {
             let [t0, t1, t2] = scene.tangents[orig].map(|t| t.to_array());
             tri_tangents.push(TriTangents { t0, t1, t2 });
+        }
+        if let Some(c) = scene.colors.get(orig) {
+            let [c0, c1, c2] = c.map(|v| v.to_array());
+            tri_colors.push(TriColors { c0, c1, c2 });
         }
         let area = 0.5 * (b - a).cross(c - a).length();
         tri_shading.push(TriShading {
@@ -248,5 +256,6 @@ pub fn pack(scene: &Scene) -> PackedScene {
         texels,
         tri_texcoords,
         tri_tangents,
+        tri_colors,
     }
 }

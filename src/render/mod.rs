@@ -209,6 +209,7 @@ struct SceneBuffers {
     texels: Buffer,
     tri_texcoords: Buffer,
     tri_tangents: Buffer,
+    tri_colors: Buffer,
 }
 
 /// How traversal reads the BVH nodes and triangle vertices (the same bytes either way).
@@ -309,8 +310,9 @@ pub struct Renderer {
     alpha_tested: bool,
     /// How traversal reads the BVH; Texel needs `texel_views`.
     bvh_reads: BvhReads,
-    /// Some material has a texture or alpha: shading runs the textured variant.
+    /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
     textured: bool,
+    vertex_colors: bool,
     env_prob: f32,
     env_size: (u32, u32),
     env_rotation: f32,
@@ -413,6 +415,7 @@ impl Renderer {
             texels: upload(&ctx, range, "texels", &packed.texels)?,
             tri_texcoords: upload(&ctx, range, "texture coordinates", &packed.tri_texcoords)?,
             tri_tangents: upload(&ctx, range, "tangents", &packed.tri_tangents)?,
+            tri_colors: upload(&ctx, range, "vertex colours", &packed.tri_colors)?,
         };
         let env = scene.environment.as_ref();
         let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
@@ -432,7 +435,10 @@ impl Renderer {
                 (Some(_), _) => BvhReads::Texel,
             },
             texel_views,
-            textured: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0) || !packed.tri_texcoords.is_empty(),
+            textured: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0)
+                || !packed.tri_texcoords.is_empty()
+                || !packed.tri_colors.is_empty(),
+            vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
@@ -547,6 +553,7 @@ impl Renderer {
             (BINDING_TEXELS, &b.texels),
             (BINDING_TRI_TEXCOORDS, &b.tri_texcoords),
             (BINDING_TRI_TANGENTS, &b.tri_tangents),
+            (BINDING_TRI_COLORS, &b.tri_colors),
         ];
         // While the energy tables are being built, the caller binds them.
         if let Some(energy) = &self.energy {
@@ -582,7 +589,8 @@ impl Renderer {
                 } else {
                     0
                 }
-                | if s.hide_environment { FLAG_HIDE_ENV } else { 0 },
+                | if s.hide_environment { FLAG_HIDE_ENV } else { 0 }
+                | if self.vertex_colors { FLAG_VERTEX_COLORS } else { 0 },
             env_prob: self.env_prob,
             env_rotation: self.env_rotation,
             env_width: self.env_size.0,

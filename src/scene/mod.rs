@@ -137,6 +137,8 @@ pub struct Scene {
     /// Per triangle and vertex: the tangent in xyz and the bitangent's sign in w, from the file or generated
     /// (MikkTSpace) for normal-mapped materials; zero elsewhere.
     pub tangents: Vec<[Vec4; 3]>,
+    /// Per triangle and vertex: COLOR_0 as linear RGBA (white where the mesh has none); empty when no mesh has any.
+    pub colors: Vec<[Vec4; 3]>,
     pub material_of: Vec<u32>,
     pub materials: Vec<Material>,
     pub camera: Option<Camera>,
@@ -974,10 +976,17 @@ impl Loader<'_> {
         if prim.morph_targets().next().is_some() {
             self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
         }
-        if prim.get(&gltf::Semantic::Colors(0)).is_some() {
-            self.warn(format!(
-                "mesh '{mesh_name}': vertex colours (COLOR_0) are ignored; the base colour is the material's"
-            ));
+        let mut color_acc = None;
+        if let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) {
+            let dims = if acc.dimensions() == Dimensions::Vec3 {
+                Dimensions::Vec3
+            } else {
+                Dimensions::Vec4
+            };
+            let types = [DataType::F32, DataType::U8, DataType::U16];
+            if self.check_accessor(&acc, "COLOR_0", &types, dims, true)? == Contents::Data {
+                color_acc = Some(acc);
+            }
         }
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
@@ -1067,6 +1076,14 @@ impl Loader<'_> {
                 uv_sets[set] = Some(uvs);
             }
         }
+        let colors: Option<Vec<Vec4>> = match color_acc {
+            Some(_) => reader.read_colors(0).map(|c| {
+                c.into_rgba_f32()
+                    .map(|c| Vec4::from(c).clamp(Vec4::ZERO, Vec4::ONE))
+                    .collect()
+            }),
+            None => None,
+        };
         let file_tangents: Option<Vec<Vec4>> = match tangent_acc {
             Some(_) => reader.read_tangents().map(|t| t.map(Vec4::from).collect()),
             None => None,
@@ -1086,6 +1103,15 @@ impl Loader<'_> {
             None => (0..positions.len() as u32).collect(),
         };
         let short = |n: usize| n != positions.len();
+        if colors
+            .as_ref()
+            .is_some_and(|c| short(c.len()) || c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(scene_err(
+                self.path,
+                format!("mesh '{mesh_name}': COLOR_0 has a different count from POSITION or a non-finite value"),
+            ));
+        }
         if uv_sets.iter().flatten().any(|u| short(u.len())) || file_tangents.as_ref().is_some_and(|t| short(t.len())) {
             return Err(scene_err(
                 self.path,
@@ -1171,6 +1197,14 @@ impl Loader<'_> {
             self.scene.normals.push(n);
             self.scene.texcoords.push(texcoords);
             self.scene.tangents.push(tangents);
+            if let Some(cols) = &colors {
+                // The first coloured mesh gives every earlier triangle white.
+                let before = self.scene.triangles.len() - 1;
+                self.scene.colors.resize(before, [Vec4::ONE; 3]);
+                self.scene.colors.push([a, b, c].map(|i| cols[i as usize]));
+            } else if !self.scene.colors.is_empty() {
+                self.scene.colors.push([Vec4::ONE; 3]);
+            }
             self.scene.material_of.push(material);
         }
         if let (Some(r), None) = (mat.normal_texture, &file_tangents) {

@@ -167,6 +167,16 @@ impl GltfBuilder {
         }
     }
 
+    /// Gives the last mesh COLOR_0 (linear RGBA floats, one per vertex).
+    pub fn add_colors(&mut self, colors: &[[f32; 4]]) {
+        let bytes: Vec<u8> = colors.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let v = self.push_view(&bytes, 34962);
+        self.accessors
+            .push(json!({ "bufferView": v, "componentType": 5126, "count": colors.len(), "type": "VEC4" }));
+        let acc = self.accessors.len() - 1;
+        self.meshes.last_mut().unwrap()["primitives"][0]["attributes"]["COLOR_0"] = json!(acc);
+    }
+
     /// A quad with texture coordinates per corner; corners wind counter-clockwise seen from the front.
     pub fn textured_quad(&mut self, name: &str, corners: [[f32; 3]; 4], uvs: [[f32; 2]; 4], material: usize) {
         self.mesh_with_attributes(name, &corners, None, &uvs, None, &[0, 1, 2, 0, 2, 3], material);
