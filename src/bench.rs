@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 #[derive(Clone, Debug, Default)]
 pub struct CaseResult {
     pub name: String,
+    pub device: String,
     pub triangles: usize,
     pub size: (u32, u32),
     pub spp: u32,
@@ -119,6 +120,7 @@ fn measure(
         + std::mem::size_of_val(&packed.tri_shading[..]);
     drop(packed);
     let ctx = Context::new(device, Validation::Off)?;
+    let device_name = ctx.device_name();
     let mut r = Renderer::with_context(scene, ctx)?;
     if let Some(reads) = reads {
         r.set_bvh_reads(reads)?;
@@ -140,6 +142,7 @@ fn measure(
     let mean = film.mean();
     Ok(CaseResult {
         name: name.into(),
+        device: device_name,
         triangles: scene.triangles.len(),
         size,
         spp,
@@ -245,7 +248,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         &o.device,
         storage,
     )?);
-    let device = Context::new(&o.device, Validation::Off)?.device_name();
+    let device = cases.first().map(|c| c.device.clone()).unwrap_or_default();
     Ok(BenchReport {
         device,
         cases,

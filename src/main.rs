@@ -53,6 +53,43 @@ enum Command {
     },
 }
 
+/// The environment options `render` and `view` share.
+#[derive(clap::Args)]
+struct EnvArgs {
+    /// Environment map lighting the scene from infinitely far away: equirectangular .hdr or .exr.
+    #[arg(long, conflicts_with = "env_color")]
+    env: Option<PathBuf>,
+    /// A uniform environment colour instead of a map: linear RGB radiance, e.g. 1,1,1.
+    #[arg(long, value_parser = parse_rgb)]
+    env_color: Option<[f32; 3]>,
+    /// Multiplies the environment's radiance.
+    #[arg(long, default_value = "1", allow_hyphen_values = true)]
+    env_intensity: f32,
+    /// Turns the environment about the up axis (+y), in degrees.
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    env_rotation: f32,
+    /// Keeps the environment out of camera rays; it still lights the scene.
+    #[arg(long)]
+    hide_env: bool,
+}
+
+impl EnvArgs {
+    fn environment(&self) -> Result<Option<scene::Environment>> {
+        if !(self.env_intensity.is_finite() && self.env_intensity >= 0.0) {
+            bail!("--env-intensity must be a non-negative number");
+        }
+        let mut environment = match (&self.env, self.env_color) {
+            (Some(path), _) => Some(scene::Environment::load(path, self.env_intensity)?),
+            (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * self.env_intensity))),
+            (None, None) => None,
+        };
+        if let Some(env) = &mut environment {
+            env.rotation = self.env_rotation.to_radians();
+        }
+        Ok(environment)
+    }
+}
+
 #[derive(clap::Args)]
 struct ViewArgs {
     /// The glTF (.gltf or .glb) scene.
@@ -78,18 +115,8 @@ struct ViewArgs {
     /// Tone curve (T cycles through them in the window).
     #[arg(long, value_enum, default_value = "aces")]
     tonemap: pathwave::viewer::ToneCurve,
-    /// Environment map (.hdr or .exr), as for render.
-    #[arg(long, conflicts_with = "env_color")]
-    env: Option<PathBuf>,
-    /// A uniform environment colour, as for render.
-    #[arg(long, value_parser = parse_rgb)]
-    env_color: Option<[f32; 3]>,
-    #[arg(long, default_value = "1", allow_hyphen_values = true)]
-    env_intensity: f32,
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    env_rotation: f32,
-    #[arg(long)]
-    hide_env: bool,
+    #[command(flatten)]
+    env: EnvArgs,
     /// Thin-lens aperture radius (F toggles depth of field; right click focuses).
     #[arg(long, default_value = "0", allow_hyphen_values = true)]
     aperture: f32,
@@ -140,21 +167,8 @@ struct RenderArgs {
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
     estimator: Estimator,
-    /// Environment map lighting the scene from infinitely far away: equirectangular .hdr or .exr.
-    #[arg(long, conflicts_with = "env_color")]
-    env: Option<PathBuf>,
-    /// A uniform environment colour instead of a map: linear RGB radiance, e.g. 1,1,1.
-    #[arg(long, value_parser = parse_rgb)]
-    env_color: Option<[f32; 3]>,
-    /// Multiplies the environment's radiance.
-    #[arg(long, default_value = "1", allow_hyphen_values = true)]
-    env_intensity: f32,
-    /// Turns the environment about the up axis (+y), in degrees.
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    env_rotation: f32,
-    /// Keeps the environment out of camera rays; it still lights the scene.
-    #[arg(long)]
-    hide_env: bool,
+    #[command(flatten)]
+    env: EnvArgs,
     /// Thin-lens aperture radius in scene units (metres for glTF); 0, the default, is a pinhole.
     #[arg(long, default_value = "0", allow_hyphen_values = true)]
     aperture: f32,
@@ -226,7 +240,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     let mut scene = scene::load(&args.scene, args.camera)?;
-    scene.environment = environment(&args.env, args.env_color, args.env_intensity, args.env_rotation)?;
+    scene.environment = args.env.environment()?;
     let mut renderer = Renderer::new(&scene, &args.device.clone().unwrap_or_default())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.scene.display());
@@ -254,7 +268,7 @@ fn render(args: RenderArgs) -> Result<()> {
         seed: args.seed,
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
-        hide_environment: args.hide_env,
+        hide_environment: args.env.hide_env,
         aperture: args.aperture,
         focus_distance: args.focus_distance,
     };
@@ -314,32 +328,12 @@ fn render_and_write(
     Ok(())
 }
 
-fn environment(
-    path: &Option<PathBuf>,
-    color: Option<[f32; 3]>,
-    intensity: f32,
-    rotation: f32,
-) -> Result<Option<scene::Environment>> {
-    if !(intensity.is_finite() && intensity >= 0.0) {
-        bail!("--env-intensity must be a non-negative number");
-    }
-    let mut environment = match (path, color) {
-        (Some(path), _) => Some(scene::Environment::load(path, intensity)?),
-        (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * intensity))),
-        (None, None) => None,
-    };
-    if let Some(env) = &mut environment {
-        env.rotation = rotation.to_radians();
-    }
-    Ok(environment)
-}
-
 fn view(args: ViewArgs) -> Result<()> {
     if let Some(out) = &args.screenshot {
         output::format_of(out)?;
     }
     let mut scene = scene::load(&args.scene, args.camera)?;
-    scene.environment = environment(&args.env, args.env_color, args.env_intensity, args.env_rotation)?;
+    scene.environment = args.env.environment()?;
     let options = pathwave::viewer::ViewOptions {
         device: args.device.unwrap_or_default(),
         settings: RenderSettings {
@@ -349,7 +343,7 @@ fn view(args: ViewArgs) -> Result<()> {
             spp: 256,
             max_depth: args.max_depth,
             seed: args.seed,
-            hide_environment: args.hide_env,
+            hide_environment: args.env.hide_env,
             aperture: args.aperture,
             focus_distance: args.focus_distance,
             ..Default::default()

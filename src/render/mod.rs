@@ -284,6 +284,17 @@ pub struct Session {
 }
 
 impl Session {
+    /// The session's buffers by binding, with `probe` in the probe slot (the tone map writes its pixels there).
+    fn bindings<'a>(&'a self, probe: &'a Buffer) -> [(u32, &'a Buffer); 5] {
+        [
+            (BINDING_PATHS, &self.paths),
+            (BINDING_QUEUES, &self.queues),
+            (BINDING_COUNTERS, &self.counters),
+            (BINDING_FILM, &self.film),
+            (BINDING_PROBE, probe),
+        ]
+    }
+
     /// Samples (paths) per second since the session last (re)started.
     pub fn samples_per_sec(&self) -> f64 {
         self.stats.samples as f64 / self.started.elapsed().as_secs_f64().max(1e-9)
@@ -356,7 +367,13 @@ impl Renderer {
         }
         let range = ctx.properties.limits.max_storage_buffer_range as u64;
         // One storage buffer per kind of data: a scene that outgrows the device's range is refused by name.
-        fn upload<T: bytemuck::Pod>(ctx: &Context, range: u64, name: &str, data: &[T]) -> Result<Buffer, Error> {
+        fn upload_as<T: bytemuck::Pod>(
+            ctx: &Context,
+            range: u64,
+            name: &str,
+            data: &[T],
+            usage: vk::BufferUsageFlags,
+        ) -> Result<Buffer, Error> {
             let bytes = std::mem::size_of_val(data) as u64;
             if bytes > range {
                 return Err(Error::Settings(format!(
@@ -365,7 +382,10 @@ impl Renderer {
                     range >> 20
                 )));
             }
-            Buffer::with_data(ctx, name, data)
+            Buffer::with_data_usage(ctx, name, data, usage)
+        }
+        fn upload<T: bytemuck::Pod>(ctx: &Context, range: u64, name: &str, data: &[T]) -> Result<Buffer, Error> {
+            upload_as(ctx, range, name, data, vk::BufferUsageFlags::STORAGE_BUFFER)
         }
         // The BVH is also readable as texels when the device can hold it that way (BvhReads::Texel).
         let max_texels = ctx.properties.limits.max_texel_buffer_elements as usize;
@@ -384,20 +404,8 @@ impl Renderer {
             } else {
                 vk::BufferUsageFlags::empty()
             };
-        let check = |name: &str, bytes: usize| -> Result<(), Error> {
-            if bytes as u64 > range {
-                return Err(Error::Settings(format!(
-                    "the scene's {name} take {} MiB, more than this device's storage-buffer range of {} MiB",
-                    bytes >> 20,
-                    range >> 20
-                )));
-            }
-            Ok(())
-        };
-        check("bvh nodes", std::mem::size_of_val(&packed.bvh.nodes[..]))?;
-        check("triangle vertices", std::mem::size_of_val(&packed.tri_verts[..]))?;
-        let nodes = Buffer::with_data_usage(&ctx, "bvh nodes", &packed.bvh.nodes, bvh_usage)?;
-        let tri_verts = Buffer::with_data_usage(&ctx, "triangle vertices", &packed.tri_verts, bvh_usage)?;
+        let nodes = upload_as(&ctx, range, "bvh nodes", &packed.bvh.nodes, bvh_usage)?;
+        let tri_verts = upload_as(&ctx, range, "triangle vertices", &packed.tri_verts, bvh_usage)?;
         let texel_views = if texel_ok {
             Some(TexelViews::new(&ctx, &nodes, &tri_verts)?)
         } else {
@@ -418,6 +426,7 @@ impl Renderer {
             tri_colors: upload(&ctx, range, "vertex colours", &packed.tri_colors)?,
         };
         let env = scene.environment.as_ref();
+        let alpha_tested = packed.tri_verts.iter().any(|t| t.e1[3] != 0.0);
         let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
         if let Some(v) = &texel_views {
             pipelines.bind_texel_views(&ctx, &[(BINDING_NODE_TEXELS, v.nodes), (BINDING_TRI_TEXELS, v.tris)]);
@@ -429,15 +438,13 @@ impl Renderer {
             scene: buffers,
             energy: None,
             light_count: packed.lights.len() as u32,
-            alpha_tested: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0),
+            alpha_tested,
             bvh_reads: match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
                 (_, Ok("storage")) | (None, _) => BvhReads::Storage,
                 (Some(_), _) => BvhReads::Texel,
             },
             texel_views,
-            textured: packed.tri_verts.iter().any(|t| t.e1[3] != 0.0)
-                || !packed.tri_texcoords.is_empty()
-                || !packed.tri_colors.is_empty(),
+            textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
@@ -722,13 +729,7 @@ impl Renderer {
     /// Runs one pass: up to `samples` more samples per pixel (as many as fit in flight; one when the image must be
     /// covered in chunks). Returns how many were added.
     pub fn advance(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
-        self.bind_scene(&[
-            (BINDING_PATHS, &session.paths),
-            (BINDING_QUEUES, &session.queues),
-            (BINDING_COUNTERS, &session.counters),
-            (BINDING_FILM, &session.film),
-            (BINDING_PROBE, &session.probe),
-        ]);
+        self.bind_scene(&session.bindings(&session.probe));
         let (pixels, capacity) = (session.pixels, session.capacity);
         let mut frame = session.frame;
         frame.sample_index = session.done;
@@ -789,13 +790,7 @@ impl Renderer {
         op: u32,
         exposure: f32,
     ) {
-        self.bind_scene(&[
-            (BINDING_PATHS, &session.paths),
-            (BINDING_QUEUES, &session.queues),
-            (BINDING_COUNTERS, &session.counters),
-            (BINDING_FILM, &session.film),
-            (BINDING_PROBE, out),
-        ]);
+        self.bind_scene(&session.bindings(out));
         let tone = crate::layout::ToneMap {
             film_width: session.settings.width,
             film_height: session.settings.height,

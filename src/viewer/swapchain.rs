@@ -150,10 +150,6 @@ impl Swapchain {
             Err(e) => return Err(e.into()),
         };
         let image = self.images[index as usize];
-        let range = vk::ImageSubresourceRange::default()
-            .aspect_mask(vk::ImageAspectFlags::COLOR)
-            .level_count(1)
-            .layer_count(1);
         unsafe {
             d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
             d.begin_command_buffer(
@@ -161,23 +157,13 @@ impl Swapchain {
                 &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )?;
             fill(self.cmd, self.extent);
-            let to_copy = vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::empty())
-                .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .old_layout(vk::ImageLayout::UNDEFINED)
-                .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image)
-                .subresource_range(range);
-            d.cmd_pipeline_barrier(
+            transition(
+                d,
                 self.cmd,
+                image,
+                (vk::ImageLayout::UNDEFINED, vk::AccessFlags::empty()),
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::AccessFlags::TRANSFER_WRITE),
                 vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_copy],
             );
             let region = vk::BufferImageCopy::default()
                 .image_subresource(
@@ -197,23 +183,13 @@ impl Swapchain {
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 &[region],
             );
-            let to_present = vk::ImageMemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::empty())
-                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .new_layout(vk::ImageLayout::PRESENT_SRC_KHR)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .image(image)
-                .subresource_range(range);
-            d.cmd_pipeline_barrier(
+            transition(
+                d,
                 self.cmd,
-                vk::PipelineStageFlags::TRANSFER,
+                image,
+                (vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::AccessFlags::TRANSFER_WRITE),
+                (vk::ImageLayout::PRESENT_SRC_KHR, vk::AccessFlags::empty()),
                 vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[to_present],
             );
             d.end_command_buffer(self.cmd)?;
             let waits = [self.acquired];
@@ -241,6 +217,39 @@ impl Swapchain {
             }
         }
     }
+}
+
+/// Moves a swapchain image from one (layout, access) to another, after the transfer stage and before `dst_stage`.
+unsafe fn transition(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    from: (vk::ImageLayout, vk::AccessFlags),
+    to: (vk::ImageLayout, vk::AccessFlags),
+    dst_stage: vk::PipelineStageFlags,
+) {
+    let range = vk::ImageSubresourceRange::default()
+        .aspect_mask(vk::ImageAspectFlags::COLOR)
+        .level_count(1)
+        .layer_count(1);
+    let barrier = vk::ImageMemoryBarrier::default()
+        .src_access_mask(from.1)
+        .dst_access_mask(to.1)
+        .old_layout(from.0)
+        .new_layout(to.0)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range);
+    d.cmd_pipeline_barrier(
+        cmd,
+        vk::PipelineStageFlags::TRANSFER,
+        dst_stage,
+        vk::DependencyFlags::empty(),
+        &[],
+        &[],
+        &[barrier],
+    );
 }
 
 impl Drop for Swapchain {

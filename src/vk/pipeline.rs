@@ -153,6 +153,11 @@ impl Pipelines {
 
     /// A 2D dispatch with a stage's own push constants (within the shared range), e.g. the tone map.
     pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, name: &str, push: &[u8], groups: [u32; 2]) {
+        self.bind(cmd, name, push);
+        unsafe { self.device.cmd_dispatch(cmd, groups[0], groups[1], 1) };
+    }
+
+    fn bind(&self, cmd: vk::CommandBuffer, name: &str, push: &[u8]) {
         assert!(
             push.len() <= std::mem::size_of::<Frame>(),
             "push constants past the shared range"
@@ -168,37 +173,16 @@ impl Pipelines {
                 .cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
             self.device
                 .cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
-            self.device.cmd_dispatch(cmd, groups[0], groups[1], 1);
-        }
-    }
-
-    fn bind(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame) {
-        let pipeline = *self
-            .pipelines
-            .get(name)
-            .unwrap_or_else(|| panic!("no pipeline named {name}"));
-        unsafe {
-            self.device
-                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-            self.device
-                .cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[self.set], &[]);
-            self.device.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(frame),
-            );
         }
     }
 
     pub fn dispatch(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, groups: u32) {
-        self.bind(cmd, name, frame);
+        self.bind(cmd, name, bytemuck::bytes_of(frame));
         unsafe { self.device.cmd_dispatch(cmd, groups, 1, 1) };
     }
 
     pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, args: &Buffer, offset: u64) {
-        self.bind(cmd, name, frame);
+        self.bind(cmd, name, bytemuck::bytes_of(frame));
         unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
     }
 }
