@@ -45,6 +45,16 @@ enum Command {
         scenes: Option<PathBuf>,
         #[arg(long)]
         device: Option<DeviceChoice>,
+        /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
+        /// relMSE on the Cornell box) or `embree` (embreex, random-ray traversal on the terrain). Repeatable.
+        #[arg(long, value_enum)]
+        compare: Vec<CompareWith>,
+        /// The Python interpreter that has `mitsuba` and `embreex` installed.
+        #[arg(long, default_value = "python3")]
+        python: PathBuf,
+        /// Run only the comparisons, not the fixed cases.
+        #[arg(long, requires = "compare")]
+        only_compare: bool,
     },
     /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
     ExportShaders {
@@ -225,7 +235,18 @@ fn main() {
             quick,
             scenes,
             device,
-        } => bench(json, quick, scenes, device),
+            compare,
+            python,
+            only_compare,
+        } => bench(BenchArgs {
+            json,
+            quick,
+            scenes,
+            device,
+            compare,
+            python,
+            only_compare,
+        }),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -359,8 +380,24 @@ fn view(args: ViewArgs) -> Result<()> {
     Ok(())
 }
 
-fn bench(json: Option<PathBuf>, quick: bool, scenes: Option<PathBuf>, device: Option<DeviceChoice>) -> Result<()> {
-    let scenes = scenes.unwrap_or_else(|| {
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum CompareWith {
+    Mitsuba,
+    Embree,
+}
+
+struct BenchArgs {
+    json: Option<PathBuf>,
+    quick: bool,
+    scenes: Option<PathBuf>,
+    device: Option<DeviceChoice>,
+    compare: Vec<CompareWith>,
+    python: PathBuf,
+    only_compare: bool,
+}
+
+fn bench(a: BenchArgs) -> Result<()> {
+    let scenes = a.scenes.unwrap_or_else(|| {
         let here = PathBuf::from("scenes");
         if here.join("cornell-box.gltf").exists() {
             here
@@ -369,14 +406,22 @@ fn bench(json: Option<PathBuf>, quick: bool, scenes: Option<PathBuf>, device: Op
         }
     });
     let options = pathwave::bench::BenchOptions {
-        device: device.unwrap_or_default(),
+        device: a.device.unwrap_or_default(),
         scenes,
         exe: std::env::current_exe()?,
-        quick,
+        quick: a.quick,
+        compare: (a.compare.iter())
+            .map(|c| match c {
+                CompareWith::Mitsuba => pathwave::bench::Compare::Mitsuba,
+                CompareWith::Embree => pathwave::bench::Compare::Embree,
+            })
+            .collect(),
+        python: a.python,
+        only_compare: a.only_compare,
     };
     let report = pathwave::bench::run(&options, &mut |case| eprintln!("bench: {case}"))?;
     print!("{}", report.table());
-    if let Some(path) = json {
+    if let Some(path) = a.json {
         std::fs::write(&path, report.json() + "\n").with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(())

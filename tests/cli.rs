@@ -339,6 +339,23 @@ fn environment_lights_the_scene_and_hide_env_keeps_it_from_the_camera() {
 
 /// `pathwave bench --quick` runs every case and writes JSON with a positive figure for each measurement.
 #[test]
+fn bench_compare_names_a_missing_python() {
+    let o = pathwave(&[
+        "bench",
+        "--compare",
+        "embree",
+        "--only-compare",
+        "--quick",
+        "--python",
+        "/nonexistent/python3",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("cannot run /nonexistent/python3"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+#[test]
 fn bench_reports_every_case() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");

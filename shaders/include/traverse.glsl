@@ -87,16 +87,21 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
     hit.tri = NO_HIT;
     hit.uv = vec2(0.0);
     vec3 inv_d = safe_inverse(d);
-    uint stack[BVH_STACK_SIZE];
+    // A node is known by its (first, count) words, read when its parent tested its box: visiting it fetches nothing
+    // more (a leaf) or only its two children. Each waiting node keeps its entry distance, so a pop compares that
+    // with the closest hit instead of fetching the box again (the same decision: the entry stays below the exit).
+    uvec2 stack[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];
     uint sp = 0u;
-    uint node = 0u;
     // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
     BvhNode root = load_node(0u);
-    bool empty = floatBitsToUint(root.lo.w) == 0u && floatBitsToUint(root.hi.w) == 0u;
+    uint first = floatBitsToUint(root.lo.w);
+    uint count = floatBitsToUint(root.hi.w);
 #ifdef TRAVERSE_COUNT_NODES
     traverse_node_visits = 1u;
 #endif
-    if (empty || intersect_box(root.lo.xyz, root.hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
+    if ((first == 0u && count == 0u) ||
+        intersect_box(root.lo.xyz, root.hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
         return hit;
     }
 #ifdef ALPHA_TEST
@@ -109,9 +114,6 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         vec2 pending_uv = vec2(0.0);
 #endif
     while (true) {
-        BvhNode n = load_node(node);
-        uint count = floatBitsToUint(n.hi.w);
-        uint first = floatBitsToUint(n.lo.w);
         if (count > 0u) {
 #ifdef ALPHA_TEST
             uint i = resume == NO_HIT ? first : resume;
@@ -141,10 +143,8 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
             if (pending != NO_HIT) break;
 #endif
         } else {
-            uint left = first;
-            uint right = first + 1u;
-            BvhNode ln = load_node(left);
-            BvhNode rn = load_node(right);
+            BvhNode ln = load_node(first);
+            BvhNode rn = load_node(first + 1u);
             float tl = intersect_box(ln.lo.xyz, ln.hi.xyz, o, inv_d, tmin, hit.t);
             float tr = intersect_box(rn.lo.xyz, rn.hi.xyz, o, inv_d, tmin, hit.t);
 #ifdef TRAVERSE_COUNT_NODES
@@ -152,28 +152,29 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
 #endif
             bool hl = tl != uintBitsToFloat(0x7F800000u);
             bool hr = tr != uintBitsToFloat(0x7F800000u);
+            uvec2 lw = floatBitsToUint(vec2(ln.lo.w, ln.hi.w));
+            uvec2 rw = floatBitsToUint(vec2(rn.lo.w, rn.hi.w));
             if (hl && hr) {
                 // Visit the nearer child first; the farther waits on the stack.
-                uint near_child = tl <= tr ? left : right;
-                uint far_child = tl <= tr ? right : left;
-                stack[sp++] = far_child;
-                node = near_child;
+                stack[sp] = tl <= tr ? rw : lw;
+                stack_t[sp++] = max(tl, tr);
+                uvec2 near_child = tl <= tr ? lw : rw;
+                first = near_child.x;
+                count = near_child.y;
                 continue;
-            } else if (hl) {
-                node = left;
-                continue;
-            } else if (hr) {
-                node = right;
+            } else if (hl || hr) {
+                first = hl ? lw.x : rw.x;
+                count = hl ? lw.y : rw.y;
                 continue;
             }
         }
         // Pop until a node still overlaps the shrunken interval.
         bool found = false;
         while (sp > 0u) {
-            uint cand = stack[--sp];
-            BvhNode cn = load_node(cand);
-            if (intersect_box(cn.lo.xyz, cn.hi.xyz, o, inv_d, tmin, hit.t) != uintBitsToFloat(0x7F800000u)) {
-                node = cand;
+            --sp;
+            if (stack_t[sp] <= hit.t) {
+                first = stack[sp].x;
+                count = stack[sp].y;
                 found = true;
                 break;
             }
@@ -188,7 +189,7 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
             hit.uv = pending_uv;
             if (any_hit) return hit;
         }
-        // `node` is still the leaf: carry on after the pending triangle.
+        // `first` and `count` still name the leaf: carry on after the pending triangle.
         resume = pending + 1u;
     }
 #endif

@@ -3,7 +3,7 @@ use crate::constants::{BVH_STACK_SIZE, NO_HIT};
 use crate::layout::{BvhNode, TriVerts};
 use glam::{Vec2, Vec3};
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
@@ -75,7 +75,8 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     };
     let (o, d) = (ray.origin, ray.dir);
     let inv_d = safe_inverse(d);
-    let mut stack = [0u32; BVH_STACK_SIZE as usize];
+    // Waiting nodes keep their entry distance; a pop compares it with the closest hit instead of re-testing the box.
+    let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
     let mut node = 0u32;
     // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
@@ -101,7 +102,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
             match (tl, tr) {
                 (Some(a), Some(b)) => {
                     let (near, far) = if a <= b { (left, right) } else { (right, left) };
-                    stack[sp] = far;
+                    stack[sp] = (far, a.max(b));
                     sp += 1;
                     node = near;
                     continue;
@@ -120,8 +121,8 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
         let mut found = false;
         while sp > 0 {
             sp -= 1;
-            let cand = stack[sp];
-            if intersect_box(&nodes[cand as usize], o, inv_d, ray.tmin, hit.t).is_some() {
+            let (cand, entry) = stack[sp];
+            if entry <= hit.t {
                 node = cand;
                 found = true;
                 break;

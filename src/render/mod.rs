@@ -486,6 +486,7 @@ impl Renderer {
                 path_count: cells,
                 ..Default::default()
             },
+            1,
         )?;
         let mut table: Vec<f32> = energy.download(&self.ctx)?;
         table.truncate(floats);
@@ -942,6 +943,17 @@ impl Renderer {
 
     /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
     pub fn probe_trace(&mut self, rays: &[crate::bvh::Ray], any_hit: bool) -> Result<Vec<crate::bvh::TraceHit>, Error> {
+        Ok(self.trace_timed(rays, any_hit, 1)?.0)
+    }
+
+    /// Traces `rays` `repeats` times after one upload; returns the hits and each dispatch's wall time. The bench's
+    /// traversal figure: the same kernel the tests check, with nothing of the wavefront around it.
+    pub fn trace_timed(
+        &mut self,
+        rays: &[crate::bvh::Ray],
+        any_hit: bool,
+        repeats: u32,
+    ) -> Result<(Vec<crate::bvh::TraceHit>, Vec<Duration>), Error> {
         let n = rays.len() as u32;
         let mut words: Vec<u32> = Vec::with_capacity(rays.len() * 12);
         for r in rays {
@@ -957,16 +969,13 @@ impl Renderer {
             BvhReads::Storage => "probe_trace",
             BvhReads::Texel => "probe_trace_texel",
         };
-        let out = self.run_probe(
-            stage,
-            &words,
-            Frame {
-                path_count: n,
-                bounce: any_hit as u32,
-                ..Default::default()
-            },
-        )?;
-        Ok((0..rays.len())
+        let frame = Frame {
+            path_count: n,
+            bounce: any_hit as u32,
+            ..Default::default()
+        };
+        let (out, times) = self.run_probe(stage, &words, frame, repeats)?;
+        let hits = (0..rays.len())
             .map(|k| {
                 let b = 8 * rays.len() + 4 * k;
                 crate::bvh::TraceHit {
@@ -975,13 +984,14 @@ impl Renderer {
                     uv: glam::Vec2::new(f32::from_bits(out[b + 2]), f32::from_bits(out[b + 3])),
                 }
             })
-            .collect())
+            .collect();
+        Ok((hits, times))
     }
 
     /// The light shade would pick for each of `n` samples (first bounce, sample index `sample`).
     pub fn probe_light_pick(&mut self, n: u32, sample: u32, seed: u32) -> Result<Vec<u32>, Error> {
         let words = vec![0u32; n as usize];
-        let mut out = self.run_probe(
+        let (mut out, _) = self.run_probe(
             "probe_light_pick",
             &words,
             Frame {
@@ -990,6 +1000,7 @@ impl Renderer {
                 seed,
                 ..Default::default()
             },
+            1,
         )?;
         out.truncate(n as usize);
         Ok(out)
@@ -1020,7 +1031,7 @@ impl Renderer {
             },
             ..Default::default()
         };
-        let out = self.run_probe("probe_bsdf", &words, frame)?;
+        let (out, _) = self.run_probe("probe_bsdf", &words, frame, 1)?;
         let f = |i: usize| f32::from_bits(out[i]);
         let v = |i: usize| glam::Vec3::new(f(i), f(i + 1), f(i + 2));
         Ok((0..n)
@@ -1050,7 +1061,7 @@ impl Renderer {
         let n = x.len();
         let mut words: Vec<u32> = x.iter().flat_map(|v| [v.x, v.y, v.z, 0.0].map(f32::to_bits)).collect();
         words.resize(12 * n, 0);
-        let out = self.run_probe(
+        let (out, _) = self.run_probe(
             "probe_env",
             &words,
             Frame {
@@ -1058,6 +1069,7 @@ impl Renderer {
                 bounce: evaluate as u32,
                 ..Default::default()
             },
+            1,
         )?;
         let f = |i: usize| f32::from_bits(out[i]);
         Ok((0..n)
@@ -1073,7 +1085,14 @@ impl Renderer {
             .collect())
     }
 
-    fn run_probe(&mut self, stage: &str, words: &[u32], frame: Frame) -> Result<Vec<u32>, Error> {
+    /// Runs `stage` `repeats` times over the probe buffer holding `words`; returns the buffer and each run's time.
+    fn run_probe(
+        &mut self,
+        stage: &str,
+        words: &[u32],
+        frame: Frame,
+        repeats: u32,
+    ) -> Result<(Vec<u32>, Vec<Duration>), Error> {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let mut probe = Buffer::new(
             &self.ctx,
@@ -1083,13 +1102,19 @@ impl Renderer {
             MemoryLocation::CpuToGpu,
         )?;
         probe.upload(&self.ctx, bytemuck::cast_slice(words))?;
-        self.run_kernel(stage, &[(BINDING_PROBE, &probe)], frame)?;
-        probe.download(&self.ctx)
+        let times = self.run_kernel(stage, &[(BINDING_PROBE, &probe)], frame, repeats)?;
+        Ok((probe.download(&self.ctx)?, times))
     }
 
-    /// Runs one kernel over `frame.path_count` invocations with the scene bound, `extra` bindings, and stand-ins for
-    /// the rest; then fails on any validation error.
-    fn run_kernel(&mut self, stage: &str, extra: &[(u32, &Buffer)], frame: Frame) -> Result<(), Error> {
+    /// Runs one kernel `repeats` times over `frame.path_count` invocations with the scene bound, `extra` bindings,
+    /// and stand-ins for the rest; fails on any validation error, else returns each submission's wall time.
+    fn run_kernel(
+        &mut self,
+        stage: &str,
+        extra: &[(u32, &Buffer)],
+        frame: Frame,
+        repeats: u32,
+    ) -> Result<Vec<Duration>, Error> {
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let bound: Vec<u32> = extra.iter().map(|(b, _)| *b).collect();
@@ -1126,9 +1151,15 @@ impl Renderer {
         };
         let n = frame.path_count;
         let p = &self.pipelines;
-        ctx.submit_and_wait(|cmd| {
-            p.dispatch(cmd, stage, &frame, n.div_ceil(WORKGROUP_SIZE));
-        })?;
-        self.check_validation()
+        let mut times = Vec::with_capacity(repeats as usize);
+        for _ in 0..repeats.max(1) {
+            let start = Instant::now();
+            ctx.submit_and_wait(|cmd| {
+                p.dispatch(cmd, stage, &frame, n.div_ceil(WORKGROUP_SIZE));
+            })?;
+            times.push(start.elapsed());
+        }
+        self.check_validation()?;
+        Ok(times)
     }
 }

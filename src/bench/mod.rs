@@ -1,8 +1,11 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
+pub mod compare;
+
 use crate::render::{gpu_scene, BvhReads, RenderSettings, Renderer};
 use crate::scene::{self, Camera, Environment, Material, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use crate::Error;
+pub use compare::{EmbreeComparison, MitsubaComparison};
 use glam::{Mat4, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -42,6 +45,20 @@ pub struct BenchOptions {
     pub exe: PathBuf,
     /// Fewer samples, for a quick look (and the tests).
     pub quick: bool,
+    /// Other renderers to measure against in the same run.
+    pub compare: Vec<Compare>,
+    /// The Python that has `mitsuba` and `embreex` installed.
+    pub python: PathBuf,
+    /// Skip the fixed cases and run only the comparisons.
+    pub only_compare: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Compare {
+    /// Mitsuba 3 (llvm_ad_rgb) on the Cornell box: relMSE x time against a converged reference.
+    Mitsuba,
+    /// Embree (embreex) on the terrain mesh: random-ray traversal speed.
+    Embree,
 }
 
 /// A heightfield of `side`^2 quads (2 side^2 triangles) of rolling hills under a uniform sky.
@@ -200,7 +217,9 @@ pub struct BenchReport {
     pub device: String,
     pub cases: Vec<CaseResult>,
     /// A 64x64, 1-spp Cornell box render as a whole process, after one run warmed the shader cache.
-    pub startup_s: f64,
+    pub startup_s: Option<f64>,
+    pub embree: Option<EmbreeComparison>,
+    pub mitsuba: Option<MitsubaComparison>,
     pub total: Duration,
 }
 
@@ -216,14 +235,49 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
             )));
         }
     }
+    let mut report = BenchReport {
+        device: String::new(),
+        cases: Vec::new(),
+        startup_s: None,
+        embree: None,
+        mitsuba: None,
+        total: Duration::ZERO,
+    };
+    if !o.only_compare {
+        progress("start-up");
+        process_time(&o.exe, &cornell, (64, 64), 1)?;
+        report.startup_s = Some(process_time(&o.exe, &cornell, (64, 64), 1)?);
+        run_cases(o, &cornell, &glass, &mut report.cases, progress)?;
+    }
+    if o.compare.contains(&Compare::Embree) {
+        progress("Embree comparison");
+        report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick)?);
+    }
+    if o.compare.contains(&Compare::Mitsuba) {
+        progress("Mitsuba comparison");
+        report.mitsuba = Some(compare::compare_mitsuba(
+            &o.python, &o.device, &cornell, o.quick, progress,
+        )?);
+    }
+    report.device = (report.cases.first().map(|c| c.device.clone()))
+        .or_else(|| report.embree.as_ref().map(|e| e.device.clone()))
+        .or_else(|| report.mitsuba.as_ref().map(|m| m.device.clone()))
+        .unwrap_or_default();
+    report.total = start.elapsed();
+    Ok(report)
+}
+
+fn run_cases(
+    o: &BenchOptions,
+    cornell: &Path,
+    glass: &Path,
+    cases: &mut Vec<CaseResult>,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), Error> {
     // Every full case takes at least two passes (16 spp of 256x256 fit in flight on lavapipe), so its stage times
     // exclude the first, which compiles the pipelines.
     let (spp_cornell, spp_glass, spp_mesh, side) = if o.quick { (4, 2, 1, 128) } else { (64, 32, 32, 708) };
-    progress("start-up");
-    process_time(&o.exe, &cornell, (64, 64), 1)?;
-    let startup_s = process_time(&o.exe, &cornell, (64, 64), 1)?;
-    let mut cases = Vec::new();
-    for (name, path, spp) in [("cornell-box", &cornell, spp_cornell), ("glass", &glass, spp_glass)] {
+    for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
         let mut c = measure(name, &scene, (256, 256), spp, &o.device, None)?;
@@ -248,24 +302,76 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         &o.device,
         storage,
     )?);
-    let device = cases.first().map(|c| c.device.clone()).unwrap_or_default();
-    Ok(BenchReport {
-        device,
-        cases,
-        startup_s,
-        total: start.elapsed(),
-    })
+    Ok(())
 }
 
 impl BenchReport {
     pub fn table(&self) -> String {
         let mut s = format!(
-            "pathwave bench on {} ({:.0} s in all); start-up, 64x64 at 1 spp, whole process: {:.2} s\n",
+            "pathwave bench on {} ({:.0} s in all)\n",
             self.device,
-            self.total.as_secs_f64(),
-            self.startup_s
+            self.total.as_secs_f64()
         );
-        s += &format!(
+        if let Some(t) = self.startup_s {
+            s += &format!("start-up, 64x64 Cornell box at 1 spp, whole process: {t:.2} s\n");
+        }
+        if !self.cases.is_empty() {
+            s += &self.cases_table();
+        }
+        if let Some(e) = &self.embree {
+            s += &format!(
+                "traversal vs Embree ({} tris, {} random rays, closest hit, {} threads; BVH build {:.2} s vs {:.2} s):\n",
+                e.triangles, e.rays, e.threads, e.pathwave_build_s, e.embree_build_s
+            );
+            for (k, (ours, theirs)) in e.rounds.iter().enumerate() {
+                s += &format!(
+                    "  round {}: pathwave {:.2} Mrays/s, Embree {:.2} Mrays/s, ratio {:.3}\n",
+                    k + 1,
+                    ours * 1e-6,
+                    theirs * 1e-6,
+                    ours / theirs
+                );
+            }
+            s += &format!(
+                "  median ratio {:.3} (target >= 0.5); hits agree on {:.3} % of rays\n",
+                e.ratio,
+                100.0 * e.agreement
+            );
+        }
+        if let Some(m) = &self.mitsuba {
+            s += &format!(
+                "equal time vs Mitsuba {} llvm_ad_rgb (Cornell box {}x{}; reference: Mitsuba at {} spp{}):\n",
+                m.version,
+                m.width,
+                m.height,
+                m.reference_spp,
+                if m.reference_cached { ", cached" } else { "" }
+            );
+            for (k, [(sp, tp, ep), (sm, tm, em)]) in m.rounds.iter().enumerate() {
+                s += &format!(
+                    "  round {}: pathwave {sp} spp {tp:.2} s relMSE {ep:.5} (x time {:.5}); Mitsuba {sm} spp {tm:.2} s \
+                     relMSE {em:.5} (x time {:.5}); ratio {:.3}\n",
+                    k + 1,
+                    ep * tp,
+                    em * tm,
+                    (ep * tp) / (em * tm)
+                );
+            }
+            let pct = |v: [f64; 3]| v.map(|x| format!("{:+.3}", 100.0 * x)).join(" ");
+            s += &format!(
+                "  median ratio of relMSE x time {:.3} (target <= 1.0)\n  channel means vs reference, %: pathwave {} \
+                 (one sigma {}); Mitsuba {}\n",
+                m.ratio,
+                pct(m.mean_deviation),
+                m.mean_sigma.map(|x| format!("{:.3}", 100.0 * x)).join(" "),
+                pct(m.mitsuba_mean_deviation)
+            );
+        }
+        s
+    }
+
+    fn cases_table(&self) -> String {
+        let mut s = format!(
             "{:<14} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
             "case",
             "tris",
@@ -331,6 +437,31 @@ impl BenchReport {
         serde_json::to_string_pretty(&serde_json::json!({
             "device": self.device,
             "startup_s": self.startup_s,
+            "embree": self.embree.as_ref().map(|e| serde_json::json!({
+                "triangles": e.triangles,
+                "rays": e.rays,
+                "threads": e.threads,
+                "embree_build_s": e.embree_build_s,
+                "pathwave_build_s": e.pathwave_build_s,
+                "rounds": e.rounds.iter().map(|(a, b)| serde_json::json!({"pathwave_rays_per_s": a, "embree_rays_per_s": b})).collect::<Vec<_>>(),
+                "ratio": e.ratio,
+                "agreement": e.agreement,
+            })),
+            "mitsuba": self.mitsuba.as_ref().map(|m| serde_json::json!({
+                "version": m.version,
+                "width": m.width,
+                "height": m.height,
+                "reference_spp": m.reference_spp,
+                "reference_cached": m.reference_cached,
+                "rounds": m.rounds.iter().map(|[(sp, tp, ep), (sm, tm, em)]| serde_json::json!({
+                    "pathwave": {"spp": sp, "seconds": tp, "rel_mse": ep},
+                    "mitsuba": {"spp": sm, "seconds": tm, "rel_mse": em},
+                })).collect::<Vec<_>>(),
+                "ratio": m.ratio,
+                "mean_deviation": m.mean_deviation,
+                "mean_sigma": m.mean_sigma,
+                "mitsuba_mean_deviation": m.mitsuba_mean_deviation,
+            })),
             "total_s": self.total.as_secs_f64(),
             "cases": cases,
         }))

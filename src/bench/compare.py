@@ -1,0 +1,139 @@
+# pathwave bench's other renderers: Mitsuba 3 (llvm_ad_rgb) and Embree (embreex), driven over stdin/stdout.
+# One JSON request per line in, one JSON reply per line out; arrays travel as raw little-endian files so the
+# timings measure rendering and tracing, not serialisation. Written for the bench, run by it; not a public tool.
+import json
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+
+
+def reply(**kw):
+    sys.stdout.write(json.dumps(kw) + "\n")
+    sys.stdout.flush()
+
+
+class Embree:
+    def load(self, req):
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+
+        tris = np.fromfile(req["triangles"], dtype=np.float32).reshape(-1, 3, 3)
+        start = time.perf_counter()
+        self.scene = rtcs.EmbreeScene()
+        self.mesh = TriangleMesh(self.scene, tris)
+        # embreex commits (builds the BVH) on the first query: make that happen here, outside the timings.
+        self.scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))
+        return {"build_s": time.perf_counter() - start, "triangles": int(tris.shape[0])}
+
+    def trace(self, req):
+        rays = np.fromfile(req["rays"], dtype=np.float32).reshape(-1, 2, 3)
+        threads = int(req.get("threads") or os.cpu_count() or 1)
+        # Contiguous per-thread slices; embreex releases the GIL inside its loop over rtcIntersect1.
+        parts = np.array_split(np.arange(rays.shape[0]), threads)
+        origins = [np.ascontiguousarray(rays[p, 0]) for p in parts]
+        dirs = [np.ascontiguousarray(rays[p, 1]) for p in parts]
+        hits = [None] * threads
+
+        def work(k):
+            hits[k] = self.scene.run(origins[k], dirs[k])
+
+        workers = [threading.Thread(target=work, args=(k,)) for k in range(threads)]
+        start = time.perf_counter()
+        for w in workers:
+            w.start()
+        for w in workers:
+            w.join()
+        seconds = time.perf_counter() - start
+        if req.get("hits"):
+            # Untimed: distances (inf for a miss), so the bench can check both tracers saw the same scene.
+            out = self.scene.run(rays[:, 0].copy(), rays[:, 1].copy(), output=1)
+            t = np.where(out["primID"] >= 0, out["tfar"], np.inf).astype(np.float32)
+            t.tofile(req["hits"])
+        return {"seconds": seconds, "threads": threads}
+
+
+class Mitsuba:
+    def load(self, req):
+        import mitsuba as mi
+
+        mi.set_variant("llvm_ad_rgb")
+        self.mi = mi
+        desc = json.load(open(req["scene"]))
+        cam = desc["camera"]
+        scene = {
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": -1},
+            "sensor": {
+                "type": "perspective",
+                "fov": cam["yfov_deg"],
+                "fov_axis": "y",
+                "near_clip": 1e-3,
+                "to_world": mi.ScalarTransform4f().look_at(
+                    origin=cam["origin"], target=cam["target"], up=cam["up"]
+                ),
+                "film": {
+                    "type": "hdrfilm",
+                    "width": cam["width"],
+                    "height": cam["height"],
+                    "rfilter": {"type": "box"},
+                    "pixel_format": "rgb",
+                },
+                "sampler": {"type": "independent"},
+            },
+        }
+        for k, m in enumerate(desc["meshes"]):
+            shape = {
+                "type": "ply",
+                "filename": m["ply"],
+                "face_normals": True,
+                "bsdf": {
+                    "type": "diffuse",
+                    "reflectance": {"type": "rgb", "value": m["reflectance"]},
+                },
+            }
+            if m.get("radiance"):
+                shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["radiance"]}}
+            scene[f"mesh{k}"] = shape
+        start = time.perf_counter()
+        self.scene = mi.load_dict(scene)
+        return {"load_s": time.perf_counter() - start, "version": mi.__version__}
+
+    def render(self, req):
+        import drjit as dr
+
+        start = time.perf_counter()
+        img = self.mi.render(self.scene, spp=int(req["spp"]), seed=int(req["seed"]))
+        dr.eval(img)
+        dr.sync_thread()
+        seconds = time.perf_counter() - start
+        np.asarray(img, dtype=np.float32)[..., :3].tofile(req["out"])
+        return {"seconds": seconds}
+
+
+def main():
+    embree, mitsuba = Embree(), Mitsuba()
+    handlers = {
+        "embree_load": embree.load,
+        "embree_trace": embree.trace,
+        "mitsuba_load": mitsuba.load,
+        "mitsuba_render": mitsuba.render,
+    }
+    reply(ready=True)
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        req = json.loads(line)
+        try:
+            reply(ok=True, **handlers[req["cmd"]](req))
+        except Exception as e:  # the bench prints this and stops; a traceback on stderr helps more than a crash
+            import traceback
+
+            traceback.print_exc()
+            reply(ok=False, error=f"{type(e).__name__}: {e}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,538 @@
+//! `pathwave bench --compare`: the same work done by Mitsuba 3 and Embree in this run, interleaved with ours.
+use super::terrain;
+use crate::bvh::Ray;
+use crate::render::{RenderSettings, Renderer};
+use crate::scene::{self, Scene};
+use crate::vk::{Context, DeviceChoice, Validation};
+use crate::Error;
+use glam::Vec3;
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::time::Instant;
+
+const HELPER: &str = include_str!("compare.py");
+
+fn err(msg: impl std::fmt::Display) -> Error {
+    Error::Settings(format!("bench --compare: {msg}"))
+}
+
+/// The Python process that runs Mitsuba and Embree: one JSON request per line each way.
+struct Helper {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+    dir: tempfile::TempDir,
+}
+
+impl Helper {
+    fn start(python: &Path) -> Result<Helper, Error> {
+        let dir = tempfile::tempdir().map_err(err)?;
+        let script = dir.path().join("compare.py");
+        std::fs::write(&script, HELPER).map_err(err)?;
+        let mut child = Command::new(python)
+            .arg("-u")
+            .arg(&script)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .map_err(|e| err(format!("cannot run {}: {e}", python.display())))?;
+        let stdin = child.stdin.take().ok_or_else(|| err("no stdin"))?;
+        let stdout = BufReader::new(child.stdout.take().ok_or_else(|| err("no stdout"))?);
+        let mut h = Helper {
+            child,
+            stdin,
+            stdout,
+            dir,
+        };
+        h.read().map_err(|e| {
+            err(format!(
+                "{} could not start the helper (it needs numpy): {e}",
+                python.display()
+            ))
+        })?;
+        Ok(h)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn read(&mut self) -> Result<Value, Error> {
+        let mut line = String::new();
+        self.stdout.read_line(&mut line).map_err(err)?;
+        if line.is_empty() {
+            return Err(err("the Python helper exited (its message is above)"));
+        }
+        serde_json::from_str(&line).map_err(|e| err(format!("helper said {line:?}: {e}")))
+    }
+
+    fn call(&mut self, request: Value) -> Result<Value, Error> {
+        writeln!(self.stdin, "{request}").map_err(err)?;
+        self.stdin.flush().map_err(err)?;
+        let r = self.read()?;
+        if r["ok"] != json!(true) {
+            return Err(err(r["error"].as_str().unwrap_or("the helper failed")));
+        }
+        Ok(r)
+    }
+
+    fn f64(r: &Value, key: &str) -> Result<f64, Error> {
+        r[key].as_f64().ok_or_else(|| err(format!("helper reply lacks {key}")))
+    }
+}
+
+impl Drop for Helper {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn write_f32(path: &Path, data: &[f32]) -> Result<(), Error> {
+    std::fs::write(path, bytemuck::cast_slice(data)).map_err(err)
+}
+
+fn read_f32(path: &Path) -> Result<Vec<f32>, Error> {
+    let bytes = std::fs::read(path).map_err(err)?;
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect())
+}
+
+/// Deterministic uniforms for the ray set (SplitMix64), so both tracers see the same rays every run.
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// Rays with origins uniform in the scene's bounding box and directions uniform on the sphere: the incoherent
+/// case DESIGN.md's prototype figures use.
+pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let (lo, hi) = scene
+        .triangles
+        .iter()
+        .flatten()
+        .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let mut rng = SplitMix(seed);
+    (0..n)
+        .map(|_| {
+            let o = lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next());
+            let z = 1.0 - 2.0 * rng.next();
+            let phi = std::f32::consts::TAU * rng.next();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            Ray {
+                origin: o,
+                dir: Vec3::new(r * phi.cos(), r * phi.sin(), z),
+                tmin: 0.0,
+                tmax: f32::MAX,
+            }
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 {
+        v[m]
+    } else {
+        0.5 * (v[m - 1] + v[m])
+    }
+}
+
+/// Traversal against Embree: the same mesh and random rays, closest hit, all cores each.
+#[derive(Clone, Debug, Default)]
+pub struct EmbreeComparison {
+    pub device: String,
+    pub triangles: usize,
+    pub rays: usize,
+    pub threads: u32,
+    pub embree_build_s: f64,
+    pub pathwave_build_s: f64,
+    /// Per round, interleaved: (pathwave, Embree) rays per second.
+    pub rounds: Vec<(f64, f64)>,
+    /// Median over rounds of pathwave / Embree.
+    pub ratio: f64,
+    /// Rays where both miss or both hit at the same distance (within 1e-3 relative).
+    pub agreement: f64,
+}
+
+pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Result<EmbreeComparison, Error> {
+    let mut h = Helper::start(python)?;
+    let side = if quick { 128 } else { 708 };
+    let rays_n = if quick { 1 << 16 } else { 1 << 20 };
+    let rounds = if quick { 2 } else { 3 };
+    let scene = terrain(side);
+    let rays = random_rays(&scene, rays_n, 7);
+    let tris: Vec<f32> = scene.triangles.iter().flatten().flat_map(|p| p.to_array()).collect();
+    let ray_data: Vec<f32> = rays
+        .iter()
+        .flat_map(|r| r.origin.to_array().into_iter().chain(r.dir.to_array()))
+        .collect();
+    let (tri_path, ray_path, hit_path) = (h.path("tris.f32"), h.path("rays.f32"), h.path("hits.f32"));
+    write_f32(&tri_path, &tris)?;
+    write_f32(&ray_path, &ray_data)?;
+    let loaded = h
+        .call(json!({"cmd": "embree_load", "triangles": tri_path}))
+        .map_err(|e| err(format!("{e}; install it with `pip install embreex`")))?;
+    let embree_build_s = Helper::f64(&loaded, "build_s")?;
+    let start = Instant::now();
+    drop(crate::bvh::build(&scene.triangles));
+    let pathwave_build_s = start.elapsed().as_secs_f64();
+    let ctx = Context::new(device, Validation::Off)?;
+    let device = ctx.device_name();
+    let mut r = Renderer::with_context(&scene, ctx)?;
+    // The first dispatch compiles the pipeline: traced once untimed.
+    let (ours, _) = r.trace_timed(&rays, false, 1)?;
+    let mut result = EmbreeComparison {
+        device,
+        triangles: scene.triangles.len(),
+        rays: rays.len(),
+        embree_build_s,
+        pathwave_build_s,
+        ..Default::default()
+    };
+    let mut embree_t = Vec::new();
+    for _ in 0..rounds {
+        let (_, times) = r.trace_timed(&rays, false, 2)?;
+        let t_ours = median(times.iter().map(|t| t.as_secs_f64()).collect());
+        let last = embree_t.len() + 1 == rounds;
+        let hits = if last { json!(hit_path) } else { Value::Null };
+        let traced = h.call(json!({"cmd": "embree_trace", "rays": ray_path, "hits": hits}))?;
+        let t_embree = Helper::f64(&traced, "seconds")?;
+        result.threads = traced["threads"].as_u64().unwrap_or(0) as u32;
+        result.rounds.push((rays_n as f64 / t_ours, rays_n as f64 / t_embree));
+        embree_t.push(t_embree);
+    }
+    result.ratio = median(result.rounds.iter().map(|(a, b)| a / b).collect());
+    let theirs = read_f32(&hit_path)?;
+    let agree = ours
+        .iter()
+        .zip(&theirs)
+        .filter(|(a, &b)| {
+            let miss_a = a.tri == crate::constants::NO_HIT;
+            let miss_b = !b.is_finite();
+            (miss_a && miss_b) || (!miss_a && !miss_b && (a.t - b).abs() <= 1e-3 * b.abs().max(1e-3))
+        })
+        .count();
+    result.agreement = agree as f64 / rays.len().max(1) as f64;
+    Ok(result)
+}
+
+/// relMSE x time against Mitsuba 3 on the same scene and image, both unbiased and measured against Mitsuba's own
+/// converged render (so any bias of ours counts against us).
+#[derive(Clone, Debug, Default)]
+pub struct MitsubaComparison {
+    pub device: String,
+    pub version: String,
+    pub width: u32,
+    pub height: u32,
+    pub reference_spp: u32,
+    pub reference_cached: bool,
+    /// Per round: pathwave (spp, seconds, relMSE) and Mitsuba (spp, seconds, relMSE).
+    pub rounds: Vec<[(u32, f64, f64); 2]>,
+    /// Median over rounds of (relMSE x time of pathwave) / (relMSE x time of Mitsuba): below 1, pathwave wins.
+    pub ratio: f64,
+    /// Per channel: pathwave's image mean over all rounds relative to the reference's, minus one.
+    pub mean_deviation: [f64; 3],
+    /// One standard error of that deviation, from pathwave's per-pixel sample variance.
+    pub mean_sigma: [f64; 3],
+    /// The same deviation for Mitsuba's rounds: checks the reference and the scene translation.
+    pub mitsuba_mean_deviation: [f64; 3],
+}
+
+/// Writes `scene` for the helper: one PLY per material and a JSON description. Only what both renderers agree on
+/// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles and a pinhole camera.
+fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(PathBuf, String), Error> {
+    if scene.environment.is_some() || !scene.punctual.is_empty() {
+        return Err(err("only scenes lit by emissive triangles translate to Mitsuba"));
+    }
+    let camera = scene.camera.ok_or_else(|| err("the scene has no camera"))?;
+    let mut meshes = Vec::new();
+    for (k, m) in scene.materials.iter().enumerate() {
+        let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
+        let textured = m.texture_refs().iter().any(Option::is_some);
+        let tris: Vec<&[Vec3; 3]> = scene
+            .triangles
+            .iter()
+            .zip(&scene.material_of)
+            .filter(|(_, &mk)| mk as usize == k)
+            .map(|(t, _)| t)
+            .collect();
+        if tris.is_empty() {
+            continue;
+        }
+        if !lambertian || textured || m.double_sided || m.alpha_tested() {
+            return Err(err(format!(
+                "material '{}' does not translate to Mitsuba (only untextured, single-sided Lambertian ones do)",
+                m.name
+            )));
+        }
+        let ply = dir.join(format!("mesh{k}.ply"));
+        let mut bytes = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+             property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            3 * tris.len(),
+            tris.len()
+        )
+        .into_bytes();
+        for p in tris.iter().copied().flatten() {
+            bytes.extend(p.to_array().iter().flat_map(|c| c.to_le_bytes()));
+        }
+        for f in 0..tris.len() as i32 {
+            bytes.push(3);
+            bytes.extend([3 * f, 3 * f + 1, 3 * f + 2].iter().flat_map(|i| i.to_le_bytes()));
+        }
+        std::fs::write(&ply, bytes).map_err(err)?;
+        let e = m.emission;
+        meshes.push(json!({
+            "ply": ply,
+            "reflectance": m.base_color.to_array(),
+            "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
+        }));
+    }
+    let (_, up, forward) = camera.basis();
+    let o = camera.origin();
+    let desc = json!({
+        "camera": {
+            "origin": o.to_array(),
+            "target": (o + forward).to_array(),
+            "up": up.to_array(),
+            "yfov_deg": camera.yfov.to_degrees(),
+            "width": size.0,
+            "height": size.1,
+        },
+        "meshes": meshes,
+    });
+    let path = dir.join("scene.json");
+    let text = desc.to_string();
+    std::fs::write(&path, &text).map_err(err)?;
+    Ok((path, text))
+}
+
+/// relMSE of `img` against the reference mean `r`, less what the reference's own noise adds: `a` and `b` are the
+/// reference's two halves, so (a - b)^2 / 4 estimates the variance of their mean per pixel.
+fn rel_mse(img: &[f32], a: &[f32], b: &[f32]) -> f64 {
+    let mut sum = 0.0;
+    for ((x, a), b) in img.iter().zip(a).zip(b) {
+        let r = 0.5 * (*a as f64 + *b as f64);
+        let d = *x as f64 - r;
+        let ref_var = 0.25 * (*a as f64 - *b as f64).powi(2);
+        sum += (d * d - ref_var) / (r * r + 1e-2);
+    }
+    sum / img.len().max(1) as f64
+}
+
+fn channel_means(img: &[f32]) -> [f64; 3] {
+    let mut m = [0.0; 3];
+    for px in img.chunks_exact(3) {
+        for c in 0..3 {
+            m[c] += px[c] as f64;
+        }
+    }
+    m.map(|s| s / (img.len() / 3).max(1) as f64)
+}
+
+fn cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        return PathBuf::from(d).join("pathwave/bench");
+    }
+    match std::env::var_os("HOME") {
+        Some(h) => PathBuf::from(h).join(".cache/pathwave/bench"),
+        None => std::env::temp_dir().join("pathwave-bench"),
+    }
+}
+
+/// FNV-1a, for naming the cached reference after everything that decides it.
+fn fnv(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+pub fn compare_mitsuba(
+    python: &Path,
+    device: &DeviceChoice,
+    cornell: &Path,
+    quick: bool,
+    progress: &mut dyn FnMut(&str),
+) -> Result<MitsubaComparison, Error> {
+    let size = if quick { (64, 64) } else { (256, 256) };
+    let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (8192, 8.0, 3) };
+    let mut h = Helper::start(python)?;
+    let scene = scene::load(cornell, None)?;
+    let dir = h.dir.path().to_path_buf();
+    let (desc_path, desc) = write_mitsuba_scene(&scene, size, &dir)?;
+    let loaded = h
+        .call(json!({"cmd": "mitsuba_load", "scene": desc_path}))
+        .map_err(|e| {
+            err(format!(
+                "{e}; Mitsuba 3 needs `pip install mitsuba` and, for llvm_ad_rgb, `apt-get install libllvm19`"
+            ))
+        })?;
+    let version = loaded["version"].as_str().unwrap_or("?").to_string();
+    let pixels = (size.0 * size.1) as usize;
+    let mitsuba = |h: &mut Helper, spp: u32, seed: u32| -> Result<(f64, Vec<f32>), Error> {
+        let out = h.path("mitsuba.f32");
+        let r = h.call(json!({"cmd": "mitsuba_render", "spp": spp, "seed": seed, "out": out}))?;
+        let img = read_f32(&out)?;
+        if img.len() != 3 * pixels {
+            return Err(err(format!(
+                "Mitsuba returned {} floats for {pixels} pixels",
+                img.len()
+            )));
+        }
+        Ok((Helper::f64(&r, "seconds")?, img))
+    };
+
+    // The reference: Mitsuba's, in two independent halves, cached under a name that changes with the scene,
+    // the image, the sample count and Mitsuba's version.
+    let key = format!("{:016x}", fnv(&format!("{desc}{version}{reference_spp}")));
+    let cache = cache_dir().join(format!("cornell-reference-{key}"));
+    let (ref_a, ref_b, reference_cached) = match (read_f32(&cache.join("a.f32")), read_f32(&cache.join("b.f32"))) {
+        (Ok(a), Ok(b)) if a.len() == 3 * pixels && b.len() == 3 * pixels => (a, b, true),
+        _ => {
+            let chunk = 256.min(reference_spp / 2);
+            let chunks = reference_spp / 2 / chunk;
+            let mut halves = [vec![0f32; 3 * pixels], vec![0f32; 3 * pixels]];
+            for (half, acc) in halves.iter_mut().enumerate() {
+                for c in 0..chunks {
+                    progress(&format!(
+                        "Mitsuba reference, {} of {} spp (cached afterwards in {})",
+                        (half as u32 * chunks + c) * chunk,
+                        reference_spp,
+                        cache.display()
+                    ));
+                    let (_, img) = mitsuba(&mut h, chunk, 1_000_000 + half as u32 * chunks + c)?;
+                    for (s, v) in acc.iter_mut().zip(img) {
+                        *s += v / chunks as f32;
+                    }
+                }
+            }
+            std::fs::create_dir_all(&cache).map_err(err)?;
+            write_f32(&cache.join("a.f32"), &halves[0])?;
+            write_f32(&cache.join("b.f32"), &halves[1])?;
+            let [a, b] = halves;
+            (a, b, false)
+        }
+    };
+
+    let ctx = Context::new(device, Validation::Off)?;
+    let device = ctx.device_name();
+    let mut r = Renderer::with_context(&scene, ctx)?;
+    let mut pathwave = |spp: u32, seed: u32| -> Result<(f64, Vec<f32>, Vec<f32>), Error> {
+        let settings = RenderSettings {
+            width: size.0,
+            height: size.1,
+            spp,
+            seed,
+            ..Default::default()
+        };
+        let (film, stats) = r.render(&settings, &mut |_| {})?;
+        let img: Vec<f32> = film.mean().into_iter().flatten().collect();
+        let var: Vec<f32> = film.sample_variance().into_iter().flatten().collect();
+        Ok((stats.wall.as_secs_f64(), img, var))
+    };
+    // Warm-up, which also calibrates: both renderers compile on their first render, so the second one's time per
+    // sample sets each one's spp for the budget.
+    progress("Mitsuba comparison: warming up");
+    let probe_spp = if quick { 4 } else { 16 };
+    pathwave(probe_spp, 99)?;
+    let (t_ours, _, _) = pathwave(probe_spp, 98)?;
+    mitsuba(&mut h, probe_spp, 99)?;
+    let (t_theirs, _) = mitsuba(&mut h, probe_spp, 98)?;
+    let spp_for = |t: f64| ((budget_s / (t / probe_spp as f64)).round() as u32).clamp(1, 4096);
+    let (spp_ours, spp_theirs) = (spp_for(t_ours), spp_for(t_theirs));
+
+    let mut result = MitsubaComparison {
+        device,
+        version,
+        width: size.0,
+        height: size.1,
+        reference_spp,
+        reference_cached,
+        ..Default::default()
+    };
+    let reference_means = channel_means(&ref_a.iter().zip(&ref_b).map(|(a, b)| 0.5 * (a + b)).collect::<Vec<_>>());
+    let (mut ours_means, mut ours_var, mut theirs_means) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+    for round in 0..rounds {
+        progress(&format!("Mitsuba comparison: round {} of {rounds}", round + 1));
+        let (t_p, img_p, var_p) = pathwave(spp_ours, round)?;
+        let (t_m, img_m) = mitsuba(&mut h, spp_theirs, round)?;
+        let e_p = rel_mse(&img_p, &ref_a, &ref_b);
+        let e_m = rel_mse(&img_m, &ref_a, &ref_b);
+        result.rounds.push([(spp_ours, t_p, e_p), (spp_theirs, t_m, e_m)]);
+        let (mp, mm) = (channel_means(&img_p), channel_means(&img_m));
+        // Variance of the image mean: per-pixel sample variance / spp, summed, over pixels squared.
+        let vp = channel_means(&var_p).map(|v| v / spp_ours as f64 / pixels as f64);
+        for c in 0..3 {
+            ours_means[c] += mp[c] / rounds as f64;
+            theirs_means[c] += mm[c] / rounds as f64;
+            ours_var[c] += vp[c] / (rounds * rounds) as f64;
+        }
+    }
+    result.ratio = median(
+        result
+            .rounds
+            .iter()
+            .map(|[(_, tp, ep), (_, tm, em)]| (tp * ep) / (tm * em))
+            .collect(),
+    );
+    for c in 0..3 {
+        result.mean_deviation[c] = ours_means[c] / reference_means[c] - 1.0;
+        result.mean_sigma[c] = ours_var[c].sqrt() / reference_means[c];
+        result.mitsuba_mean_deviation[c] = theirs_means[c] / reference_means[c] - 1.0;
+    }
+    Ok(result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rel_mse_subtracts_the_reference_noise() {
+        // Halves 1 and 3 average to 2 and say the reference's own variance is (3 - 1)^2 / 4 = 1.
+        let (a, b) = (vec![1.0f32; 4], vec![3.0f32; 4]);
+        let exact = rel_mse(&[2.0; 4], &a, &b);
+        assert!((exact + 1.0 / 4.01).abs() < 1e-9, "{exact}");
+        let off = rel_mse(&[4.0; 4], &a, &b);
+        assert!((off - 3.0 / 4.01).abs() < 1e-9, "{off}");
+        assert_eq!(rel_mse(&[2.0; 4], &[2.0; 4], &[2.0; 4]), 0.0);
+    }
+
+    #[test]
+    fn random_rays_are_repeatable_unit_and_inside_the_bounds() {
+        let scene = terrain(8);
+        let a = random_rays(&scene, 1000, 7);
+        assert_eq!(a, random_rays(&scene, 1000, 7));
+        assert_ne!(a, random_rays(&scene, 1000, 8));
+        for r in &a {
+            assert!((r.dir.length() - 1.0).abs() < 1e-5);
+            assert!(r.origin.x.abs() <= 1.0 && r.origin.z.abs() <= 1.0 && r.origin.y.abs() < 0.2);
+        }
+        // Directions cover the sphere: each octant gets about an eighth.
+        for octant in 0..8 {
+            let k = a
+                .iter()
+                .filter(|r| {
+                    (r.dir.x > 0.0) as usize + 2 * (r.dir.y > 0.0) as usize + 4 * (r.dir.z > 0.0) as usize == octant
+                })
+                .count();
+            assert!((80..170).contains(&k), "octant {octant}: {k} of 1000");
+        }
+    }
+}
