@@ -62,8 +62,8 @@ void main() {
         return;
     }
 
-    TriVerts tv = tri_verts[tri];
-    TriShading ts = tri_shading[tri];
+    TriVerts tv = load_tri_verts(tri);
+    TriShading ts = load_tri_shading(tri);
     vec2 uv = hit.zw;
     Material m = material_at(materials[floatBitsToUint(tv.v0.w)], tri, uv);
     vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;

@@ -22,14 +22,19 @@ pub const BINDING_TEXTURES: u32 = 13;
 pub const BINDING_TEXELS: u32 = 14;
 pub const BINDING_TRI_TEXCOORDS: u32 = 15;
 pub const BINDING_TRI_TANGENTS: u32 = 16;
-/// The BVH nodes and triangle vertices again, as uniform texel buffers (RGBA32UI): the TEXEL_BVH stage variants read
-/// them there, which lavapipe serves much faster than storage-buffer loads in a loop. Every binding before
-/// BINDING_FIRST_TEXEL is a storage buffer.
+/// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
+/// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
+/// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
+/// before BINDING_FIRST_TEXEL is a storage buffer.
 pub const BINDING_TRI_COLORS: u32 = 17;
 pub const BINDING_FIRST_TEXEL: u32 = 18;
 pub const BINDING_NODE_TEXELS: u32 = 18;
 pub const BINDING_TRI_TEXELS: u32 = 19;
-pub const BINDING_COUNT: u32 = 20;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 20;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 21;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 22;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 23;
+pub const BINDING_COUNT: u32 = 24;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;

@@ -2,14 +2,17 @@
 // Read by build.rs (via include!) and by run-time shader folders, so both build the same variants. A variant is
 // named `{stage}_{suffix}`.
 pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
-    // Alpha testing inside traversal (alphaMode MASK and BLEND), and BVH reads through texel buffers (TEXEL_BVH).
+    // Alpha testing inside traversal (alphaMode MASK and BLEND), and BVH and per-triangle reads through texel
+    // buffers (TEXEL_READS).
     ("extend", "alpha", "ALPHA_TEST"),
-    ("extend", "texel", "TEXEL_BVH"),
-    ("extend", "alpha_texel", "ALPHA_TEST TEXEL_BVH"),
+    ("extend", "texel", "TEXEL_READS"),
+    ("extend", "alpha_texel", "ALPHA_TEST TEXEL_READS"),
     ("connect", "alpha", "ALPHA_TEST"),
-    ("connect", "texel", "TEXEL_BVH"),
-    ("connect", "alpha_texel", "ALPHA_TEST TEXEL_BVH"),
-    ("probe_trace", "texel", "TEXEL_BVH"),
+    ("connect", "texel", "TEXEL_READS"),
+    ("connect", "alpha_texel", "ALPHA_TEST TEXEL_READS"),
+    ("probe_trace", "texel", "TEXEL_READS"),
     // Material textures and alpha coverage when shading and sampling emitters.
     ("shade", "textured", "TEXTURED"),
+    ("shade", "texel", "TEXEL_READS"),
+    ("shade", "textured_texel", "TEXTURED TEXEL_READS"),
 ];

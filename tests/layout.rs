@@ -64,7 +64,7 @@ fn mirrors() -> Vec<Mirror> {
 }
 
 fn parse_all_stages() -> Vec<(&'static str, naga::Module)> {
-    // naga 30's spv-in has no SampledBuffer capability, so the TEXEL_BVH variants cannot be read. They are the same
+    // naga 30's spv-in has no SampledBuffer capability, so the TEXEL_READS variants cannot be read. They are the same
     // sources as their storage-buffer twins (parsed here) with texel fetches added, so their structs are the same.
     let names: Vec<&str> = builtin_stage_names().filter(|n| !n.ends_with("_texel")).collect();
     assert!(builtin_stage_names().filter(|n| n.ends_with("_texel")).all(|n| {

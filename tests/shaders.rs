@@ -121,7 +121,7 @@ fn an_edited_stage_replaces_the_builtin_and_a_broken_one_is_refused() {
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(
-        o.status.success() && log.contains("using shade, shade_textured from"),
+        o.status.success() && log.contains("using shade, shade_texel, shade_textured, shade_textured_texel from"),
         "{log}"
     );
     assert!(is_constant(&exr), "the edited shade stage was not used");
@@ -150,7 +150,17 @@ fn includes_decide_which_stages_are_stale() {
     let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
     let root = shaders.root().to_path_buf();
     let bsdf = shaders.affected(&[root.join("include/bsdf.glsl")]);
-    assert_eq!(bsdf, ["energy_tables", "probe_bsdf", "shade", "shade_textured"]);
+    assert_eq!(
+        bsdf,
+        [
+            "energy_tables",
+            "probe_bsdf",
+            "shade",
+            "shade_texel",
+            "shade_textured",
+            "shade_textured_texel"
+        ]
+    );
     let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);
     let want = ["connect", "extend", "probe_trace"];
     let twins = |s: &&String| want.iter().any(|w| s.as_str() == *w || s.starts_with(&format!("{w}_")));
@@ -253,7 +263,10 @@ fn the_bvh_cost_example_renders_a_false_colour_image() {
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(
         o.status.success()
-            && log.contains("using extend, extend_alpha, extend_alpha_texel, extend_texel, shade, shade_textured from"),
+            && log.contains(
+                "using extend, extend_alpha, extend_alpha_texel, extend_texel, shade, shade_texel, shade_textured, \
+                 shade_textured_texel from"
+            ),
         "{log}"
     );
     let (_, _, px) = pathwave::output::read_exr(&exr).unwrap();

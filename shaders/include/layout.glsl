@@ -158,6 +158,31 @@ layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexc
 layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
 layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
 
+// Per-triangle data and BVH nodes, read through texel views (TEXEL_READS variants) or the storage buffers above:
+// the same bytes either way. Everything outside layout.glsl reads them through these.
+#ifdef TEXEL_READS
+layout(set = 0, binding = BINDING_NODE_TEXELS) uniform usamplerBuffer node_texels;
+layout(set = 0, binding = BINDING_TRI_TEXELS) uniform usamplerBuffer tri_texels;
+layout(set = 0, binding = BINDING_TRI_SHADING_TEXELS) uniform usamplerBuffer tri_shading_texels;
+layout(set = 0, binding = BINDING_TRI_TEXCOORD_TEXELS) uniform usamplerBuffer tri_texcoord_texels;
+layout(set = 0, binding = BINDING_TRI_TANGENT_TEXELS) uniform usamplerBuffer tri_tangent_texels;
+layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_color_texels;
+#define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
+#define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
+BvhNode load_node(uint i) { return BvhNode(FETCH(node_texels, 2u * i), FETCH(node_texels, 2u * i + 1u)); }
+TriVerts load_tri_verts(uint i) { return TriVerts(FETCH3(tri_texels, i)); }
+TriShading load_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texels, i)); }
+TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoord_texels, i)); }
+TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_texels, i)); }
+TriColors load_tri_colors(uint i) { return TriColors(FETCH3(tri_color_texels, i)); }
+#else
+BvhNode load_node(uint i) { return nodes[i]; }
+TriVerts load_tri_verts(uint i) { return tri_verts[i]; }
+TriShading load_tri_shading(uint i) { return tri_shading[i]; }
+TriTexcoords load_tri_texcoords(uint i) { return tri_texcoords[i]; }
+TriTangents load_tri_tangents(uint i) { return tri_tangents[i]; }
+TriColors load_tri_colors(uint i) { return tri_colors[i]; }
+#endif
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }
 uint frame_estimator() { return (frame.flags >> ESTIMATOR_SHIFT) & 3u; }

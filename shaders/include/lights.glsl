@@ -73,7 +73,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
         return ls;
     }
     uint tri = l.id & LIGHT_INDEX_MASK;
-    TriVerts lv = tri_verts[tri];
+    TriVerts lv = load_tri_verts(tri);
     vec2 b = sample_triangle(u_point);
     vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
     vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));

@@ -13,7 +13,7 @@ bool slot_used(TextureSlot s) {
 
 // The slot's texture at barycentrics b (of vertices 1 and 2) of triangle tri, after KHR_texture_transform.
 vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
-    TriTexcoords tc = tri_texcoords[tri];
+    TriTexcoords tc = load_tri_texcoords(tri);
     vec4 w = (1.0 - b.x - b.y) * tc.t0 + b.x * tc.t1 + b.y * tc.t2;
     vec2 uv = floatBitsToUint(s.v.w) == 0u ? w.xy : w.zw;
     vec2 st = vec2(dot(s.u.xyz, vec3(uv, 1.0)), dot(s.v.xyz, vec3(uv, 1.0)));
@@ -23,7 +23,7 @@ vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
 // COLOR_0 at the hit, white without vertex colours. Its alpha is not applied (coverage comes from the material).
 vec4 vertex_color(uint tri, vec2 b) {
     if ((frame.flags & FLAG_VERTEX_COLORS) == 0u) return vec4(1.0);
-    TriColors c = tri_colors[tri];
+    TriColors c = load_tri_colors(tri);
     return (1.0 - b.x - b.y) * c.c0 + b.x * c.c1 + b.y * c.c2;
 }
 
@@ -45,7 +45,7 @@ float material_coverage(Material m, uint tri, vec2 b) {
 // Whether a ray stops at this candidate hit on an alpha-tested triangle. BLEND stops with probability alpha, decided
 // by a hash of the ray's key and the triangle, so revisiting the triangle in one traversal gives the same answer.
 bool alpha_stops(uint tri, vec2 b, uint key) {
-    Material m = materials[floatBitsToUint(tri_verts[tri].v0.w)];
+    Material m = materials[floatBitsToUint(load_tri_verts(tri).v0.w)];
     float c = material_coverage(m, tri, b);
     if (c >= 1.0) return true;
     if (c <= 0.0) return false;
@@ -72,7 +72,7 @@ Material material_at(Material m, uint tri, vec2 b) {
 vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns) {
 #ifdef TEXTURED
     if (!slot_used(m.textures[TEX_NORMAL])) return ns;
-    TriTangents tt = tri_tangents[tri];
+    TriTangents tt = load_tri_tangents(tri);
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
     vec3 t = t4.xyz - ns * dot(ns, t4.xyz);
     if (!(dot(t, t) > 1e-12)) return ns;

@@ -4,30 +4,6 @@
 
 #include "surface.glsl"
 
-#ifdef TEXEL_BVH
-// The same bytes as nodes[] and tri_verts[], fetched as RGBA32UI texels: 2 per node, 3 per triangle.
-layout(set = 0, binding = BINDING_NODE_TEXELS) uniform usamplerBuffer node_texels;
-layout(set = 0, binding = BINDING_TRI_TEXELS) uniform usamplerBuffer tri_texels;
-
-BvhNode load_node(uint i) {
-    return BvhNode(uintBitsToFloat(texelFetch(node_texels, int(2u * i))), uintBitsToFloat(texelFetch(node_texels, int(2u * i + 1u))));
-}
-
-TriVerts load_tri(uint i) {
-    int t = int(3u * i);
-    return TriVerts(uintBitsToFloat(texelFetch(tri_texels, t)), uintBitsToFloat(texelFetch(tri_texels, t + 1)),
-                    uintBitsToFloat(texelFetch(tri_texels, t + 2)));
-}
-#else
-BvhNode load_node(uint i) {
-    return nodes[i];
-}
-
-TriVerts load_tri(uint i) {
-    return tri_verts[i];
-}
-#endif
-
 struct Hit {
     float t;
     uint tri;
@@ -36,7 +12,7 @@ struct Hit {
 
 // Moller-Trumbore. Returns t in (tmin, tmax) or -1 (callers keep tmin >= 0); uv are the barycentrics of v1 and v2.
 float intersect_triangle(uint tri, vec3 o, vec3 d, float tmin, float tmax, out vec2 uv) {
-    TriVerts tv = load_tri(tri);
+    TriVerts tv = load_tri_verts(tri);
     vec3 pvec = cross(d, tv.e2.xyz);
     float det = dot(tv.e1.xyz, pvec);
     uv = vec2(0.0);
@@ -126,7 +102,7 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
                 float t = intersect_triangle(i, o, d, tmin, hit.t, uv);
                 if (t >= 0.0) {
 #ifdef ALPHA_TEST
-                    if (tri_verts[i].e1.w != 0.0) {
+                    if (load_tri_verts(i).e1.w != 0.0) {
                         pending = i;
                         pending_t = t;
                         pending_uv = uv;

@@ -222,44 +222,45 @@ pub enum BvhReads {
     Texel,
 }
 
-/// Buffer views of the BVH buffers for BvhReads::Texel.
+/// Bytes for a message: MiB when large, bytes when not.
+fn size_text(bytes: u64) -> String {
+    if bytes >= 1 << 20 {
+        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+/// RGBA32UI views of the BVH and per-triangle buffers for BvhReads::Texel, by binding.
 struct TexelViews {
-    nodes: vk::BufferView,
-    tris: vk::BufferView,
+    views: Vec<(u32, vk::BufferView)>,
     device: ash::Device,
 }
 
 impl TexelViews {
-    fn new(ctx: &Context, nodes: &Buffer, tris: &Buffer) -> Result<Self, Error> {
-        let view = |b: &Buffer| {
+    fn new(ctx: &Context, buffers: &[(u32, &Buffer)]) -> Result<Self, Error> {
+        let mut v = TexelViews {
+            views: Vec::new(),
+            device: ctx.device.clone(),
+        };
+        for (binding, b) in buffers {
             let info = vk::BufferViewCreateInfo::default()
                 .buffer(b.raw)
                 .format(vk::Format::R32G32B32A32_UINT)
                 .offset(0)
                 .range(vk::WHOLE_SIZE);
-            unsafe { ctx.device.create_buffer_view(&info, None) }
-        };
-        let nodes = view(nodes)?;
-        let tris = match view(tris) {
-            Ok(t) => t,
-            Err(e) => {
-                unsafe { ctx.device.destroy_buffer_view(nodes, None) };
-                return Err(e.into());
-            }
-        };
-        Ok(TexelViews {
-            nodes,
-            tris,
-            device: ctx.device.clone(),
-        })
+            // On failure, Drop releases the views made so far.
+            v.views
+                .push((*binding, unsafe { ctx.device.create_buffer_view(&info, None) }?));
+        }
+        Ok(v)
     }
 }
 
 impl Drop for TexelViews {
     fn drop(&mut self) {
-        unsafe {
-            self.device.destroy_buffer_view(self.nodes, None);
-            self.device.destroy_buffer_view(self.tris, None);
+        for (_, view) in &self.views {
+            unsafe { self.device.destroy_buffer_view(*view, None) };
         }
     }
 }
@@ -313,6 +314,8 @@ pub struct Renderer {
     pipelines: Pipelines,
     /// Views of scene buffers: dropped before them.
     texel_views: Option<TexelViews>,
+    /// Every BVH and per-triangle buffer fits the storage-buffer range (BvhReads::Storage can read the scene).
+    storage_ok: bool,
     scene: SceneBuffers,
     /// Built once per device at start-up; None only while it is being built.
     energy: Option<Buffer>,
@@ -366,70 +369,99 @@ impl Renderer {
             );
         }
         let range = ctx.properties.limits.max_storage_buffer_range as u64;
-        // One storage buffer per kind of data: a scene that outgrows the device's range is refused by name.
-        fn upload_as<T: bytemuck::Pod>(
-            ctx: &Context,
-            range: u64,
-            name: &str,
-            data: &[T],
-            usage: vk::BufferUsageFlags,
-        ) -> Result<Buffer, Error> {
-            let bytes = std::mem::size_of_val(data) as u64;
-            if bytes > range {
-                return Err(Error::Settings(format!(
-                    "the scene's {name} take {} MiB, more than this device's storage-buffer range of {} MiB",
-                    bytes >> 20,
-                    range >> 20
-                )));
-            }
-            Buffer::with_data_usage(ctx, name, data, usage)
-        }
-        fn upload<T: bytemuck::Pod>(ctx: &Context, range: u64, name: &str, data: &[T]) -> Result<Buffer, Error> {
-            upload_as(ctx, range, name, data, vk::BufferUsageFlags::STORAGE_BUFFER)
-        }
-        // The BVH is also readable as texels when the device can hold it that way (BvhReads::Texel).
-        let max_texels = ctx.properties.limits.max_texel_buffer_elements as usize;
+        // One storage buffer per kind of data. The BVH and per-triangle buffers are also readable as texels when
+        // the device can hold them that way (BvhReads::Texel), which lifts the storage-buffer range off them: a
+        // scene is refused, by buffer name, only when one of them outgrows every way the device can read it.
+        let max_texels = ctx.properties.limits.max_texel_buffer_elements as u64;
         let uint4 = unsafe {
             ctx.instance
                 .get_physical_device_format_properties(ctx.physical, vk::Format::R32G32B32A32_UINT)
         };
-        let texel_ok = uint4
+        let texel_format = uint4
             .buffer_features
-            .contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER)
-            && 2 * packed.bvh.nodes.len() <= max_texels
-            && 3 * packed.tri_verts.len().max(1) <= max_texels;
-        let bvh_usage = vk::BufferUsageFlags::STORAGE_BUFFER
-            | if texel_ok {
-                vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
-            } else {
-                vk::BufferUsageFlags::empty()
-            };
-        let nodes = upload_as(&ctx, range, "bvh nodes", &packed.bvh.nodes, bvh_usage)?;
-        let tri_verts = upload_as(&ctx, range, "triangle vertices", &packed.tri_verts, bvh_usage)?;
+            .contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER);
+        let per_triangle_bytes = [
+            std::mem::size_of_val(&packed.bvh.nodes[..]),
+            std::mem::size_of_val(&packed.tri_verts[..]),
+            std::mem::size_of_val(&packed.tri_shading[..]),
+            std::mem::size_of_val(&packed.tri_texcoords[..]),
+            std::mem::size_of_val(&packed.tri_tangents[..]),
+            std::mem::size_of_val(&packed.tri_colors[..]),
+        ];
+        let texel_ok = texel_format && per_triangle_bytes.iter().all(|b| *b as u64 <= 16 * max_texels);
+        let upload_as = |name: &str, data: &[u8], texels: bool| -> Result<Buffer, Error> {
+            let bytes = data.len() as u64;
+            if bytes > range && !(texels && texel_ok) {
+                return Err(Error::Settings(format!(
+                    "the scene's {name} take {}, more than this device's storage-buffer range of {}{}",
+                    size_text(bytes),
+                    size_text(range),
+                    if texels && texel_format {
+                        format!(" and its texel-buffer limit of {}", size_text(16 * max_texels))
+                    } else {
+                        String::new()
+                    }
+                )));
+            }
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                | if texels && texel_ok {
+                    vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                } else {
+                    vk::BufferUsageFlags::empty()
+                };
+            Buffer::with_data_usage(&ctx, name, data, usage)
+        };
+        let upload = |name: &str, data: &[u8]| upload_as(name, data, false);
+        let per_tri = |name: &str, data: &[u8]| upload_as(name, data, true);
+        use bytemuck::cast_slice as bytes;
+        let buffers = SceneBuffers {
+            nodes: per_tri("bvh nodes", bytes(&packed.bvh.nodes))?,
+            tri_verts: per_tri("triangle vertices", bytes(&packed.tri_verts))?,
+            tri_shading: per_tri("triangle shading", bytes(&packed.tri_shading))?,
+            tri_texcoords: per_tri("texture coordinates", bytes(&packed.tri_texcoords))?,
+            tri_tangents: per_tri("tangents", bytes(&packed.tri_tangents))?,
+            tri_colors: per_tri("vertex colours", bytes(&packed.tri_colors))?,
+            materials: upload("materials", bytes(&packed.materials))?,
+            lights: upload("lights", bytes(&packed.lights))?,
+            env: upload("environment", bytes(&packed.env_data))?,
+            punctual: upload("punctual lights", bytes(&packed.punctual))?,
+            textures: upload("textures", bytes(&packed.textures))?,
+            texels: upload("texels", bytes(&packed.texels))?,
+        };
+        let b = &buffers;
         let texel_views = if texel_ok {
-            Some(TexelViews::new(&ctx, &nodes, &tri_verts)?)
+            Some(TexelViews::new(
+                &ctx,
+                &[
+                    (BINDING_NODE_TEXELS, &b.nodes),
+                    (BINDING_TRI_TEXELS, &b.tri_verts),
+                    (BINDING_TRI_SHADING_TEXELS, &b.tri_shading),
+                    (BINDING_TRI_TEXCOORD_TEXELS, &b.tri_texcoords),
+                    (BINDING_TRI_TANGENT_TEXELS, &b.tri_tangents),
+                    (BINDING_TRI_COLOR_TEXELS, &b.tri_colors),
+                ],
+            )?)
         } else {
             None
         };
-        let buffers = SceneBuffers {
-            nodes,
-            tri_verts,
-            tri_shading: upload(&ctx, range, "triangle shading", &packed.tri_shading)?,
-            materials: upload(&ctx, range, "materials", &packed.materials)?,
-            lights: upload(&ctx, range, "lights", &packed.lights)?,
-            env: upload(&ctx, range, "environment", &packed.env_data)?,
-            punctual: upload(&ctx, range, "punctual lights", &packed.punctual)?,
-            textures: upload(&ctx, range, "textures", &packed.textures)?,
-            texels: upload(&ctx, range, "texels", &packed.texels)?,
-            tri_texcoords: upload(&ctx, range, "texture coordinates", &packed.tri_texcoords)?,
-            tri_tangents: upload(&ctx, range, "tangents", &packed.tri_tangents)?,
-            tri_colors: upload(&ctx, range, "vertex colours", &packed.tri_colors)?,
-        };
+        // Storage reads need every per-triangle buffer within the storage range.
+        let storage_ok = per_triangle_bytes.iter().all(|b| *b as u64 <= range);
         let env = scene.environment.as_ref();
         let alpha_tested = packed.tri_verts.iter().any(|t| t.e1[3] != 0.0);
+        let bvh_reads = match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
+            (Some(_), Ok("storage")) if !storage_ok => {
+                return Err(Error::Settings(
+                    "PATHWAVE_BVH_READS=storage: the scene's BVH or per-triangle data outgrow this device's \
+                     storage-buffer range"
+                        .into(),
+                ))
+            }
+            (_, Ok("storage")) | (None, _) => BvhReads::Storage,
+            (Some(_), _) => BvhReads::Texel,
+        };
         let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
         if let Some(v) = &texel_views {
-            pipelines.bind_texel_views(&ctx, &[(BINDING_NODE_TEXELS, v.nodes), (BINDING_TRI_TEXELS, v.tris)]);
+            pipelines.bind_texel_views(&ctx, &v.views);
         }
         let timestamps = Timestamps::new(&ctx, 2048)?;
         let mut r = Renderer {
@@ -439,10 +471,8 @@ impl Renderer {
             energy: None,
             light_count: packed.lights.len() as u32,
             alpha_tested,
-            bvh_reads: match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
-                (_, Ok("storage")) | (None, _) => BvhReads::Storage,
-                (Some(_), _) => BvhReads::Texel,
-            },
+            bvh_reads,
+            storage_ok,
             texel_views,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             vertex_colors: !packed.tri_colors.is_empty(),
@@ -849,6 +879,13 @@ impl Renderer {
                 "this device cannot read the scene's BVH through texel buffers".into(),
             ));
         }
+        if reads == BvhReads::Storage && !self.storage_ok {
+            return Err(Error::Settings(
+                "the scene's BVH or per-triangle data outgrow this device's storage-buffer range; only texel reads \
+                 hold them"
+                    .into(),
+            ));
+        }
         self.bvh_reads = reads;
         Ok(())
     }
@@ -901,7 +938,12 @@ impl Renderer {
             (false, BvhReads::Texel) => ("extend_texel", "connect_texel"),
             (true, BvhReads::Texel) => ("extend_alpha_texel", "connect_alpha_texel"),
         };
-        let shade = if self.textured { "shade_textured" } else { "shade" };
+        let shade = match (self.textured, self.bvh_reads) {
+            (false, BvhReads::Storage) => "shade",
+            (true, BvhReads::Storage) => "shade_textured",
+            (false, BvhReads::Texel) => "shade_texel",
+            (true, BvhReads::Texel) => "shade_textured_texel",
+        };
         let ctx = &self.ctx;
         let p = &self.pipelines;
         let ts = &mut self.timestamps;

@@ -110,14 +110,17 @@ impl Pipelines {
         Ok(())
     }
 
+    /// Points storage bindings at buffers. A buffer larger than the device's storage range (only the BVH and
+    /// per-triangle ones, which the TEXEL_READS stages read through views) is bound up to that range.
     pub fn bind_buffers(&self, ctx: &Context, buffers: &[(u32, &Buffer)]) {
+        let range = ctx.properties.limits.max_storage_buffer_range as u64;
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
             .map(|(_, b)| {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.raw)
                     .offset(0)
-                    .range(vk::WHOLE_SIZE)]
+                    .range(if b.size > range { range } else { vk::WHOLE_SIZE })]
             })
             .collect();
         let writes: Vec<_> = buffers

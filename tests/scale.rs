@@ -1,0 +1,108 @@
+//! Scenes whose BVH and per-triangle data outgrow the device's storage-buffer range: texel reads carry them (same
+//! image, same hits), storage reads refuse them, and a scene beyond every limit is refused by buffer name. The range
+//! is lowered on the context so a small scene takes the paths a 3M-triangle one takes on lavapipe.
+mod common;
+
+use glam::Vec3;
+use pathwave::bvh::{brute_force, Ray};
+use pathwave::constants::NO_HIT;
+use pathwave::render::gpu_scene;
+use pathwave::vk::Context;
+use pathwave::{BvhReads, RenderSettings, Renderer};
+
+const SMALL_RANGE: u32 = 64 * 1024;
+
+fn settings() -> RenderSettings {
+    RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 4,
+        seed: 3,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn per_triangle_data_beyond_the_storage_range_render_through_texel_reads() {
+    // 4608 triangles: nodes, vertices and shading each take over 64 KiB.
+    let scene = pathwave::bench::terrain(48);
+    let packed = gpu_scene::pack(&scene);
+    assert!(std::mem::size_of_val(&packed.tri_shading[..]) > SMALL_RANGE as usize);
+    assert!(std::mem::size_of_val(&packed.bvh.nodes[..]) > SMALL_RANGE as usize);
+
+    let mut full = Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
+    assert_eq!(full.bvh_reads(), BvhReads::Texel);
+    let (expected, _) = full.render(&settings(), &mut |_| {}).unwrap();
+    drop(full);
+
+    let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
+    ctx.properties.limits.max_storage_buffer_range = SMALL_RANGE;
+    let mut small = Renderer::with_context(&scene, ctx).unwrap();
+    assert_eq!(small.bvh_reads(), BvhReads::Texel);
+    let e = small.set_bvh_reads(BvhReads::Storage).unwrap_err().to_string();
+    assert!(e.contains("storage-buffer range"), "{e}");
+
+    let (film, stats) = small.render(&settings(), &mut |_| {}).unwrap();
+    // The path state shrank with the range too (512 paths in flight), so the image took several passes; each
+    // sample is the same, only the order of the film's sums differs.
+    assert!(stats.passes > 1, "{} passes", stats.passes);
+    let mut worst = 0f32;
+    for (a, b) in film.sum.iter().zip(&expected.sum) {
+        for c in 0..3 {
+            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1e-3));
+        }
+    }
+    assert!(worst < 1e-4, "images differ by {worst} (relative)");
+    assert!(expected.mean().iter().any(|p| p[0] > 0.1), "the test image is black");
+
+    // Traversal through the views, with the storage bindings clipped to the range, against a brute force (1000 rays:
+    // the probe buffer that carries them is a storage buffer too, and must fit the range).
+    let (lo, hi) = scene.bounds();
+    let rays: Vec<Ray> = (0..1000)
+        .map(|i| {
+            let f = i as f32 / 1000.0;
+            let origin = lo + (hi - lo) * Vec3::new(f, 0.5 + 0.5 * (i as f32 * 0.37).sin(), (i as f32 * 0.61).fract());
+            let dir = Vec3::new((i as f32 * 1.3).sin(), -0.7, (i as f32 * 0.7).cos()).normalize();
+            Ray {
+                origin: origin + Vec3::Y * 0.3,
+                dir,
+                tmin: 0.0,
+                tmax: f32::MAX,
+            }
+        })
+        .collect();
+    let device = small.probe_trace(&rays, false).unwrap();
+    let (mut hits, mut differ) = (0, Vec::new());
+    for (ray, h) in rays.iter().zip(&device) {
+        let r = brute_force(&packed.tri_verts, ray);
+        hits += (r.tri != NO_HIT) as usize;
+        if (h.tri == NO_HIT) != (r.tri == NO_HIT) || (h.t - r.t).abs() > 1e-5 * r.t.max(1.0) {
+            differ.push((h, r));
+        }
+    }
+    // Exact ties and grazing hits may be decided by rounding; anything more is a wrong read.
+    assert!(
+        differ.len() * 200 <= rays.len(),
+        "{} of {} rays differ: {:?}",
+        differ.len(),
+        rays.len(),
+        &differ[..differ.len().min(4)]
+    );
+    assert!(hits > 500, "only {hits} of 1000 rays hit the terrain");
+}
+
+#[test]
+fn a_scene_beyond_every_limit_is_refused_by_buffer_name() {
+    let scene = pathwave::bench::terrain(48);
+    let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
+    ctx.properties.limits.max_storage_buffer_range = SMALL_RANGE;
+    ctx.properties.limits.max_texel_buffer_elements = 1024;
+    let e = match Renderer::with_context(&scene, ctx) {
+        Ok(_) => panic!("a scene beyond both limits was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("bvh nodes") && e.contains("storage-buffer range of 65536 bytes"),
+        "{e}"
+    );
+}
