@@ -255,13 +255,15 @@ pub struct MitsubaComparison {
 }
 
 /// Writes `scene` for the helper: one PLY per material and a JSON description. Only what both renderers agree on
-/// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles and a pinhole camera.
+/// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles and a pinhole camera. Returns the
+/// description's path and a text that names the scene's content (not where its files are) for the reference cache.
 fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(PathBuf, String), Error> {
     if scene.environment.is_some() || !scene.punctual.is_empty() {
         return Err(err("only scenes lit by emissive triangles translate to Mitsuba"));
     }
     let camera = scene.camera.ok_or_else(|| err("the scene has no camera"))?;
     let mut meshes = Vec::new();
+    let mut content = Vec::new();
     for (k, m) in scene.materials.iter().enumerate() {
         let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
         let textured = m.texture_refs().iter().any(Option::is_some);
@@ -296,31 +298,30 @@ fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(P
             bytes.push(3);
             bytes.extend([3 * f, 3 * f + 1, 3 * f + 2].iter().flat_map(|i| i.to_le_bytes()));
         }
-        std::fs::write(&ply, bytes).map_err(err)?;
         let e = m.emission;
-        meshes.push(json!({
-            "ply": ply,
+        let mut mesh = json!({
+            "ply": format!("{:016x}", fnv_bytes(&bytes)),
             "reflectance": m.base_color.to_array(),
             "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
-        }));
+        });
+        content.push(mesh.clone());
+        mesh["ply"] = json!(ply);
+        std::fs::write(&ply, bytes).map_err(err)?;
+        meshes.push(mesh);
     }
     let (_, up, forward) = camera.basis();
     let o = camera.origin();
-    let desc = json!({
-        "camera": {
-            "origin": o.to_array(),
-            "target": (o + forward).to_array(),
-            "up": up.to_array(),
-            "yfov_deg": camera.yfov.to_degrees(),
-            "width": size.0,
-            "height": size.1,
-        },
-        "meshes": meshes,
+    let camera = json!({
+        "origin": o.to_array(),
+        "target": (o + forward).to_array(),
+        "up": up.to_array(),
+        "yfov_deg": camera.yfov.to_degrees(),
+        "width": size.0,
+        "height": size.1,
     });
     let path = dir.join("scene.json");
-    let text = desc.to_string();
-    std::fs::write(&path, &text).map_err(err)?;
-    Ok((path, text))
+    std::fs::write(&path, json!({"camera": camera, "meshes": meshes}).to_string()).map_err(err)?;
+    Ok((path, json!({"camera": camera, "meshes": content}).to_string()))
 }
 
 /// relMSE of `img` against the reference mean `r`, less what the reference's own noise adds: `a` and `b` are the
@@ -357,9 +358,9 @@ fn cache_dir() -> PathBuf {
 }
 
 /// FNV-1a, for naming the cached reference after everything that decides it.
-fn fnv(text: &str) -> u64 {
-    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+fn fnv_bytes(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ *b as u64).wrapping_mul(0x100_0000_01b3)
     })
 }
 
@@ -400,7 +401,10 @@ pub fn compare_mitsuba(
 
     // The reference: Mitsuba's, in two independent halves, cached under a name that changes with the scene,
     // the image, the sample count and Mitsuba's version.
-    let key = format!("{:016x}", fnv(&format!("{desc}{version}{reference_spp}")));
+    let key = format!(
+        "{:016x}",
+        fnv_bytes(format!("{desc}{version}{reference_spp}").as_bytes())
+    );
     let cache = cache_dir().join(format!("cornell-reference-{key}"));
     let (ref_a, ref_b, reference_cached) = match (read_f32(&cache.join("a.f32")), read_f32(&cache.join("b.f32"))) {
         (Ok(a), Ok(b)) if a.len() == 3 * pixels && b.len() == 3 * pixels => (a, b, true),
