@@ -34,7 +34,9 @@ pub const BINDING_TRI_SHADING_TEXELS: u32 = 20;
 pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 21;
 pub const BINDING_TRI_TANGENT_TEXELS: u32 = 22;
 pub const BINDING_TRI_COLOR_TEXELS: u32 = 23;
-pub const BINDING_COUNT: u32 = 24;
+/// The textures' RGBA8 texels (one u32 each) as an R32UI view.
+pub const BINDING_IMAGE_TEXELS: u32 = 24;
+pub const BINDING_COUNT: u32 = 25;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;

@@ -92,6 +92,33 @@ fn per_triangle_data_beyond_the_storage_range_render_through_texel_reads() {
 }
 
 #[test]
+fn textures_beyond_the_storage_range_render_through_texel_reads() {
+    let scene = pathwave::scene::load(&common::scenes_dir().join("textured.gltf"), None).unwrap();
+    let texel_bytes = std::mem::size_of_val(&gpu_scene::pack(&scene).texels[..]) as u32;
+    let range = (texel_bytes / 2).max(SMALL_RANGE);
+    assert!(
+        texel_bytes > range,
+        "textured.gltf has only {texel_bytes} bytes of texels"
+    );
+
+    let mut full = Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
+    let (expected, _) = full.render(&settings(), &mut |_| {}).unwrap();
+    drop(full);
+    let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
+    ctx.properties.limits.max_storage_buffer_range = range;
+    let mut small = Renderer::with_context(&scene, ctx).unwrap();
+    assert!(small.set_bvh_reads(BvhReads::Storage).is_err());
+    let (film, _) = small.render(&settings(), &mut |_| {}).unwrap();
+    let mut worst = 0f32;
+    for (a, b) in film.sum.iter().zip(&expected.sum) {
+        for c in 0..3 {
+            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1e-3));
+        }
+    }
+    assert!(worst < 1e-4, "images differ by {worst} (relative)");
+}
+
+#[test]
 fn a_scene_beyond_every_limit_is_refused_by_buffer_name() {
     let scene = pathwave::bench::terrain(48);
     let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();

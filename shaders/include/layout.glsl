@@ -158,7 +158,7 @@ layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexc
 layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
 layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
 
-// Per-triangle data and BVH nodes, read through texel views (TEXEL_READS variants) or the storage buffers above:
+// Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.
 #ifdef TEXEL_READS
 layout(set = 0, binding = BINDING_NODE_TEXELS) uniform usamplerBuffer node_texels;
@@ -167,6 +167,7 @@ layout(set = 0, binding = BINDING_TRI_SHADING_TEXELS) uniform usamplerBuffer tri
 layout(set = 0, binding = BINDING_TRI_TEXCOORD_TEXELS) uniform usamplerBuffer tri_texcoord_texels;
 layout(set = 0, binding = BINDING_TRI_TANGENT_TEXELS) uniform usamplerBuffer tri_tangent_texels;
 layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_color_texels;
+layout(set = 0, binding = BINDING_IMAGE_TEXELS) uniform usamplerBuffer image_texels;
 #define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
 #define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
 BvhNode load_node(uint i) { return BvhNode(FETCH(node_texels, 2u * i), FETCH(node_texels, 2u * i + 1u)); }
@@ -175,6 +176,7 @@ TriShading load_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texel
 TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoord_texels, i)); }
 TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_texels, i)); }
 TriColors load_tri_colors(uint i) { return TriColors(FETCH3(tri_color_texels, i)); }
+uint load_image_texel(uint i) { return texelFetch(image_texels, int(i)).x; }
 #else
 BvhNode load_node(uint i) { return nodes[i]; }
 TriVerts load_tri_verts(uint i) { return tri_verts[i]; }
@@ -182,6 +184,7 @@ TriShading load_tri_shading(uint i) { return tri_shading[i]; }
 TriTexcoords load_tri_texcoords(uint i) { return tri_texcoords[i]; }
 TriTangents load_tri_tangents(uint i) { return tri_tangents[i]; }
 TriColors load_tri_colors(uint i) { return tri_colors[i]; }
+uint load_image_texel(uint i) { return texels[i]; }
 #endif
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }

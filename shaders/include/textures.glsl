@@ -25,7 +25,7 @@ int wrap_index(int i, int n, uint mode) {
 }
 
 vec4 fetch_texel(TextureInfo t, int x, int y, bool srgb) {
-    vec4 c = unpackUnorm4x8(texels[t.offset + uint(y) * t.width + uint(x)]);
+    vec4 c = unpackUnorm4x8(load_image_texel(t.offset + uint(y) * t.width + uint(x)));
     if (srgb) c.rgb = vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
     return c;
 }

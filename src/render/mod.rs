@@ -231,13 +231,14 @@ fn size_text(bytes: u64) -> String {
     }
 }
 
-/// RGBA32UI views of the BVH and per-triangle buffers for BvhReads::Texel, by binding.
+/// Texel views of the BVH, per-triangle and image-texel buffers for BvhReads::Texel, by binding.
 struct TexelViews {
     views: Vec<(u32, vk::BufferView)>,
     device: ash::Device,
 }
 
 impl TexelViews {
+    /// Image texels are viewed as R32UI (one RGBA8 texel each), everything else as RGBA32UI.
     fn new(ctx: &Context, buffers: &[(u32, &Buffer)]) -> Result<Self, Error> {
         let mut v = TexelViews {
             views: Vec::new(),
@@ -246,7 +247,11 @@ impl TexelViews {
         for (binding, b) in buffers {
             let info = vk::BufferViewCreateInfo::default()
                 .buffer(b.raw)
-                .format(vk::Format::R32G32B32A32_UINT)
+                .format(if *binding == BINDING_IMAGE_TEXELS {
+                    vk::Format::R32_UINT
+                } else {
+                    vk::Format::R32G32B32A32_UINT
+                })
                 .offset(0)
                 .range(vk::WHOLE_SIZE);
             // On failure, Drop releases the views made so far.
@@ -377,9 +382,13 @@ impl Renderer {
             ctx.instance
                 .get_physical_device_format_properties(ctx.physical, vk::Format::R32G32B32A32_UINT)
         };
-        let texel_format = uint4
-            .buffer_features
-            .contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER);
+        let uint1 = unsafe {
+            ctx.instance
+                .get_physical_device_format_properties(ctx.physical, vk::Format::R32_UINT)
+        };
+        let texel_format = [uint4, uint1]
+            .iter()
+            .all(|f| f.buffer_features.contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER));
         let per_triangle_bytes = [
             std::mem::size_of_val(&packed.bvh.nodes[..]),
             std::mem::size_of_val(&packed.tri_verts[..]),
@@ -388,16 +397,23 @@ impl Renderer {
             std::mem::size_of_val(&packed.tri_tangents[..]),
             std::mem::size_of_val(&packed.tri_colors[..]),
         ];
-        let texel_ok = texel_format && per_triangle_bytes.iter().all(|b| *b as u64 <= 16 * max_texels);
-        let upload_as = |name: &str, data: &[u8], texels: bool| -> Result<Buffer, Error> {
+        let texel_ok = texel_format
+            && per_triangle_bytes.iter().all(|b| *b as u64 <= 16 * max_texels)
+            && packed.texels.len() as u64 <= max_texels;
+        // `element`: the bytes per texel of the view the buffer is also read through, if any.
+        let upload_as = |name: &str, data: &[u8], element: Option<u64>| -> Result<Buffer, Error> {
             let bytes = data.len() as u64;
+            let texels = element.is_some();
             if bytes > range && !(texels && texel_ok) {
                 return Err(Error::Settings(format!(
                     "the scene's {name} take {}, more than this device's storage-buffer range of {}{}",
                     size_text(bytes),
                     size_text(range),
                     if texels && texel_format {
-                        format!(" and its texel-buffer limit of {}", size_text(16 * max_texels))
+                        format!(
+                            " and its texel-buffer limit of {}",
+                            size_text(element.unwrap_or(0) * max_texels)
+                        )
                     } else {
                         String::new()
                     }
@@ -411,8 +427,8 @@ impl Renderer {
                 };
             Buffer::with_data_usage(&ctx, name, data, usage)
         };
-        let upload = |name: &str, data: &[u8]| upload_as(name, data, false);
-        let per_tri = |name: &str, data: &[u8]| upload_as(name, data, true);
+        let upload = |name: &str, data: &[u8]| upload_as(name, data, None);
+        let per_tri = |name: &str, data: &[u8]| upload_as(name, data, Some(16));
         use bytemuck::cast_slice as bytes;
         let buffers = SceneBuffers {
             nodes: per_tri("bvh nodes", bytes(&packed.bvh.nodes))?,
@@ -426,7 +442,7 @@ impl Renderer {
             env: upload("environment", bytes(&packed.env_data))?,
             punctual: upload("punctual lights", bytes(&packed.punctual))?,
             textures: upload("textures", bytes(&packed.textures))?,
-            texels: upload("texels", bytes(&packed.texels))?,
+            texels: upload_as("texture texels", bytes(&packed.texels), Some(4))?,
         };
         let b = &buffers;
         let texel_views = if texel_ok {
@@ -439,13 +455,14 @@ impl Renderer {
                     (BINDING_TRI_TEXCOORD_TEXELS, &b.tri_texcoords),
                     (BINDING_TRI_TANGENT_TEXELS, &b.tri_tangents),
                     (BINDING_TRI_COLOR_TEXELS, &b.tri_colors),
+                    (BINDING_IMAGE_TEXELS, &b.texels),
                 ],
             )?)
         } else {
             None
         };
-        // Storage reads need every per-triangle buffer within the storage range.
-        let storage_ok = per_triangle_bytes.iter().all(|b| *b as u64 <= range);
+        // Storage reads need every per-triangle buffer and the image texels within the storage range.
+        let storage_ok = per_triangle_bytes.iter().all(|b| *b as u64 <= range) && b.texels.size <= range;
         let env = scene.environment.as_ref();
         let alpha_tested = packed.tri_verts.iter().any(|t| t.e1[3] != 0.0);
         let bvh_reads = match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
