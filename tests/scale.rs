@@ -8,18 +8,23 @@ use pathwave::bvh::{brute_force, Ray};
 use pathwave::constants::NO_HIT;
 use pathwave::render::gpu_scene;
 use pathwave::vk::Context;
-use pathwave::{BvhReads, RenderSettings, Renderer};
+use pathwave::{BvhReads, Film, RenderSettings, Renderer};
 
 const SMALL_RANGE: u32 = 64 * 1024;
 
 fn settings() -> RenderSettings {
-    RenderSettings {
-        width: 32,
-        height: 32,
-        spp: 4,
-        seed: 3,
-        ..Default::default()
+    common::settings(32, 32, 4, 3)
+}
+
+/// Largest relative difference of the film sums: the same samples, summed in another order, differ by rounding only.
+fn worst_difference(film: &Film, expected: &Film) -> f32 {
+    let mut worst = 0f32;
+    for (a, b) in film.sum.iter().zip(&expected.sum) {
+        for c in 0..3 {
+            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1e-3));
+        }
     }
+    worst
 }
 
 #[test]
@@ -32,7 +37,7 @@ fn per_triangle_data_beyond_the_storage_range_render_through_texel_reads() {
 
     let mut full = Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     assert_eq!(full.bvh_reads(), BvhReads::Texel);
-    let (expected, _) = full.render(&settings(), &mut |_| {}).unwrap();
+    let expected = common::render(&mut full, &settings());
     drop(full);
 
     let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
@@ -46,12 +51,7 @@ fn per_triangle_data_beyond_the_storage_range_render_through_texel_reads() {
     // The path state shrank with the range too (512 paths in flight), so the image took several passes; each
     // sample is the same, only the order of the film's sums differs.
     assert!(stats.passes > 1, "{} passes", stats.passes);
-    let mut worst = 0f32;
-    for (a, b) in film.sum.iter().zip(&expected.sum) {
-        for c in 0..3 {
-            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1e-3));
-        }
-    }
+    let worst = worst_difference(&film, &expected);
     assert!(worst < 1e-4, "images differ by {worst} (relative)");
     assert!(expected.mean().iter().any(|p| p[0] > 0.1), "the test image is black");
 
@@ -102,19 +102,14 @@ fn textures_beyond_the_storage_range_render_through_texel_reads() {
     );
 
     let mut full = Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
-    let (expected, _) = full.render(&settings(), &mut |_| {}).unwrap();
+    let expected = common::render(&mut full, &settings());
     drop(full);
     let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
     ctx.properties.limits.max_storage_buffer_range = range;
     let mut small = Renderer::with_context(&scene, ctx).unwrap();
     assert!(small.set_bvh_reads(BvhReads::Storage).is_err());
-    let (film, _) = small.render(&settings(), &mut |_| {}).unwrap();
-    let mut worst = 0f32;
-    for (a, b) in film.sum.iter().zip(&expected.sum) {
-        for c in 0..3 {
-            worst = worst.max((a[c] - b[c]).abs() / b[c].abs().max(1e-3));
-        }
-    }
+    let film = common::render(&mut small, &settings());
+    let worst = worst_difference(&film, &expected);
     assert!(worst < 1e-4, "images differ by {worst} (relative)");
 }
 
