@@ -9,16 +9,16 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i == 0u) counters.queue_count[0] = frame.path_count;
     if (i >= frame.path_count) return;
-        uint pixel = path_pixel(i);
+    uint pixel = path_pixel(i);
     uint px = pixel % frame.width;
     uint py = pixel / frame.width;
-        vec2 j = pixel_jitter(pixel, path_sample(i));
+    vec2 j = pixel_jitter(pixel, path_sample(i));
     float tan_half = frame.cam_origin.w;
     float aspect = frame.cam_right.w;
     // Row 0 is the top of the image.
     float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * tan_half * aspect;
     float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * tan_half;
-        vec3 d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
+    vec3 d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
     vec3 origin = frame.cam_origin.xyz;
     float aperture = frame.cam_up.w;
     if (aperture > 0.0) {

@@ -47,7 +47,7 @@ void main() {
 
     if (tri == NO_HIT) {
         bool hidden = bounce == 0u && (frame.flags & FLAG_HIDE_ENV) != 0u;
-        if (frame.env_width > 0u && !hidden) {
+        if (scene_has(FEATURE_ENV) && frame.env_width > 0u && !hidden) {
             float w = 1.0;
             if (!camera_or_delta) {
                 if (frame_estimator() == ESTIMATOR_LIGHT) {
@@ -95,7 +95,7 @@ void main() {
     }
 
     // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
-    if (!front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
+    if (scene_has(FEATURE_TRANSMISSION) && !front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
         beta *= exp(-m.attenuation.rgb * hit.x);
     }
     Bsdf bsdf = bsdf_from_material(m, front);

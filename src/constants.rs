@@ -81,6 +81,22 @@ pub const FLAG_HIDE_ENV: u32 = 2;
 /// The scene has COLOR_0 vertex colours (tri_colors is bound): they multiply the base colour.
 pub const FLAG_VERTEX_COLORS: u32 = 4;
 
+/// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
+/// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
+/// sides of a branch under a mask, so even untaken code costs there. Probe kernels keep every bit (the default).
+pub const SPEC_SCENE_FEATURES: u32 = 0;
+/// Some material has a dielectric coat (KHR_materials_specular weight above 0).
+pub const FEATURE_COAT: u32 = 1;
+/// Some material is (partly) metallic.
+pub const FEATURE_METAL: u32 = 2;
+/// Some material transmits (KHR_materials_transmission).
+pub const FEATURE_TRANSMISSION: u32 = 4;
+/// The scene has KHR_lights_punctual lights.
+pub const FEATURE_PUNCTUAL: u32 = 8;
+/// The scene has an environment.
+pub const FEATURE_ENV: u32 = 16;
+pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
+
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.
 pub const LIGHT_KIND_SHIFT: u32 = 30;
 pub const LIGHT_KIND_TRIANGLE: u32 = 0;

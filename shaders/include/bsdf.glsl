@@ -25,15 +25,16 @@ struct Bsdf {
 Bsdf bsdf_from_material(Material m, bool front) {
     Bsdf b;
     b.base_color = m.base_color.rgb;
-    b.metallic = m.params.x;
+    // A lobe no material in the scene has is a constant zero, and the code for it folds away (see scene_has).
+    b.metallic = scene_has(FEATURE_METAL) ? m.params.x : 0.0;
     b.roughness = m.params.y;
     b.alpha = m.params.y * m.params.y;
     float ior = m.params.z;
     float r = (ior - 1.0) / (ior + 1.0);
-    b.specular = m.params.w;
+    b.specular = scene_has(FEATURE_COAT) ? m.params.w : 0.0;
     b.specular_f0 = min(vec3(r * r) * m.specular_color.rgb, vec3(1.0));
     b.compensate = (frame.flags & FLAG_ENERGY_COMPENSATION) != 0u;
-    b.transmission = m.transmission.x;
+    b.transmission = scene_has(FEATURE_TRANSMISSION) ? m.transmission.x : 0.0;
     b.thin = m.transmission.y > 0.5;
     b.eta = b.thin || front ? ior : 1.0 / ior;
     return b;
@@ -234,7 +235,7 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     vec3 fd = dielectric_fresnel(b, c);
-        vec3 diffuse = opaque * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI;
+    vec3 diffuse = opaque * coat_transmittance(b, wo.z, wi.z) * b.base_color / PI;
     if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo.z, wi.z);
     // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).
     if (bsdf_is_delta(b) || (opaque * b.specular == 0.0 && b.metallic == 0.0)) return diffuse + glass_w * glass_f;
@@ -257,7 +258,7 @@ float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
     }
     if (wi.z < 0.0) return pdf;
     pdf += (1.0 - p.x - p.y) * wi.z / PI;
-    if (!bsdf_is_delta(b)) {
+    if (scene_has(FEATURE_COAT | FEATURE_METAL) && !bsdf_is_delta(b)) {
         // Visible-normal sampling then reflection: D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
         float a2 = b.alpha * b.alpha;
         vec3 h = normalize(wo + wi);
@@ -298,9 +299,9 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     s.delta = false;
     if (wo.z <= 0.0) return false;
     vec2 p = lobe_probabilities(b, wo);
-    if (u.z < p.x) {
+    if (scene_has(FEATURE_TRANSMISSION) && u.z < p.x) {
         // The glass lobe. u_rt reuses u.z, rescaled to [0, 1), to choose reflection or transmission.
-                float u_rt = u.z / p.x;
+        float u_rt = u.z / p.x;
         float glass_w = (1.0 - b.metallic) * b.transmission;
         if (glass_passes_through(b)) {
             s.wi = -wo;
@@ -334,7 +335,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
         } else {
             if (!refract_dir(wo, m, b.eta, s.wi) || s.wi.z >= 0.0) return false;
         }
-    } else if (u.z < p.x + p.y) {
+    } else if (scene_has(FEATURE_COAT | FEATURE_METAL) && u.z < p.x + p.y) {
         if (bsdf_is_delta(b)) {
             s.wi = vec3(-wo.x, -wo.y, wo.z);
             s.delta = true;

@@ -132,6 +132,11 @@ struct Frame {
 
 layout(push_constant) uniform PushConstants { Frame frame; };
 
+// FEATURE_* bits of what the scene uses (see src/constants.rs): a specialisation constant, so code behind a cleared bit
+// is folded away when the pipeline is built. Every bit is set unless the host says otherwise.
+layout(constant_id = SPEC_SCENE_FEATURES) const uint SCENE_FEATURES = FEATURES_ALL;
+bool scene_has(uint features) { return (SCENE_FEATURES & features) != 0u; }
+
 layout(std430, set = 0, binding = BINDING_NODES) readonly buffer Nodes { BvhNode nodes[]; };
 layout(std430, set = 0, binding = BINDING_TRI_VERTS) readonly buffer TriVertsBuf { TriVerts tri_verts[]; };
 layout(std430, set = 0, binding = BINDING_TRI_SHADING) readonly buffer TriShadingBuf { TriShading tri_shading[]; };

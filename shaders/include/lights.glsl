@@ -33,7 +33,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     ls.dist = 0.0;
     ls.delta = false;
     Light l = lights[pick_light(u_pick)];
-    if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
+    if (scene_has(FEATURE_PUNCTUAL) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
         PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
         uint kind = floatBitsToUint(pl.position.w);
         ls.delta = true;
@@ -64,7 +64,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
         ls.radiance = pl.intensity.rgb * (falloff / dist2);
         return ls;
     }
-    if ((l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_ENV) {
+    if (scene_has(FEATURE_ENV) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_ENV) {
         float pdf_dir;
         ls.wi = env_sample(u_point, pdf_dir);
         ls.dist = 1e30;

@@ -32,6 +32,38 @@ pub struct PackedScene {
     pub tri_colors: Vec<TriColors>,
 }
 
+impl PackedScene {
+    /// The FEATURE_* bits of what the scene's materials and lights use, for SCENE_FEATURES: a cleared bit promises
+    /// that the value it guards is zero for every material (or that no such light exists).
+    pub fn features(&self) -> u32 {
+        // Only materials some triangle uses (the loader always adds a default one).
+        let mut used = vec![false; self.materials.len()];
+        for t in &self.tri_verts {
+            if let Some(u) = used.get_mut(t.v0[3].to_bits() as usize) {
+                *u = true;
+            }
+        }
+        let any = |f: fn(&GpuMaterial) -> bool| self.materials.iter().zip(&used).any(|(m, &u)| u && f(m));
+        let mut bits = 0;
+        if any(|m| m.params[3] != 0.0) {
+            bits |= FEATURE_COAT;
+        }
+        if any(|m| m.params[0] != 0.0) {
+            bits |= FEATURE_METAL;
+        }
+        if any(|m| m.transmission[0] != 0.0) {
+            bits |= FEATURE_TRANSMISSION;
+        }
+        if !self.punctual.is_empty() {
+            bits |= FEATURE_PUNCTUAL;
+        }
+        if !self.env_data.is_empty() {
+            bits |= FEATURE_ENV;
+        }
+        bits
+    }
+}
+
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
 }
@@ -257,5 +289,27 @@ pub fn pack(scene: &Scene) -> PackedScene {
         tri_texcoords,
         tri_tangents,
         tri_colors,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn features_of(name: &str) -> u32 {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        pack(&crate::scene::load(&path, None).unwrap()).features()
+    }
+
+    // A bit cleared by mistake folds a lobe or light away while the scene uses it; one set by mistake only costs time.
+    #[test]
+    fn scene_features_name_what_materials_and_lights_use() {
+        assert_eq!(features_of("cornell-box.gltf"), 0);
+        assert_eq!(features_of("glass.gltf"), FEATURE_COAT | FEATURE_TRANSMISSION);
+        assert_eq!(features_of("punctual-lights.gltf") & FEATURE_PUNCTUAL, FEATURE_PUNCTUAL);
+        let grid = features_of("material-grid.gltf");
+        assert_eq!(grid & (FEATURE_COAT | FEATURE_METAL), FEATURE_COAT | FEATURE_METAL);
     }
 }

@@ -476,7 +476,7 @@ impl Renderer {
             (_, Ok("storage")) | (None, _) => BvhReads::Storage,
             (Some(_), _) => BvhReads::Texel,
         };
-        let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV)?;
+        let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV, packed.features())?;
         if let Some(v) = &texel_views {
             pipelines.bind_texel_views(&ctx, &v.views);
         }

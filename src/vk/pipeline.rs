@@ -1,6 +1,6 @@
 //! Compute pipelines that share one descriptor set layout and one push-constant block, and per-stage GPU timers.
 use super::{Buffer, Context};
-use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL};
+use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, FEATURES_ALL, SPEC_SCENE_FEATURES};
 use crate::layout::Frame;
 use crate::Error;
 use ash::vk;
@@ -21,11 +21,20 @@ pub struct Pipelines {
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     pipelines: HashMap<String, vk::Pipeline>,
+    /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
+    features: u32,
     device: ash::Device,
 }
 
+/// Stages that must keep every feature whatever the scene: the probes test device functions with parameters of
+/// their own, and the energy tables integrate the full BSDF.
+fn scene_independent(stage: &str) -> bool {
+    stage.starts_with("probe_") || stage == "energy_tables"
+}
+
 impl Pipelines {
-    pub fn new(ctx: &Context, stages: &[(&str, &[u8])]) -> Result<Self, Error> {
+    /// `features`: the scene's FEATURE_* bits; the render stages are built with code for the others folded away.
+    pub fn new(ctx: &Context, stages: &[(&str, &[u8])], features: u32) -> Result<Self, Error> {
         let d = &ctx.device;
         let bindings: Vec<_> = (0..BINDING_COUNT)
             .map(|b| {
@@ -79,6 +88,7 @@ impl Pipelines {
             pool,
             set,
             pipelines: HashMap::new(),
+            features,
             device: d.clone(),
         };
         for (name, spv) in stages {
@@ -93,10 +103,22 @@ impl Pipelines {
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
         let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
+        let features = if scene_independent(name) {
+            FEATURES_ALL
+        } else {
+            self.features
+        };
+        let entries = [vk::SpecializationMapEntry::default()
+            .constant_id(SPEC_SCENE_FEATURES)
+            .offset(0)
+            .size(4)];
+        let data = features.to_ne_bytes();
+        let specialization = vk::SpecializationInfo::default().map_entries(&entries).data(&data);
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(c"main");
+            .name(c"main")
+            .specialization_info(&specialization);
         let info = [vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(self.layout)];
