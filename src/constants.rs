@@ -117,8 +117,13 @@ pub const ESTIMATOR_SHIFT: u32 = 4;
 
 /// Traversal stack depth; the builder guarantees the tree is no deeper than this.
 pub const BVH_STACK_SIZE: u32 = 64;
+/// A traversal stack entry packs a node as first << STACK_COUNT_BITS | count: leaves hold fewer triangles than
+/// 2^STACK_COUNT_BITS, and scenes are limited to 2^(32 - STACK_COUNT_BITS) nodes and triangles (MAX_SCENE_ITEMS).
+pub const STACK_COUNT_BITS: u32 = 3;
+pub const MAX_SCENE_ITEMS: u32 = 1 << (32 - STACK_COUNT_BITS);
 /// Triangles per leaf the SAH builder may create at most.
 pub const BVH_MAX_LEAF_TRIS: u32 = 4;
+const _: () = assert!(BVH_MAX_LEAF_TRIS < 1 << STACK_COUNT_BITS);
 
 /// Bounce at which Russian roulette starts.
 pub const RR_START_BOUNCE: u32 = 3;

@@ -1,5 +1,5 @@
 //! CPU traversal of the exact GPU node layout; it mirrors shaders/include/traverse.glsl line for line.
-use crate::constants::{BVH_STACK_SIZE, NO_HIT};
+use crate::constants::{BVH_STACK_SIZE, NO_HIT, STACK_COUNT_BITS};
 use crate::layout::{BvhNode, TriVerts};
 use glam::{Vec2, Vec3};
 
@@ -66,7 +66,8 @@ fn intersect_box(n: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Opt
     (enter <= exit).then_some(enter)
 }
 
-/// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device.
+/// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device: each step tests
+/// the next interior node and the next triangle of a pending leaf (see traverse.glsl for why).
 pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> TraceHit {
     let mut hit = TraceHit {
         t: ray.tmax,
@@ -76,59 +77,60 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     let (o, d) = (ray.origin, ray.dir);
     let inv_d = safe_inverse(d);
     // Waiting nodes keep their entry distance; a pop compares it with the closest hit instead of re-testing the box.
+    // A node is (first, count), packed on the stack as first << STACK_COUNT_BITS | count, as on the device.
     let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
-    let mut node = 0u32;
+    let (mut first, mut count) = (nodes[0].first(), nodes[0].count());
     // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
-    let empty = nodes[0].first() == 0 && nodes[0].count() == 0;
+    let empty = first == 0 && count == 0;
     if empty || intersect_box(&nodes[0], o, inv_d, ray.tmin, hit.t).is_none() {
         return hit;
     }
+    let mut has_node = true;
+    // The pending leaf: triangles tri .. tri + left - 1 are still to test.
+    let (mut tri, mut left) = (0u32, 0u32);
     loop {
-        let n = &nodes[node as usize];
-        if n.is_leaf() {
-            for i in n.first()..n.first() + n.count() {
-                if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
-                    hit = TraceHit { t, tri: i, uv };
-                    if any_hit {
-                        return hit;
-                    }
-                }
-            }
-        } else {
-            let (left, right) = (n.first(), n.first() + 1);
-            let tl = intersect_box(&nodes[left as usize], o, inv_d, ray.tmin, hit.t);
-            let tr = intersect_box(&nodes[right as usize], o, inv_d, ray.tmin, hit.t);
+        if has_node && count == 0 {
+            let (ln, rn) = (&nodes[first as usize], &nodes[first as usize + 1]);
+            let tl = intersect_box(ln, o, inv_d, ray.tmin, hit.t);
+            let tr = intersect_box(rn, o, inv_d, ray.tmin, hit.t);
             match (tl, tr) {
                 (Some(a), Some(b)) => {
-                    let (near, far) = if a <= b { (left, right) } else { (right, left) };
-                    stack[sp] = (far, a.max(b));
+                    let (near, far) = if a <= b { (ln, rn) } else { (rn, ln) };
+                    stack[sp] = ((far.first() << STACK_COUNT_BITS) | far.count(), a.max(b));
                     sp += 1;
-                    node = near;
-                    continue;
+                    (first, count) = (near.first(), near.count());
                 }
-                (Some(_), None) => {
-                    node = left;
-                    continue;
-                }
-                (None, Some(_)) => {
-                    node = right;
-                    continue;
-                }
-                (None, None) => {}
+                (Some(_), None) => (first, count) = (ln.first(), ln.count()),
+                (None, Some(_)) => (first, count) = (rn.first(), rn.count()),
+                (None, None) => has_node = false,
             }
         }
-        let mut found = false;
-        while sp > 0 {
+        if has_node && count > 0 && left == 0 {
+            (tri, left) = (first, count);
+            has_node = false;
+        }
+        // One pop per step: a waiting node beyond the closest hit is dropped, and the next step pops again.
+        if !has_node && sp > 0 {
             sp -= 1;
-            let (cand, entry) = stack[sp];
+            let (packed, entry) = stack[sp];
             if entry <= hit.t {
-                node = cand;
-                found = true;
-                break;
+                first = packed >> STACK_COUNT_BITS;
+                count = packed & ((1 << STACK_COUNT_BITS) - 1);
+                has_node = true;
             }
         }
-        if !found {
+        if left > 0 {
+            let i = tri;
+            tri += 1;
+            left -= 1;
+            if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
+                hit = TraceHit { t, tri: i, uv };
+                if any_hit {
+                    return hit;
+                }
+            }
+        } else if !has_node && sp == 0 {
             return hit;
         }
     }

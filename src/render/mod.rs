@@ -373,6 +373,14 @@ impl Renderer {
                     .into(),
             );
         }
+        // Traversal packs node and triangle indices with a leaf's count into one word (STACK_COUNT_BITS).
+        if packed.bvh.nodes.len().max(packed.tri_verts.len()) as u64 >= MAX_SCENE_ITEMS as u64 {
+            return Err(Error::Settings(format!(
+                "the scene has {} triangles in {} BVH nodes; traversal handles fewer than {MAX_SCENE_ITEMS} of each",
+                packed.tri_verts.len(),
+                packed.bvh.nodes.len()
+            )));
+        }
         let range = ctx.properties.limits.max_storage_buffer_range as u64;
         // One storage buffer per kind of data. The BVH and per-triangle buffers are also readable as texels when
         // the device can hold them that way (BvhReads::Texel), which lifts the storage-buffer range off them: a
