@@ -1,6 +1,7 @@
 // shade: emission (MIS-weighted), next-event estimation into the shadow queue, and a BSDF-sampled continuation.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_ballot : require
 #include "stage.glsl"
 #include "rng.glsl"
 #include "bsdf.glsl"
@@ -21,6 +22,16 @@ vec3 offset_ray(vec3 p, vec3 n) {
         abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
         abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
         abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+// Appends path to a queue: one atomic per subgroup, not per invocation (lavapipe runs a subgroup's 8 atomics one
+// after another; GPUs contend on the counter). Called with any subset of the subgroup active.
+void queue_push(uint queue, uint path) {
+    uvec4 ballot = subgroupBallot(true);
+    uint base = 0u;
+    if (subgroupElect()) base = atomicAdd(counters.queue_count[queue], subgroupBallotBitCount(ballot));
+    uint slot = subgroupBroadcastFirst(base) + subgroupBallotExclusiveBitCount(ballot);
+    queues[queue * frame.path_capacity + slot] = path;
 }
 
 void finish(uint path, vec3 radiance) {
@@ -119,8 +130,7 @@ void main() {
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
             vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (any(greaterThan(contribution, vec3(0.0)))) {
-                uint slot = atomicAdd(counters.queue_count[QUEUE_SHADOW], 1u);
-                queues[QUEUE_SHADOW * frame.path_capacity + slot] = path;
+                queue_push(QUEUE_SHADOW, path);
                 // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
                 path_set(PATH_SHADOW_ORIGIN, path, vec4(side > 0.0 ? p_off : p_back, ls.dist * (1.0 - 1e-4)));
                 path_set(PATH_SHADOW_DIR, path, vec4(ls.wi, 0.0));
@@ -152,6 +162,5 @@ void main() {
     path_set(PATH_DIR, path, vec4(wi, 0.0));
     path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
     finish(path, radiance);
-    uint slot = atomicAdd(counters.queue_count[1u - cur], 1u);
-    queues[(1u - cur) * frame.path_capacity + slot] = path;
+    queue_push(1u - cur, path);
 }
