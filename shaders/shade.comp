@@ -1,6 +1,7 @@
 // shade: emission (MIS-weighted), next-event estimation into the shadow queue, and a BSDF-sampled continuation.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #include "stage.glsl"
 #include "rng.glsl"
@@ -25,13 +26,14 @@ vec3 offset_ray(vec3 p, vec3 n) {
 }
 
 // Appends path to a queue: one atomic per subgroup, not per invocation (lavapipe runs a subgroup's 8 atomics one
-// after another; GPUs contend on the counter). Called with any subset of the subgroup active.
+// after another; GPUs contend on the counter). Called with any subset of the subgroup active. Written with the
+// subgroup operations naga can read (no subgroupElect or ballot counts), so tests/layout.rs still checks this stage.
 void queue_push(uint queue, uint path) {
-    uvec4 ballot = subgroupBallot(true);
+    uint count = subgroupAdd(1u);
+    uint rank = subgroupExclusiveAdd(1u);
     uint base = 0u;
-    if (subgroupElect()) base = atomicAdd(counters.queue_count[queue], subgroupBallotBitCount(ballot));
-    uint slot = subgroupBroadcastFirst(base) + subgroupBallotExclusiveBitCount(ballot);
-    queues[queue * frame.path_capacity + slot] = path;
+    if (rank == 0u) base = atomicAdd(counters.queue_count[queue], count);
+    queues[queue * frame.path_capacity + subgroupBroadcastFirst(base) + rank] = path;
 }
 
 void finish(uint path, vec3 radiance) {

@@ -138,3 +138,58 @@ fn chi2_p_values_match_known_quantiles() {
     assert!((chi2_p_value(124.342, 100) - 0.05).abs() < 1e-3);
     assert!((chi2_p_value(0.0, 5) - 1.0).abs() < 1e-12);
 }
+
+/// The sampler behind every path decision: within a pixel, any 2^k samples starting at a multiple of 2^k are a
+/// (0,k,2)-net (one point in each of the 2^k boxes of every 2^-a x 2^-b shape); across pixels, and across
+/// dimensions of one pixel, the points are uniform. Independent random points fail the first check with
+/// overwhelming probability, and a sampler correlating its keys fails the others.
+#[test]
+fn sampler_stratifies_each_pixel_and_is_uniform_across_keys() {
+    let (_dir, path) = common::write_temp(&common::scenes::two_lights(), "two-lights.gltf");
+    let mut r = common::renderer(&path);
+    const BITS: u32 = 24;
+    for (pixel, bounce, dim, first, k) in [
+        (0, 0, 2, 0, 8),
+        (17, 3, 5, 0, 10),
+        (4242, 1, 7, 512, 9),
+        (9, 0, 3, 1024, 6),
+    ] {
+        let pts = r
+            .probe_rand(pixel..pixel + 1, first..first + (1 << k), (bounce, dim), 7)
+            .unwrap();
+        for a in 0..=k {
+            let b = k - a;
+            let mut seen = vec![false; 1 << k];
+            for p in &pts {
+                let cell = ((p[0] >> (BITS - a)) << b) | (p[1] >> (BITS - b));
+                assert!(
+                    !seen[cell as usize],
+                    "pixel {pixel}, bounce {bounce}, dimension {dim}: samples {first}..{} put two points in one \
+                     2^-{a} x 2^-{b} box",
+                    first + (1 << k)
+                );
+                seen[cell as usize] = true;
+            }
+        }
+    }
+    // Uniform over the square across pixels (sample 0 of 65,536 pixels), and with no pairing between two
+    // dimensions of one pixel (their first coordinates over 4,096 samples), on a 16 x 16 grid.
+    let grid = |points: &mut dyn Iterator<Item = (u32, u32)>| {
+        let mut counts = vec![0f64; 256];
+        let mut n = 0.0;
+        for (x, y) in points {
+            counts[((x >> (BITS - 4)) * 16 + (y >> (BITS - 4))) as usize] += 1.0;
+            n += 1.0;
+        }
+        let expected = vec![n / 256.0; 256];
+        let (stat, dof) = chi2_statistic(&counts, &expected, 5.0);
+        chi2_p_value(stat, dof)
+    };
+    let across = r.probe_rand(0..65_536, 0..1, (2, 5), 3).unwrap();
+    let p = grid(&mut across.iter().map(|p| (p[0], p[1])));
+    assert!(p > 1e-3, "sample 0 across pixels is not uniform (p = {p})");
+    let a = r.probe_rand(77..78, 0..4096, (1, 5), 3).unwrap();
+    let b = r.probe_rand(77..78, 0..4096, (1, 6), 3).unwrap();
+    let p = grid(&mut a.iter().zip(&b).map(|(a, b)| (a[0], b[0])));
+    assert!(p > 1e-3, "two dimensions of one pixel are correlated (p = {p})");
+}

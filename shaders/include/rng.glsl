@@ -11,11 +11,44 @@ uvec4 pcg4d(uvec4 v) {
     return v;
 }
 
-// Two independent uniforms in [0, 1) for one (pixel, sample, bounce, dimension) key.
+// Owen scrambling in base 2 by hashing (Laine-Karras permutation, constants from Burley 2020 and Vegdahl): a digit
+// flips depending only on the digits above it. Works on bit-reversed values, so the top digit is the lowest bit here.
+uint laine_karras(uint x, uint seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16u) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+uint owen_scramble(uint x, uint seed) {
+    return bitfieldReverse(laine_karras(bitfieldReverse(x), seed));
+}
+
+// Sobol's second dimension (the Pascal matrix) for the 24 index bits that decide the 24 leading digits.
+uint sobol_pascal(uint index) {
+    uint r = 0u;
+    uint v = 0x80000000u;
+    for (uint b = 0u; b < 24u; ++b) {
+        r ^= v & (0u - ((index >> b) & 1u));
+        v ^= v >> 1u;
+    }
+    return r;
+}
+
+// Two uniforms in [0, 1) for one (pixel, sample, bounce, dimension) key: over a pixel's samples, the first two
+// dimensions of Sobol (a (0,2)-sequence: any 2^k consecutive samples from 0 stratify the square in every 2^-a x 2^-b
+// box with a + b = k), Owen-scrambled per key, the index itself Owen-scrambled too so the dimensions pair at random
+// (Burley 2020, "Practical hash-based Owen scrambling"). Each point is uniform and independent across keys; within
+// a pixel the samples are stratified, which is what lowers the noise at equal samples.
 vec2 rand2(uint pixel, uint sample_index, uint bounce, uint dim) {
-    uvec4 h = pcg4d(uvec4(pixel, sample_index, (bounce << 8u) | dim, frame.seed));
+    uvec4 h = pcg4d(uvec4(pixel, (bounce << 8u) | dim, 0x9E3779B9u, frame.seed));
+    uint index = owen_scramble(sample_index, h.x);
+    uint x = owen_scramble(bitfieldReverse(index), h.y);
+    uint y = owen_scramble(sobol_pascal(index), h.z);
     // 24 bits so the float is exact and strictly below 1.
-    return vec2(h.xy >> 8u) * (1.0 / 16777216.0);
+    return vec2(uvec2(x, y) >> 8u) * (1.0 / 16777216.0);
 }
 
 // Per-pixel rotated R2 sequence: low discrepancy over samples, decorrelated across pixels.

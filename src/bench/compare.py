@@ -9,10 +9,14 @@ import time
 
 import numpy as np
 
+# Replies go to the original stdout; anything the libraries print there (Mitsuba logs to it) goes to stderr.
+REPLIES = os.fdopen(os.dup(1), "w")
+os.dup2(2, 1)
+
 
 def reply(**kw):
-    sys.stdout.write(json.dumps(kw) + "\n")
-    sys.stdout.flush()
+    REPLIES.write(json.dumps(kw) + "\n")
+    REPLIES.flush()
 
 
 class Embree:
@@ -81,7 +85,6 @@ class Mitsuba:
                     "rfilter": {"type": "box"},
                     "pixel_format": "rgb",
                 },
-                "sampler": {"type": "independent"},
             },
         }
         for k, m in enumerate(desc["meshes"]):
@@ -97,15 +100,20 @@ class Mitsuba:
             if m.get("radiance"):
                 shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["radiance"]}}
             scene[f"mesh{k}"] = shape
+        # Mitsuba's default sampler, and its (0,2)-sequence one, the counterpart of pathwave's.
         start = time.perf_counter()
-        self.scene = mi.load_dict(scene)
+        self.scenes = {}
+        for sampler in ("independent", "ldsampler"):
+            scene["sensor"]["sampler"] = {"type": sampler}
+            self.scenes[sampler] = mi.load_dict(scene)
         return {"load_s": time.perf_counter() - start, "version": mi.__version__}
 
     def render(self, req):
         import drjit as dr
 
         start = time.perf_counter()
-        img = self.mi.render(self.scene, spp=int(req["spp"]), seed=int(req["seed"]))
+        scene = self.scenes[req.get("sampler", "independent")]
+        img = self.mi.render(scene, spp=int(req["spp"]), seed=int(req["seed"]))
         dr.eval(img)
         dr.sync_thread()
         seconds = time.perf_counter() - start

@@ -242,10 +242,13 @@ pub struct MitsubaComparison {
     pub height: u32,
     pub reference_spp: u32,
     pub reference_cached: bool,
-    /// Per round: pathwave (spp, seconds, relMSE) and Mitsuba (spp, seconds, relMSE).
-    pub rounds: Vec<[(u32, f64, f64); 2]>,
+    /// Per round, (spp, seconds, relMSE) of: pathwave, Mitsuba with its default `independent` sampler, and Mitsuba
+    /// with `ldsampler` ((0,2)-sequences, like pathwave's sampler; its spp a power of four).
+    pub rounds: Vec<[(u32, f64, f64); 3]>,
     /// Median over rounds of (relMSE x time of pathwave) / (relMSE x time of Mitsuba): below 1, pathwave wins.
     pub ratio: f64,
+    /// The same against Mitsuba with `ldsampler`.
+    pub ratio_ld: f64,
     /// Per channel: pathwave's image mean over all rounds relative to the reference's, minus one.
     pub mean_deviation: [f64; 3],
     /// One standard error of that deviation, from pathwave's per-pixel sample variance.
@@ -386,9 +389,9 @@ pub fn compare_mitsuba(
         })?;
     let version = loaded["version"].as_str().unwrap_or("?").to_string();
     let pixels = (size.0 * size.1) as usize;
-    let mitsuba = |h: &mut Helper, spp: u32, seed: u32| -> Result<(f64, Vec<f32>), Error> {
+    let mitsuba_with = |h: &mut Helper, sampler: &str, spp: u32, seed: u32| -> Result<(f64, Vec<f32>), Error> {
         let out = h.path("mitsuba.f32");
-        let r = h.call(json!({"cmd": "mitsuba_render", "spp": spp, "seed": seed, "out": out}))?;
+        let r = h.call(json!({"cmd": "mitsuba_render", "sampler": sampler, "spp": spp, "seed": seed, "out": out}))?;
         let img = read_f32(&out)?;
         if img.len() != 3 * pixels {
             return Err(err(format!(
@@ -398,6 +401,7 @@ pub fn compare_mitsuba(
         }
         Ok((Helper::f64(&r, "seconds")?, img))
     };
+    let mitsuba = |h: &mut Helper, spp: u32, seed: u32| mitsuba_with(h, "independent", spp, seed);
 
     // The reference: Mitsuba's, in two independent halves, cached under a name that changes with the scene,
     // the image, the sample count and Mitsuba's version.
@@ -458,8 +462,11 @@ pub fn compare_mitsuba(
     let (t_ours, _, _) = pathwave(probe_spp, 98)?;
     mitsuba(&mut h, probe_spp, 99)?;
     let (t_theirs, _) = mitsuba(&mut h, probe_spp, 98)?;
+    mitsuba_with(&mut h, "ldsampler", probe_spp, 99)?;
     let spp_for = |t: f64| ((budget_s / (t / probe_spp as f64)).round() as u32).clamp(1, 4096);
     let (spp_ours, spp_theirs) = (spp_for(t_ours), spp_for(t_theirs));
+    // ldsampler takes a power of four; the nearest one to the budget (time is part of the figure either way).
+    let spp_ld = 1u32 << (2 * (spp_theirs as f64).log(4.0).round() as u32);
 
     let mut result = MitsubaComparison {
         device,
@@ -476,9 +483,13 @@ pub fn compare_mitsuba(
         progress(&format!("Mitsuba comparison: round {} of {rounds}", round + 1));
         let (t_p, img_p, var_p) = pathwave(spp_ours, round)?;
         let (t_m, img_m) = mitsuba(&mut h, spp_theirs, round)?;
+        let (t_l, img_l) = mitsuba_with(&mut h, "ldsampler", spp_ld, round)?;
         let e_p = rel_mse(&img_p, &ref_a, &ref_b);
         let e_m = rel_mse(&img_m, &ref_a, &ref_b);
-        result.rounds.push([(spp_ours, t_p, e_p), (spp_theirs, t_m, e_m)]);
+        let e_l = rel_mse(&img_l, &ref_a, &ref_b);
+        result
+            .rounds
+            .push([(spp_ours, t_p, e_p), (spp_theirs, t_m, e_m), (spp_ld, t_l, e_l)]);
         let (mp, mm) = (channel_means(&img_p), channel_means(&img_m));
         // Variance of the image mean: per-pixel sample variance / spp, summed, over pixels squared.
         let vp = channel_means(&var_p).map(|v| v / spp_ours as f64 / pixels as f64);
@@ -488,13 +499,16 @@ pub fn compare_mitsuba(
             ours_var[c] += vp[c] / (rounds * rounds) as f64;
         }
     }
-    result.ratio = median(
-        result
-            .rounds
-            .iter()
-            .map(|[(_, tp, ep), (_, tm, em)]| (tp * ep) / (tm * em))
-            .collect(),
-    );
+    let ratio_to = |k: usize| {
+        median(
+            result
+                .rounds
+                .iter()
+                .map(|r| (r[0].1 * r[0].2) / (r[k].1 * r[k].2))
+                .collect(),
+        )
+    };
+    (result.ratio, result.ratio_ld) = (ratio_to(1), ratio_to(2));
     for c in 0..3 {
         result.mean_deviation[c] = ours_means[c] / reference_means[c] - 1.0;
         result.mean_sigma[c] = ours_var[c].sqrt() / reference_means[c];

@@ -355,21 +355,26 @@ impl BenchReport {
                 m.reference_spp,
                 if m.reference_cached { ", cached" } else { "" }
             );
-            for (k, [(sp, tp, ep), (sm, tm, em)]) in m.rounds.iter().enumerate() {
+            for (k, [(sp, tp, ep), (sm, tm, em), (sl, tl, el)]) in m.rounds.iter().enumerate() {
                 s += &format!(
                     "  round {}: pathwave {sp} spp {tp:.2} s relMSE {ep:.5} (x time {:.5}); Mitsuba {sm} spp {tm:.2} s \
-                     relMSE {em:.5} (x time {:.5}); ratio {:.3}\n",
+                     relMSE {em:.5} (x time {:.5}), ratio {:.3}; Mitsuba ldsampler {sl} spp {tl:.2} s relMSE {el:.5} \
+                     (x time {:.5}), ratio {:.3}\n",
                     k + 1,
                     ep * tp,
                     em * tm,
-                    (ep * tp) / (em * tm)
+                    (ep * tp) / (em * tm),
+                    el * tl,
+                    (ep * tp) / (el * tl)
                 );
             }
             let pct = |v: [f64; 3]| v.map(|x| format!("{:+.3}", 100.0 * x)).join(" ");
             s += &format!(
-                "  median ratio of relMSE x time {:.3} (target <= 1.0)\n  channel means vs reference, %: pathwave {} \
-                 (one sigma {}); Mitsuba {}\n",
+                "  median ratio of relMSE x time {:.3} (target <= 1.0); against Mitsuba with ldsampler {:.3}\n  channel \
+                 means vs reference, %: pathwave {} (one sigma {}, as if samples were independent); \
+                 Mitsuba {}\n",
                 m.ratio,
+                m.ratio_ld,
                 pct(m.mean_deviation),
                 m.mean_sigma.map(|x| format!("{:.3}", 100.0 * x)).join(" "),
                 pct(m.mitsuba_mean_deviation)
@@ -461,11 +466,13 @@ impl BenchReport {
                 "height": m.height,
                 "reference_spp": m.reference_spp,
                 "reference_cached": m.reference_cached,
-                "rounds": m.rounds.iter().map(|[(sp, tp, ep), (sm, tm, em)]| serde_json::json!({
+                "rounds": m.rounds.iter().map(|[(sp, tp, ep), (sm, tm, em), (sl, tl, el)]| serde_json::json!({
                     "pathwave": {"spp": sp, "seconds": tp, "rel_mse": ep},
                     "mitsuba": {"spp": sm, "seconds": tm, "rel_mse": em},
+                    "mitsuba_ldsampler": {"spp": sl, "seconds": tl, "rel_mse": el},
                 })).collect::<Vec<_>>(),
                 "ratio": m.ratio,
+                "ratio_ldsampler": m.ratio_ld,
                 "mean_deviation": m.mean_deviation,
                 "mean_sigma": m.mean_sigma,
                 "mitsuba_mean_deviation": m.mitsuba_mean_deviation,

@@ -1073,6 +1073,31 @@ impl Renderer {
         Ok(out)
     }
 
+    /// The sampler's uniforms (as 24-bit integers) at `bounce` and dimension `dim` (see rand2 in rng.glsl) for
+    /// every pixel of `pixels` and sample of `samples`, pixel-minor as paths are numbered.
+    pub fn probe_rand(
+        &mut self,
+        pixels: std::ops::Range<u32>,
+        samples: std::ops::Range<u32>,
+        (bounce, dim): (u32, u32),
+        seed: u32,
+    ) -> Result<Vec<[u32; 2]>, Error> {
+        let n = pixels.len() as u32 * samples.len() as u32;
+        let words = vec![0u32; 2 * n as usize];
+        let frame = Frame {
+            path_count: n,
+            pass_pixels: pixels.len() as u32,
+            pixel_offset: pixels.start,
+            sample_index: samples.start,
+            bounce,
+            max_depth: dim,
+            seed,
+            ..Default::default()
+        };
+        let (out, _) = self.run_probe("probe_rand", &words, frame, 1)?;
+        Ok(out.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+    }
+
     /// Runs the device BSDF on `queries`: sampling (x = three uniforms) or evaluation (x = wi).
     pub fn probe_bsdf(
         &mut self,
