@@ -47,6 +47,12 @@ vec3 safe_inverse(vec3 d) {
     return vec3(d.x != 0.0 ? 1.0 / d.x : big, d.y != 0.0 ? 1.0 / d.y : big, d.z != 0.0 ? 1.0 / d.z : big);
 }
 
+// The hit's barycentrics, from the same arithmetic that found it (traversal keeps only t and the triangle).
+Hit with_barycentrics(Hit h, vec3 o, vec3 d, float tmin) {
+    if (h.tri != NO_HIT) intersect_triangle(h.tri, o, d, tmin, uintBitsToFloat(0x7F800000u), h.uv);
+    return h;
+}
+
 #ifdef TRAVERSE_COUNT_NODES
 // Nodes visited by the last trace(): a stage that defines TRAVERSE_COUNT_NODES before including this file can show
 // traversal cost (see examples/shaders/bvh-cost). Off by default, so it costs nothing.
@@ -86,8 +92,8 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         return hit;
     }
     bool has_node = true; // (first, count) is a node still to visit
-    uint tri = 0u;        // the pending leaf: triangles tri .. tri + left - 1 are still to test
-    uint left = 0u;
+    uint tri = 0u;        // the pending leaf: triangles tri .. end - 1 are still to test
+    uint end = 0u;
 #ifdef ALPHA_TEST
     // A candidate on an alpha-tested triangle leaves the loop, is tested here, and traversal resumes where it was.
     while (true) {
@@ -108,23 +114,20 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
             bool hr = tr != uintBitsToFloat(0x7F800000u);
             uvec2 lw = floatBitsToUint(vec2(ln.lo.w, ln.hi.w));
             uvec2 rw = floatBitsToUint(vec2(rn.lo.w, rn.hi.w));
-            if (hl && hr) {
-                // Visit the nearer child first; the farther waits on the stack.
-                uvec2 far_child = tl <= tr ? rw : lw;
-                stack[sp++] = uvec2((far_child.x << STACK_COUNT_BITS) | far_child.y, floatBitsToUint(max(tl, tr)));
-                uvec2 near_child = tl <= tr ? lw : rw;
-                first = near_child.x;
-                count = near_child.y;
-            } else if (hl || hr) {
-                first = hl ? lw.x : rw.x;
-                count = hl ? lw.y : rw.y;
-            } else {
-                has_node = false;
-            }
+            // Visit the nearer child first; when both are hit the farther waits on the stack. Written with selects
+            // and an unconditional store (sp moves only when both are hit): branches cost their bodies anyway.
+            bool near_left = hl && (!hr || tl <= tr);
+            uvec2 far_child = near_left ? rw : lw;
+            stack[sp] = uvec2((far_child.x << STACK_COUNT_BITS) | far_child.y, floatBitsToUint(max(tl, tr)));
+            sp += hl && hr ? 1u : 0u;
+            uvec2 near_child = near_left ? lw : rw;
+            first = near_child.x;
+            count = near_child.y;
+            has_node = hl || hr;
         }
-        if (has_node && count > 0u && left == 0u) {
+        if (has_node && count > 0u && tri == end) {
             tri = first;
-            left = count;
+            end = first + count;
             has_node = false;
         }
         // One pop per step: a waiting node beyond the closest hit is dropped, and the next step pops again (a loop
@@ -138,25 +141,23 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
                 has_node = true;
             }
         }
-        if (left > 0u) {
+        if (tri < end) {
             vec2 uv;
             float t = intersect_triangle(tri, o, d, tmin, hit.t, uv);
             uint i = tri++;
-            --left;
-            if (t >= 0.0) {
 #ifdef ALPHA_TEST
-                if (load_tri_verts(i).e1.w != 0.0) {
-                    pending = i;
-                    pending_t = t;
-                    pending_uv = uv;
-                    break;
-                }
-#endif
-                hit.t = t;
-                hit.tri = i;
-                hit.uv = uv;
-                if (any_hit) return hit;
+            if (t >= 0.0 && load_tri_verts(i).e1.w != 0.0) {
+                pending = i;
+                pending_t = t;
+                pending_uv = uv;
+                break;
             }
+#endif
+            // Selects, not a branch: the closest hit's barycentrics are found again once traversal ends.
+            bool found = t >= 0.0;
+            hit.t = found ? t : hit.t;
+            hit.tri = found ? i : hit.tri;
+            if (any_hit && found) break;
         } else if (!has_node && sp == 0u) {
             break;
         }
@@ -166,12 +167,11 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         if (alpha_stops(pending, pending_uv, alpha_key)) {
             hit.t = pending_t;
             hit.tri = pending;
-            hit.uv = pending_uv;
-            if (any_hit) return hit;
+            if (any_hit) break;
         }
     }
 #endif
-    return hit;
+    return with_barycentrics(hit, o, d, tmin);
 }
 
 #endif

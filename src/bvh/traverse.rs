@@ -87,8 +87,8 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
         return hit;
     }
     let mut has_node = true;
-    // The pending leaf: triangles tri .. tri + left - 1 are still to test.
-    let (mut tri, mut left) = (0u32, 0u32);
+    // The pending leaf: triangles tri .. end - 1 are still to test.
+    let (mut tri, mut end) = (0u32, 0u32);
     loop {
         if has_node && count == 0 {
             let (ln, rn) = (&nodes[first as usize], &nodes[first as usize + 1]);
@@ -106,8 +106,8 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
                 (None, None) => has_node = false,
             }
         }
-        if has_node && count > 0 && left == 0 {
-            (tri, left) = (first, count);
+        if has_node && count > 0 && tri == end {
+            (tri, end) = (first, first + count);
             has_node = false;
         }
         // One pop per step: a waiting node beyond the closest hit is dropped, and the next step pops again.
@@ -120,10 +120,9 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
                 has_node = true;
             }
         }
-        if left > 0 {
+        if tri < end {
             let i = tri;
             tri += 1;
-            left -= 1;
             if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
                 hit = TraceHit { t, tri: i, uv };
                 if any_hit {
