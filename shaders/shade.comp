@@ -36,10 +36,6 @@ void queue_push(uint queue, uint path) {
     queues[queue * frame.path_capacity + subgroupBroadcastFirst(base) + rank] = path;
 }
 
-void finish(uint path, vec3 radiance) {
-    path_set(PATH_RADIANCE, path, vec4(radiance, 0.0));
-}
-
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint cur = frame.bounce & 1u;
@@ -58,7 +54,10 @@ void main() {
     // After the camera or a delta bounce, nothing else could have found this light: it counts in full.
     bool camera_or_delta = bounce == 0u || ray_o.w == 0.0;
 
-    if (tri == NO_HIT) {
+    // One exit at the end: lavapipe runs every line for every lane anyway, so an early return only adds stores. A
+    // lane stops being `alive` where its path ends; what follows still runs for it but writes nothing.
+    bool alive = tri != NO_HIT;
+    if (!alive) {
         bool hidden = bounce == 0u && (frame.flags & FLAG_HIDE_ENV) != 0u;
         if (scene_has(FEATURE_ENV) && frame.env_width > 0u && !hidden) {
             float w = 1.0;
@@ -71,8 +70,6 @@ void main() {
             }
             radiance += beta * env_radiance(ray_d) * w;
         }
-        finish(path, radiance);
-        return;
     }
 
     TriVerts tv = load_tri_verts(tri);
@@ -89,7 +86,7 @@ void main() {
 
     // Emission seen by this ray, weighted against the chance NEE would have found the same point.
     bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));
-    if (emits) {
+    if (alive && emits) {
         float w = 1.0;
         if (!camera_or_delta) {
             if (frame_estimator() == ESTIMATOR_LIGHT) {
@@ -102,10 +99,7 @@ void main() {
         }
         radiance += beta * m.emission.rgb * w;
     }
-    if (bounce >= frame.max_depth) {
-        finish(path, radiance);
-        return;
-    }
+    alive = alive && bounce < frame.max_depth;
 
     // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
     if (scene_has(FEATURE_TRANSMISSION) && !front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
@@ -126,7 +120,7 @@ void main() {
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
         bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
-        if (wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
+        if (alive && wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
             vec3 f = bsdf_eval(bsdf, wo, wi_local);
             bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
@@ -146,23 +140,19 @@ void main() {
     bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
     vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
     // A direction the shading normal puts on one side and the true surface on the other carries no light.
-    if (!ok || dot(n_in, wi) * bs.wi.z <= 0.0) {
-        finish(path, radiance);
-        return;
-    }
+    alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
     beta *= bs.weight;
     if (bounce >= RR_START_BOUNCE) {
         float survive = min(max(beta.r, max(beta.g, beta.b)), 0.95);
-        if (rand2(pixel, s, bounce, DIM_RR).x >= survive) {
-            finish(path, radiance);
-            return;
-        }
+        alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
         beta /= survive;
     }
-    // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
-    path_set(PATH_ORIGIN, path, vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf));
-    path_set(PATH_DIR, path, vec4(wi, 0.0));
-    path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
-    finish(path, radiance);
-    queue_push(1u - cur, path);
+    path_set(PATH_RADIANCE, path, vec4(radiance, 0.0));
+    if (alive) {
+        // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
+        path_set(PATH_ORIGIN, path, vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf));
+        path_set(PATH_DIR, path, vec4(wi, 0.0));
+        path_set(PATH_THROUGHPUT, path, vec4(beta, 0.0));
+        queue_push(1u - cur, path);
+    }
 }
