@@ -36,6 +36,12 @@ void queue_push(uint queue, uint path) {
     queues[queue * frame.path_capacity + subgroupBroadcastFirst(base) + rank] = path;
 }
 
+// Ends the path with this radiance. Also a one-line way to look at any quantity while editing this stage (README):
+// `finish(path, ns * 0.5 + 0.5); return;`.
+void finish(uint path, vec3 radiance) {
+    path_set(PATH_RADIANCE, path, vec4(radiance, 0.0));
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint cur = frame.bounce & 1u;
@@ -147,7 +153,7 @@ void main() {
         alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
         beta /= survive;
     }
-    path_set(PATH_RADIANCE, path, vec4(radiance, 0.0));
+    finish(path, radiance);
     if (alive) {
         // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
         path_set(PATH_ORIGIN, path, vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf));
