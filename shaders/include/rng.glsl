@@ -26,15 +26,16 @@ uint owen_scramble(uint x, uint seed) {
     return bitfieldReverse(laine_karras(bitfieldReverse(x), seed));
 }
 
-// Sobol's second dimension (the Pascal matrix) for the 24 index bits that decide the 24 leading digits.
-uint sobol_pascal(uint index) {
-    uint r = 0u;
-    uint v = 0x80000000u;
-    for (uint b = 0u; b < 24u; ++b) {
-        r ^= v & (0u - ((index >> b) & 1u));
-        v ^= v >> 1u;
-    }
-    return r;
+// Sobol's second dimension, bit-reversed: its generator is the Pascal matrix mod 2, so by Lucas' theorem digit m
+// is the XOR of the index bits j with j a superset of m (as bit sets), a transform of five shift-mask steps instead
+// of a loop over 32 direction numbers.
+uint sobol_pascal_reversed(uint index) {
+    index ^= (index >> 1u) & 0x55555555u;
+    index ^= (index >> 2u) & 0x33333333u;
+    index ^= (index >> 4u) & 0x0F0F0F0Fu;
+    index ^= (index >> 8u) & 0x00FF00FFu;
+    index ^= (index >> 16u) & 0x0000FFFFu;
+    return index;
 }
 
 // Two uniforms in [0, 1) for one (pixel, sample, bounce, dimension) key: over a pixel's samples, the first two
@@ -45,8 +46,9 @@ uint sobol_pascal(uint index) {
 vec2 rand2(uint pixel, uint sample_index, uint bounce, uint dim) {
     uvec4 h = pcg4d(uvec4(pixel, (bounce << 8u) | dim, 0x9E3779B9u, frame.seed));
     uint index = owen_scramble(sample_index, h.x);
-    uint x = owen_scramble(bitfieldReverse(index), h.y);
-    uint y = owen_scramble(sobol_pascal(index), h.z);
+    // Sobol's first dimension is the bit-reversed index; owen_scramble works on reversed digits, so both stay there.
+    uint x = bitfieldReverse(laine_karras(index, h.y));
+    uint y = bitfieldReverse(laine_karras(sobol_pascal_reversed(index), h.z));
     // 24 bits so the float is exact and strictly below 1.
     return vec2(uvec2(x, y) >> 8u) * (1.0 / 16777216.0);
 }
