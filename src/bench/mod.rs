@@ -1,7 +1,7 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
 pub mod compare;
 
-use crate::render::{gpu_scene, BvhReads, RenderSettings, Renderer};
+use crate::render::{BvhReads, RenderSettings, Renderer};
 use crate::scene::{self, Camera, Environment, Material, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use crate::Error;
@@ -129,16 +129,11 @@ fn measure(
     device: &DeviceChoice,
     reads: Option<BvhReads>,
 ) -> Result<CaseResult, Error> {
-    let start = Instant::now();
-    let packed = gpu_scene::pack(scene);
-    let bvh_build_s = start.elapsed().as_secs_f64();
-    let bytes = std::mem::size_of_val(&packed.bvh.nodes[..])
-        + std::mem::size_of_val(&packed.tri_verts[..])
-        + std::mem::size_of_val(&packed.tri_shading[..]);
-    drop(packed);
     let ctx = Context::new(device, Validation::Off)?;
     let device_name = ctx.device_name();
     let mut r = Renderer::with_context(scene, ctx)?;
+    let bvh_build_s = r.bvh_build_time().as_secs_f64();
+    let bytes = r.traversal_bytes();
     if let Some(reads) = reads {
         r.set_bvh_reads(reads)?;
     }

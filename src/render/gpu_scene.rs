@@ -10,6 +10,8 @@ use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, Wrap};
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
     pub bvh: Bvh,
+    /// Wall time of the BVH build alone (the rest of packing is copying).
+    pub bvh_build: std::time::Duration,
     pub tri_verts: Vec<TriVerts>,
     pub tri_shading: Vec<TriShading>,
     pub materials: Vec<GpuMaterial>,
@@ -164,7 +166,9 @@ fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
 }
 
 pub fn pack(scene: &Scene) -> PackedScene {
+    let start = std::time::Instant::now();
     let bvh = bvh::build(&scene.triangles);
+    let bvh_build = start.elapsed();
     let n = scene.triangles.len();
     let mut tri_verts = Vec::with_capacity(n);
     let mut tri_shading = Vec::with_capacity(n);
@@ -275,6 +279,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let (textures, texels) = pack_textures(scene);
     let env_data = scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default();
     PackedScene {
+        bvh_build,
         bvh,
         tri_verts,
         tri_shading,

@@ -338,6 +338,7 @@ pub struct Renderer {
     /// The camera's distance to the scene's centre along its view direction: the focus when none is given.
     default_focus: f32,
     camera: crate::scene::Camera,
+    bvh_build: Duration,
     pub warnings: Vec<String>,
     ctx: Context,
 }
@@ -514,6 +515,7 @@ impl Renderer {
                 ((lo + hi) * 0.5 - cam.origin()).dot(cam.basis().2).max(1e-3)
             },
             camera: scene.camera_or_default(),
+            bvh_build: packed.bvh_build,
             warnings,
             ctx,
         };
@@ -585,6 +587,16 @@ impl Renderer {
             self.pipelines.replace(&self.ctx, name, spv)?;
         }
         Ok(names)
+    }
+
+    /// How long building the scene's BVH took.
+    pub fn bvh_build_time(&self) -> Duration {
+        self.bvh_build
+    }
+
+    /// Device bytes of what traversal and shading read per triangle: BVH nodes, vertices and shading normals.
+    pub fn traversal_bytes(&self) -> u64 {
+        self.scene.nodes.size + self.scene.tri_verts.size + self.scene.tri_shading.size
     }
 
     pub fn context(&self) -> &Context {
