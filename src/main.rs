@@ -100,38 +100,68 @@ impl EnvArgs {
     }
 }
 
+/// The scene, camera, device and path options `render` and `view` share.
 #[derive(clap::Args)]
-struct ViewArgs {
+struct SceneArgs {
     /// The glTF (.gltf or .glb) scene.
     scene: PathBuf,
-    /// Window size as WIDTHxHEIGHT.
-    #[arg(long, default_value = "640x480", value_parser = parse_size, allow_hyphen_values = true)]
-    size: (u32, u32),
-    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
-    #[arg(long, value_parser = clap::value_parser!(u32))]
-    max_depth: Option<u32>,
-    /// Seed of the random sequences.
-    #[arg(long, default_value = "0")]
-    seed: u32,
+    /// Which camera of the file to use (to start from, in the viewer), counting from 0.
+    #[arg(long)]
+    camera: Option<usize>,
     /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
     #[arg(long)]
     device: Option<DeviceChoice>,
-    /// Which camera of the file to start from, counting from 0.
-    #[arg(long)]
-    camera: Option<usize>,
+    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
+    #[arg(long, value_parser = clap::value_parser!(u32))]
+    max_depth: Option<u32>,
+    /// Seed of the random sequences; the same seed gives the same bytes.
+    #[arg(long, default_value = "0")]
+    seed: u32,
+    /// Thin-lens aperture radius in scene units (metres for glTF); 0, the default, is a pinhole. In the viewer, F
+    /// toggles depth of field and a right click focuses.
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    aperture: f32,
+    /// Distance to the plane in focus along the view direction (default: the camera's distance to the scene's centre).
+    #[arg(long, allow_hyphen_values = true)]
+    focus_distance: Option<f32>,
+    #[command(flatten)]
+    env: EnvArgs,
+}
+
+impl SceneArgs {
+    /// The scene with the environment the options ask for.
+    fn load(&self) -> Result<scene::Scene> {
+        let mut scene = scene::load(&self.scene, self.camera)?;
+        scene.environment = self.env.environment()?;
+        Ok(scene)
+    }
+
+    /// Render settings from these options; the caller sets the size and samples.
+    fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            max_depth: self.max_depth,
+            seed: self.seed,
+            hide_environment: self.env.hide_env,
+            aperture: self.aperture,
+            focus_distance: self.focus_distance,
+            ..Default::default()
+        }
+    }
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Window size as WIDTHxHEIGHT.
+    #[arg(long, default_value = "640x480", value_parser = parse_size, allow_hyphen_values = true)]
+    size: (u32, u32),
+    #[command(flatten)]
+    common: SceneArgs,
     /// Exposure in stops (+ and - change it in the window).
     #[arg(long, default_value = "0", allow_hyphen_values = true)]
     exposure: f32,
     /// Tone curve (T cycles through them in the window).
     #[arg(long, value_enum, default_value = "aces")]
     tonemap: pathwave::viewer::ToneCurve,
-    #[command(flatten)]
-    env: EnvArgs,
-    /// Thin-lens aperture radius (F toggles depth of field; right click focuses).
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    aperture: f32,
-    #[arg(long, allow_hyphen_values = true)]
-    focus_distance: Option<f32>,
     /// Shader folder to use and watch: edited stages are rebuilt while the window stays open.
     #[arg(long)]
     shader_dir: Option<PathBuf>,
@@ -148,8 +178,6 @@ struct ViewArgs {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// The glTF (.gltf or .glb) scene.
-    scene: PathBuf,
     /// Output image; the extension picks the format (.exr or .png). Repeat to write several from one render.
     #[arg(short, long, required = true)]
     output: Vec<PathBuf>,
@@ -159,32 +187,14 @@ struct RenderArgs {
     /// Image size as WIDTHxHEIGHT.
     #[arg(long, default_value = "512x512", value_parser = parse_size, allow_hyphen_values = true)]
     size: (u32, u32),
-    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
-    #[arg(long, value_parser = clap::value_parser!(u32))]
-    max_depth: Option<u32>,
-    /// Seed of the random sequences; the same seed gives the same bytes.
-    #[arg(long, default_value = "0")]
-    seed: u32,
-    /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
-    #[arg(long)]
-    device: Option<DeviceChoice>,
-    /// Which camera of the file to use, counting from 0.
-    #[arg(long)]
-    camera: Option<usize>,
+    #[command(flatten)]
+    common: SceneArgs,
     /// Exposure in stops applied to PNG output.
     #[arg(long, default_value = "0", allow_hyphen_values = true)]
     exposure: f32,
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
     estimator: Estimator,
-    #[command(flatten)]
-    env: EnvArgs,
-    /// Thin-lens aperture radius in scene units (metres for glTF); 0, the default, is a pinhole.
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
-    aperture: f32,
-    /// Distance to the plane in focus along the view direction (default: the camera's distance to the scene's centre).
-    #[arg(long, allow_hyphen_values = true)]
-    focus_distance: Option<f32>,
     /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
     #[arg(long)]
     no_energy_compensation: bool,
@@ -260,11 +270,10 @@ fn render(args: RenderArgs) -> Result<()> {
         output::format_of(out)?;
     }
     let start = Instant::now();
-    let mut scene = scene::load(&args.scene, args.camera)?;
-    scene.environment = args.env.environment()?;
-    let mut renderer = Renderer::new(&scene, &args.device.clone().unwrap_or_default())?;
+    let scene = args.common.load()?;
+    let mut renderer = Renderer::new(&scene, &args.common.device.clone().unwrap_or_default())?;
     for w in &renderer.warnings {
-        eprintln!("warning: {}: {w}", args.scene.display());
+        eprintln!("warning: {}: {w}", args.common.scene.display());
     }
     let shader_dir = match &args.shader_dir {
         Some(dir) => {
@@ -285,13 +294,9 @@ fn render(args: RenderArgs) -> Result<()> {
         width: args.size.0,
         height: args.size.1,
         spp: args.spp,
-        max_depth: args.max_depth,
-        seed: args.seed,
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
-        hide_environment: args.env.hide_env,
-        aperture: args.aperture,
-        focus_distance: args.focus_distance,
+        ..args.common.settings()
     };
     render_and_write(&mut renderer, &settings, &args, start)?;
     let Some(dir) = shader_dir.filter(|_| args.watch) else {
@@ -353,21 +358,15 @@ fn view(args: ViewArgs) -> Result<()> {
     if let Some(out) = &args.screenshot {
         output::format_of(out)?;
     }
-    let mut scene = scene::load(&args.scene, args.camera)?;
-    scene.environment = args.env.environment()?;
+    let scene = args.common.load()?;
     let options = pathwave::viewer::ViewOptions {
-        device: args.device.unwrap_or_default(),
+        device: args.common.device.clone().unwrap_or_default(),
         settings: RenderSettings {
             width: args.size.0,
             height: args.size.1,
             // Only sizes the paths in flight: up to this many samples per pixel share a pass.
             spp: 256,
-            max_depth: args.max_depth,
-            seed: args.seed,
-            hide_environment: args.env.hide_env,
-            aperture: args.aperture,
-            focus_distance: args.focus_distance,
-            ..Default::default()
+            ..args.common.settings()
         },
         exposure: args.exposure,
         tonemap: args.tonemap,
