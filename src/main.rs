@@ -33,29 +33,7 @@ enum Command {
         devices: bool,
     },
     /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
-    Bench {
-        /// Also write the figures as JSON to this file.
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// Fewer samples and a smaller terrain, for a quick look.
-        #[arg(long)]
-        quick: bool,
-        /// Folder holding cornell-box.gltf and glass.gltf (default: ./scenes, else the source tree's).
-        #[arg(long)]
-        scenes: Option<PathBuf>,
-        #[arg(long)]
-        device: Option<DeviceChoice>,
-        /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
-        /// relMSE on the Cornell box) or `embree` (embreex, random-ray traversal on the terrain). Repeatable.
-        #[arg(long, value_enum)]
-        compare: Vec<CompareWith>,
-        /// The Python interpreter that has `mitsuba` and `embreex` installed.
-        #[arg(long, default_value = "python3")]
-        python: PathBuf,
-        /// Run only the comparisons, not the fixed cases.
-        #[arg(long, requires = "compare")]
-        only_compare: bool,
-    },
+    Bench(BenchArgs),
     /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
     ExportShaders {
         /// The folder to write into (created if missing).
@@ -240,23 +218,7 @@ fn main() {
         Command::View(args) => view(args),
         Command::Info { scene, devices } => info(scene, devices),
         Command::ExportShaders { dir } => export_shaders(dir),
-        Command::Bench {
-            json,
-            quick,
-            scenes,
-            device,
-            compare,
-            python,
-            only_compare,
-        } => bench(BenchArgs {
-            json,
-            quick,
-            scenes,
-            device,
-            compare,
-            python,
-            only_compare,
-        }),
+        Command::Bench(args) => bench(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -385,13 +347,28 @@ enum CompareWith {
     Embree,
 }
 
+#[derive(clap::Args)]
 struct BenchArgs {
+    /// Also write the figures as JSON to this file.
+    #[arg(long)]
     json: Option<PathBuf>,
+    /// Fewer samples and a smaller terrain, for a quick look.
+    #[arg(long)]
     quick: bool,
+    /// Folder holding cornell-box.gltf and glass.gltf (default: ./scenes, else the source tree's).
+    #[arg(long)]
     scenes: Option<PathBuf>,
+    #[arg(long)]
     device: Option<DeviceChoice>,
+    /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
+    /// relMSE on the Cornell box) or `embree` (embreex, random-ray traversal on the terrain). Repeatable.
+    #[arg(long, value_enum)]
     compare: Vec<CompareWith>,
+    /// The Python interpreter that has `mitsuba` and `embreex` installed.
+    #[arg(long, default_value = "python3")]
     python: PathBuf,
+    /// Run only the comparisons, not the fixed cases.
+    #[arg(long, requires = "compare")]
     only_compare: bool,
 }
 
