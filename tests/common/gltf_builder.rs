@@ -96,6 +96,20 @@ impl GltfBuilder {
         self.materials.len() - 1
     }
 
+    /// A vertex-attribute accessor over float vectors (`kind`: "VEC2", "VEC3" or "VEC4"); returns its index.
+    fn float_accessor<const N: usize>(&mut self, data: &[[f32; N]], kind: &str) -> usize {
+        let bytes: Vec<u8> = data.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+        let v = self.push_view(&bytes, 34962);
+        self.accessors
+            .push(json!({ "bufferView": v, "componentType": 5126, "count": data.len(), "type": kind }));
+        self.accessors.len() - 1
+    }
+
+    /// Points attribute `name` of the last mesh at accessor `acc`.
+    fn set_attribute(&mut self, name: &str, acc: usize) {
+        self.meshes.last_mut().unwrap()["primitives"][0]["attributes"][name] = json!(acc);
+    }
+
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
@@ -150,31 +164,18 @@ impl GltfBuilder {
         material: usize,
     ) {
         self.mesh_with_normals(name, positions, normals, indices, material);
-        let uv_bytes: Vec<u8> = uvs.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-        let v = self.push_view(&uv_bytes, 34962);
-        self.accessors
-            .push(json!({ "bufferView": v, "componentType": 5126, "count": uvs.len(), "type": "VEC2" }));
-        let uv_acc = self.accessors.len() - 1;
-        let prim = &mut self.meshes.last_mut().unwrap()["primitives"][0]["attributes"];
-        prim["TEXCOORD_0"] = json!(uv_acc);
+        let uv = self.float_accessor(uvs, "VEC2");
+        self.set_attribute("TEXCOORD_0", uv);
         if let Some(t) = tangents {
-            let bytes: Vec<u8> = t.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-            let v = self.push_view(&bytes, 34962);
-            self.accessors
-                .push(json!({ "bufferView": v, "componentType": 5126, "count": t.len(), "type": "VEC4" }));
-            let acc = self.accessors.len() - 1;
-            self.meshes.last_mut().unwrap()["primitives"][0]["attributes"]["TANGENT"] = json!(acc);
+            let acc = self.float_accessor(t, "VEC4");
+            self.set_attribute("TANGENT", acc);
         }
     }
 
     /// Gives the last mesh COLOR_0 (linear RGBA floats, one per vertex).
     pub fn add_colors(&mut self, colors: &[[f32; 4]]) {
-        let bytes: Vec<u8> = colors.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-        let v = self.push_view(&bytes, 34962);
-        self.accessors
-            .push(json!({ "bufferView": v, "componentType": 5126, "count": colors.len(), "type": "VEC4" }));
-        let acc = self.accessors.len() - 1;
-        self.meshes.last_mut().unwrap()["primitives"][0]["attributes"]["COLOR_0"] = json!(acc);
+        let acc = self.float_accessor(colors, "VEC4");
+        self.set_attribute("COLOR_0", acc);
     }
 
     /// A quad with texture coordinates per corner; corners wind counter-clockwise seen from the front.
@@ -215,11 +216,7 @@ impl GltfBuilder {
         let ia = self.accessors.len() - 1;
         let mut attributes = json!({ "POSITION": pa });
         if let Some(normals) = normals {
-            let bytes: Vec<u8> = normals.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
-            let nv = self.push_view(&bytes, 34962);
-            self.accessors
-                .push(json!({ "bufferView": nv, "componentType": 5126, "count": normals.len(), "type": "VEC3" }));
-            attributes["NORMAL"] = json!(self.accessors.len() - 1);
+            attributes["NORMAL"] = json!(self.float_accessor(normals, "VEC3"));
         }
         self.meshes.push(
             json!({ "name": name, "primitives": [{ "attributes": attributes, "indices": ia, "material": material }] }),
