@@ -121,6 +121,11 @@ pub const BVH_STACK_SIZE: u32 = 64;
 /// 2^STACK_COUNT_BITS, and scenes are limited to 2^(32 - STACK_COUNT_BITS) nodes and triangles (MAX_SCENE_ITEMS).
 pub const STACK_COUNT_BITS: u32 = 3;
 pub const MAX_SCENE_ITEMS: u32 = 1 << (32 - STACK_COUNT_BITS);
+/// Children per interior node in the device layout: a node's children sit in BVH_WIDTH consecutive records (unused
+/// ones hold a box no ray enters), and one traversal step tests all of them.
+pub const BVH_WIDTH: u32 = 4;
+// traverse.glsl and its CPU twin test exactly four children per step and order them with a four-input sorting network.
+const _: () = assert!(BVH_WIDTH == 4);
 /// Triangles per leaf the SAH builder may create at most.
 pub const BVH_MAX_LEAF_TRIS: u32 = 4;
 const _: () = assert!(BVH_MAX_LEAF_TRIS < 1 << STACK_COUNT_BITS);

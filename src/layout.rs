@@ -13,7 +13,7 @@ impl BvhNode {
     pub fn is_leaf(&self) -> bool {
         self.count() > 0
     }
-    /// Left child for an interior node, first triangle for a leaf.
+    /// First of the BVH_WIDTH child records for an interior node, first triangle for a leaf.
     pub fn first(&self) -> u32 {
         self.lo[3].to_bits()
     }

@@ -455,10 +455,13 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     );
     println!("cameras     {}", scene.camera_count);
     println!(
-        "bvh         {} nodes ({} leaves), depth {}, at most {} triangles per leaf, SAH cost {:.2}, {} bytes, built in {:.1} ms",
+        "bvh         {} node records ({} leaves), {} children per node, binary depth {}, at most {} entries on the \
+         traversal stack, at most {} triangles per leaf, SAH cost {:.2}, {} bytes, built in {:.1} ms",
         st.nodes,
         st.leaves,
+        pathwave::constants::BVH_WIDTH,
         st.depth,
+        st.max_waiting,
         st.max_leaf_tris,
         st.sah_cost,
         st.nodes * std::mem::size_of::<pathwave::layout::BvhNode>(),

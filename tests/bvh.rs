@@ -304,11 +304,67 @@ fn build_respects_leaf_size_and_stack_depth() {
     let b = bvh::build(&tris);
     assert!(b.stats.max_leaf_tris <= pathwave::constants::BVH_MAX_LEAF_TRIS);
     assert!(b.stats.depth < pathwave::constants::BVH_STACK_SIZE);
+    assert!(
+        b.stats.max_waiting < pathwave::constants::BVH_STACK_SIZE,
+        "traversal could push past the stack: {} entries",
+        b.stats.max_waiting
+    );
+    assert_wide_tree_is_sound(&b, tris.len());
     let mut seen = b.order.clone();
     seen.sort();
     assert_eq!(
         seen,
         (0..tris.len() as u32).collect::<Vec<_>>(),
         "the order must be a permutation"
+    );
+}
+
+/// Walks the widened tree: every interior node has BVH_WIDTH child records inside the array, unused slots are boxes
+/// no ray can enter and come after the used ones, each child's box lies inside its parent's, and the leaves cover
+/// every triangle exactly once.
+fn assert_wide_tree_is_sound(b: &bvh::Bvh, triangles: usize) {
+    use pathwave::constants::BVH_WIDTH;
+    let inside = |c: &pathwave::layout::BvhNode, p: &pathwave::layout::BvhNode| {
+        (0..3).all(|k| c.lo[k] >= p.lo[k] && c.hi[k] <= p.hi[k])
+    };
+    let mut covered = vec![0u32; triangles];
+    let mut work = vec![0usize];
+    let mut interior = 0;
+    while let Some(i) = work.pop() {
+        let n = b.nodes[i];
+        if n.is_leaf() {
+            for t in n.first()..n.first() + n.count() {
+                covered[t as usize] += 1;
+            }
+            continue;
+        }
+        interior += 1;
+        let first = n.first() as usize;
+        assert!(
+            first > i && first + BVH_WIDTH as usize <= b.nodes.len(),
+            "node {i}: children at {first}"
+        );
+        let mut used = true;
+        for c in &b.nodes[first..first + BVH_WIDTH as usize] {
+            let empty = c.lo[..3].iter().chain(&c.hi[..3]).all(|v| *v == f32::INFINITY);
+            if empty {
+                used = false;
+                continue;
+            }
+            assert!(used, "node {i}: a used child after an unused slot");
+            assert!(inside(c, &n), "node {i}: a child's box outside its parent's");
+        }
+        let used_children = b.nodes[first..first + BVH_WIDTH as usize]
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.lo[0] != f32::INFINITY)
+            .map(|(k, _)| first + k);
+        assert!(used_children.clone().count() >= 2, "node {i}: fewer than two children");
+        work.extend(used_children);
+    }
+    assert!(interior > 0, "the test needs a tree with interior nodes");
+    assert!(
+        covered.iter().all(|&c| c == 1),
+        "every triangle sits in exactly one leaf"
     );
 }

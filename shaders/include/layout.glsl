@@ -5,8 +5,9 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shared_constants.glsl"
 
-// 32 bytes. Interior: w of lo = left child index (right child is left + 1), w of hi = 0.
-// Leaf: w of lo = first triangle, w of hi = triangle count (> 0). Both w hold uint bits.
+// 32 bytes, one node as its parent sees it. Interior: w of lo = the first of its BVH_WIDTH child records (consecutive;
+// unused ones have lo = hi = +inf, a box no ray enters), w of hi = 0. Leaf: w of lo = first triangle, w of hi =
+// triangle count (> 0). Both w hold uint bits.
 struct BvhNode {
     vec4 lo;
     vec4 hi;

@@ -65,8 +65,28 @@ uint traverse_node_visits = 0u;
 // lavapipe even when no triangle needed it; outside, it still costs opaque scenes 40 %, hence the variant.
 //
 // lavapipe runs both sides of every branch under a mask, so a loop step costs a node test plus a triangle test
-// whichever one a lane needs. Each step therefore does one of each: the next interior node, and the next triangle of
-// a pending leaf. A leaf reached while another is pending waits as the current node.
+// whichever one a lane needs. Each step therefore does one of each: the next interior node (all its children), and
+// the next triangle of a pending leaf. A leaf reached while another is pending waits as the current node. Four-wide
+// nodes halve the steps of two-wide ones; on lavapipe a step then costs more (twice the node reads, three stack
+// stores), so the gain is smaller than the steps suggest (see README).
+// A child's entry distance (+inf when missed) and its (first, count) packed as a stack entry holds it.
+float test_child(uint record, vec3 o, vec3 inv_d, float tmin, float tmax, out uint packed) {
+    BvhNode n = load_node(record);
+    packed = (floatBitsToUint(n.lo.w) << STACK_COUNT_BITS) | floatBitsToUint(n.hi.w);
+    return intersect_box(n.lo.xyz, n.hi.xyz, o, inv_d, tmin, tmax);
+}
+
+// One compare-exchange of the sorting network that orders a node's children near to far.
+void sort2(inout float ta, inout float tb, inout uint wa, inout uint wb) {
+    bool swap = tb < ta;
+    float t = ta;
+    uint w = wa;
+    ta = swap ? tb : ta;
+    tb = swap ? t : tb;
+    wa = swap ? wb : wa;
+    wb = swap ? w : wb;
+}
+
 Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
     Hit hit;
     hit.t = tmax;
@@ -103,27 +123,32 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
 #endif
     while (true) {
         if (has_node && count == 0u) {
-            BvhNode ln = load_node(first);
-            BvhNode rn = load_node(first + 1u);
-            float tl = intersect_box(ln.lo.xyz, ln.hi.xyz, o, inv_d, tmin, hit.t);
-            float tr = intersect_box(rn.lo.xyz, rn.hi.xyz, o, inv_d, tmin, hit.t);
+            // All four children (BVH_WIDTH) at once, sorted near to far (misses, at +inf, sort last): the nearest is
+            // visited next, the others entered wait on the stack, farthest first. Stores are unconditional (a missed
+            // child is written, then overwritten) and sp moves only for hits, since branches cost their bodies anyway.
+            vec4 ct;
+            uvec4 cw;
+            ct.x = test_child(first, o, inv_d, tmin, hit.t, cw.x);
+            ct.y = test_child(first + 1u, o, inv_d, tmin, hit.t, cw.y);
+            ct.z = test_child(first + 2u, o, inv_d, tmin, hit.t, cw.z);
+            ct.w = test_child(first + 3u, o, inv_d, tmin, hit.t, cw.w);
 #ifdef TRAVERSE_COUNT_NODES
-            traverse_node_visits += 2u;
+            traverse_node_visits += BVH_WIDTH;
 #endif
-            bool hl = tl != uintBitsToFloat(0x7F800000u);
-            bool hr = tr != uintBitsToFloat(0x7F800000u);
-            uvec2 lw = floatBitsToUint(vec2(ln.lo.w, ln.hi.w));
-            uvec2 rw = floatBitsToUint(vec2(rn.lo.w, rn.hi.w));
-            // Visit the nearer child first; when both are hit the farther waits on the stack. Written with selects
-            // and an unconditional store (sp moves only when both are hit): branches cost their bodies anyway.
-            bool near_left = hl && (!hr || tl <= tr);
-            uvec2 far_child = near_left ? rw : lw;
-            stack[sp] = uvec2((far_child.x << STACK_COUNT_BITS) | far_child.y, floatBitsToUint(max(tl, tr)));
-            sp += hl && hr ? 1u : 0u;
-            uvec2 near_child = near_left ? lw : rw;
-            first = near_child.x;
-            count = near_child.y;
-            has_node = hl || hr;
+            sort2(ct.x, ct.y, cw.x, cw.y);
+            sort2(ct.z, ct.w, cw.z, cw.w);
+            sort2(ct.x, ct.z, cw.x, cw.z);
+            sort2(ct.y, ct.w, cw.y, cw.w);
+            sort2(ct.y, ct.z, cw.y, cw.z);
+            stack[sp] = uvec2(cw.w, floatBitsToUint(ct.w));
+            sp += ct.w != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+            stack[sp] = uvec2(cw.z, floatBitsToUint(ct.z));
+            sp += ct.z != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+            stack[sp] = uvec2(cw.y, floatBitsToUint(ct.y));
+            sp += ct.y != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+            first = cw.x >> STACK_COUNT_BITS;
+            count = cw.x & ((1u << STACK_COUNT_BITS) - 1u);
+            has_node = ct.x != uintBitsToFloat(0x7F800000u);
         }
         if (has_node && count > 0u && tri == end) {
             tri = first;

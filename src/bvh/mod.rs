@@ -1,9 +1,10 @@
-//! Binned-SAH BVH build, flattened into the GPU node layout (`layout::BvhNode`), with triangles reordered to match.
+//! Binned-SAH BVH build, widened to BVH_WIDTH children per node and flattened into the GPU node layout
+//! (`layout::BvhNode`), with triangles reordered to match.
 mod traverse;
 
 pub use traverse::{brute_force, intersect_triangle, trace, Ray, TraceHit};
 
-use crate::constants::{BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE};
+use crate::constants::{BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH};
 use crate::layout::BvhNode;
 use glam::Vec3;
 
@@ -44,9 +45,13 @@ impl Aabb {
 
 #[derive(Clone, Debug, Default)]
 pub struct BvhStats {
+    /// Node records on the device, unused child slots included.
     pub nodes: usize,
     pub leaves: usize,
+    /// Depth of the binary tree the build makes before widening.
     pub depth: u32,
+    /// The most entries the traversal stack can hold: what the widening must keep below BVH_STACK_SIZE.
+    pub max_waiting: u32,
     pub max_leaf_tris: u32,
     /// SAH cost with node visits and triangle tests both costing 1, relative to the root's area.
     pub sah_cost: f32,
@@ -126,7 +131,9 @@ pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
         root_area: root_box.area().max(f32::MIN_POSITIVE),
         ..inputs
     };
-    let (nodes, mut stats) = build_range(&inputs, &mut order, 0, root_box, 0, threads);
+    let (binary, mut stats) = build_range(&inputs, &mut order, 0, root_box, 0, threads);
+    let (nodes, max_waiting) = widen(&binary);
+    stats.max_waiting = max_waiting;
     stats.nodes = nodes.len();
     Bvh { nodes, order, stats }
 }
@@ -185,6 +192,7 @@ fn build_range(
         depth: ls.depth.max(rs.depth),
         max_leaf_tris: ls.max_leaf_tris.max(rs.max_leaf_tris),
         sah_cost: TRAVERSAL_COST * bounds.area() / inputs.root_area + ls.sah_cost + rs.sah_cost,
+        ..Default::default()
     };
     (nodes, stats)
 }
@@ -319,4 +327,84 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
         }
     }
     Some(i)
+}
+
+/// A child slot no ray enters: every slab's entry and exit are both +inf (direction component positive) or both -inf
+/// (negative), so the interval is empty, with the same arithmetic on the device and in the CPU twin.
+const EMPTY_SLOT: BvhNode = BvhNode {
+    lo: [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0],
+    hi: [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0],
+};
+
+/// Collapses the binary tree into BVH_WIDTH-wide nodes: each node adopts grandchildren in place of its largest
+/// interior children (by surface area, as they are the likeliest to be entered) until it has BVH_WIDTH.
+///
+/// Traversal pushes every entered child but the nearest, so a node `pushes` deep in the tree can leave that many
+/// entries waiting. A child is opened only while `pushes + children - 1 + height(child) < BVH_STACK_SIZE` holds for
+/// every child: a binary split always keeps it (height drops by one, pushes grow by one), so the stack bound the
+/// binary build guarantees carries over.
+fn widen(binary: &[BvhNode]) -> (Vec<BvhNode>, u32) {
+    if binary[0].is_leaf() || binary.len() == 1 {
+        return (binary.to_vec(), 0);
+    }
+    // Children always follow their parent in the binary array, so one backward sweep finds every height.
+    let mut height = vec![0u32; binary.len()];
+    for i in (0..binary.len()).rev() {
+        if !binary[i].is_leaf() {
+            let l = binary[i].first() as usize;
+            height[i] = 1 + height[l].max(height[l + 1]);
+        }
+    }
+    let area = |n: &BvhNode| {
+        let d = [n.hi[0] - n.lo[0], n.hi[1] - n.lo[1], n.hi[2] - n.lo[2]];
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    };
+    const W: usize = BVH_WIDTH as usize;
+    let mut out = Vec::with_capacity(binary.len() * 2);
+    out.push(binary[0]);
+    let mut max_waiting = 0;
+    // (binary node, its record in `out`, entries waiting on the stack when traversal reaches it)
+    let mut work = vec![(0usize, 0usize, 0u32)];
+    while let Some((b, slot, pushes)) = work.pop() {
+        let l = binary[b].first() as usize;
+        let mut slots = [l, l + 1, 0, 0];
+        let mut n = 2;
+        while n < W {
+            // The largest interior child whose opening keeps every child within the stack bound.
+            let mut best: Option<(usize, f32)> = None;
+            for k in 0..n {
+                let c = slots[k];
+                if binary[c].is_leaf() {
+                    continue;
+                }
+                let g = binary[c].first() as usize;
+                let tallest = (0..n)
+                    .filter(|&j| j != k)
+                    .map(|j| height[slots[j]])
+                    .chain([height[g], height[g + 1]])
+                    .max()
+                    .unwrap_or(0);
+                let a = area(&binary[c]);
+                if pushes + n as u32 + tallest < BVH_STACK_SIZE && best.is_none_or(|(_, ba)| a > ba) {
+                    best = Some((k, a));
+                }
+            }
+            let Some((k, _)) = best else { break };
+            let g = binary[slots[k]].first() as usize;
+            (slots[k], slots[n]) = (g, g + 1);
+            n += 1;
+        }
+        let children = &slots[..n];
+        max_waiting = max_waiting.max(pushes + children.len() as u32 - 1);
+        let block = out.len();
+        out[slot].lo[3] = f32::from_bits(block as u32);
+        out.extend(children.iter().map(|&c| binary[c]));
+        out.resize(block + BVH_WIDTH as usize, EMPTY_SLOT);
+        for (k, &c) in children.iter().enumerate().rev() {
+            if !binary[c].is_leaf() {
+                work.push((c, block + k, pushes + children.len() as u32 - 1));
+            }
+        }
+    }
+    (out, max_waiting)
 }

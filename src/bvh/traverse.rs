@@ -1,5 +1,5 @@
 //! CPU traversal of the exact GPU node layout; it mirrors shaders/include/traverse.glsl line for line.
-use crate::constants::{BVH_STACK_SIZE, NO_HIT, STACK_COUNT_BITS};
+use crate::constants::{BVH_STACK_SIZE, BVH_WIDTH, NO_HIT, STACK_COUNT_BITS};
 use crate::layout::{BvhNode, TriVerts};
 use glam::{Vec2, Vec3};
 
@@ -91,20 +91,28 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     let (mut tri, mut end) = (0u32, 0u32);
     loop {
         if has_node && count == 0 {
-            let (ln, rn) = (&nodes[first as usize], &nodes[first as usize + 1]);
-            let tl = intersect_box(ln, o, inv_d, ray.tmin, hit.t);
-            let tr = intersect_box(rn, o, inv_d, ray.tmin, hit.t);
-            match (tl, tr) {
-                (Some(a), Some(b)) => {
-                    let (near, far) = if a <= b { (ln, rn) } else { (rn, ln) };
-                    stack[sp] = ((far.first() << STACK_COUNT_BITS) | far.count(), a.max(b));
-                    sp += 1;
-                    (first, count) = (near.first(), near.count());
-                }
-                (Some(_), None) => (first, count) = (ln.first(), ln.count()),
-                (None, Some(_)) => (first, count) = (rn.first(), rn.count()),
-                (None, None) => has_node = false,
+            // All children, sorted near to far by the same network as the device (misses are +inf and sort last).
+            let mut ct = [0f32; BVH_WIDTH as usize];
+            let mut cw = [0u32; BVH_WIDTH as usize];
+            for c in 0..BVH_WIDTH as usize {
+                let n = &nodes[first as usize + c];
+                ct[c] = intersect_box(n, o, inv_d, ray.tmin, hit.t).unwrap_or(f32::INFINITY);
+                cw[c] = (n.first() << STACK_COUNT_BITS) | n.count();
             }
+            for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                if ct[b] < ct[a] {
+                    ct.swap(a, b);
+                    cw.swap(a, b);
+                }
+            }
+            for c in (1..BVH_WIDTH as usize).rev() {
+                stack[sp] = (cw[c], ct[c]);
+                if ct[c] != f32::INFINITY {
+                    sp += 1;
+                }
+            }
+            (first, count) = (cw[0] >> STACK_COUNT_BITS, cw[0] & ((1 << STACK_COUNT_BITS) - 1));
+            has_node = ct[0] != f32::INFINITY;
         }
         if has_node && count > 0 && tri == end {
             (tri, end) = (first, first + count);
