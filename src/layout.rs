@@ -1,24 +1,40 @@
 //! Rust mirrors of the structs in `shaders/include/layout.glsl`; tests/layout.rs checks them against the SPIR-V.
 use bytemuck::{Pod, Zeroable};
 
-/// 32 bytes. See `BvhNode` in layout.glsl for the meaning of each `w`.
+/// 64 bytes: one interior node and its BVH_WIDTH children's boxes, quantised. See `BvhNode` in layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct BvhNode {
-    pub lo: [f32; 4],
-    pub hi: [f32; 4],
+    /// xyz: f32 bits of the quantisation origin; w: the biased exponent of each axis's step (bytes 0, 1, 2).
+    pub origin: [u32; 4],
+    /// Each child as a traversal stack entry holds it, `first << STACK_COUNT_BITS | count`; 0 for an unused slot.
+    pub children: [u32; 4],
+    /// Byte c of each word is child c's: lo.x, lo.y, lo.z, hi.x.
+    pub q0: [u32; 4],
+    /// Byte c of each word is child c's: hi.y, hi.z; zw unused.
+    pub q1: [u32; 4],
 }
 
 impl BvhNode {
-    pub fn is_leaf(&self) -> bool {
-        self.count() > 0
+    /// The step of each axis's quantisation grid: 2^(exponent - 127), a normal power of two.
+    pub fn scale(&self) -> [f32; 3] {
+        std::array::from_fn(|a| f32::from_bits(((self.origin[3] >> (8 * a)) & 0xFF) << 23))
     }
-    /// First of the BVH_WIDTH child records for an interior node, first triangle for a leaf.
-    pub fn first(&self) -> u32 {
-        self.lo[3].to_bits()
-    }
-    pub fn count(&self) -> u32 {
-        self.hi[3].to_bits()
+
+    /// Child `c`'s box as traversal decodes it, or None for an unused slot. Each bound is origin + q * step: the
+    /// product is exact (q < 256, the step a power of two), so the one rounding is the same with or without a fused
+    /// multiply-add, on the device and here.
+    pub fn child_box(&self, c: usize) -> Option<([f32; 3], [f32; 3])> {
+        if self.children[c] == 0 {
+            return None;
+        }
+        let scale = self.scale();
+        let byte = |w: u32| ((w >> (8 * c)) & 0xFF) as f32;
+        let origin: [f32; 3] = std::array::from_fn(|a| f32::from_bits(self.origin[a]));
+        let lo = std::array::from_fn(|a| origin[a] + byte(self.q0[a]) * scale[a]);
+        let hi_q = [self.q0[3], self.q1[0], self.q1[1]];
+        let hi = std::array::from_fn(|a| origin[a] + byte(hi_q[a]) * scale[a]);
+        Some((lo, hi))
     }
 }
 
@@ -178,7 +194,7 @@ pub struct ToneMap {
 }
 
 const _: () = assert!(std::mem::size_of::<ToneMap>() == 32);
-const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);

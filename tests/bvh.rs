@@ -157,6 +157,7 @@ fn check_mesh_with(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64, ray_count: 
     let mut rng = Rng(seed);
     let scene = scene_of(triangles);
     let packed = gpu_scene::pack(&scene);
+    assert_wide_tree_is_sound(&packed.bvh, &scene.triangles);
     let (lo, hi) = scene.bounds();
     let rays = rays(&mut rng, &scene.triangles, lo, hi, ray_count);
     let reference: Vec<TraceHit> = rays.iter().map(|r| brute_force(&packed.tri_verts, r)).collect();
@@ -309,7 +310,7 @@ fn build_respects_leaf_size_and_stack_depth() {
         "traversal could push past the stack: {} entries",
         b.stats.max_waiting
     );
-    assert_wide_tree_is_sound(&b, tris.len());
+    assert_wide_tree_is_sound(&b, &tris);
     let mut seen = b.order.clone();
     seen.sort();
     assert_eq!(
@@ -319,50 +320,49 @@ fn build_respects_leaf_size_and_stack_depth() {
     );
 }
 
-/// Walks the widened tree: every interior node has BVH_WIDTH child records inside the array, unused slots are boxes
-/// no ray can enter and come after the used ones, each child's box lies inside its parent's, and the leaves cover
-/// every triangle exactly once.
-fn assert_wide_tree_is_sound(b: &bvh::Bvh, triangles: usize) {
-    use pathwave::constants::BVH_WIDTH;
-    let inside = |c: &pathwave::layout::BvhNode, p: &pathwave::layout::BvhNode| {
-        (0..3).all(|k| c.lo[k] >= p.lo[k] && c.hi[k] <= p.hi[k])
-    };
-    let mut covered = vec![0u32; triangles];
-    let mut work = vec![0usize];
-    let mut interior = 0;
-    while let Some(i) = work.pop() {
-        let n = b.nodes[i];
-        if n.is_leaf() {
-            for t in n.first()..n.first() + n.count() {
-                covered[t as usize] += 1;
+/// Walks the wide tree: every node's used child slots come first and there are at least two (one for a tree that is a
+/// single leaf), each child's decoded (quantised) box holds every triangle beneath it, and the leaves cover every
+/// triangle exactly once.
+fn assert_wide_tree_is_sound(b: &bvh::Bvh, tris: &[[Vec3; 3]]) {
+    use pathwave::constants::{BVH_WIDTH, STACK_COUNT_BITS};
+    let mut covered = vec![0u32; tris.len()];
+    // Returns the bounds of the triangles under the child entry, checking each level on the way up.
+    fn walk(b: &bvh::Bvh, tris: &[[Vec3; 3]], entry: u32, covered: &mut [u32]) -> (Vec3, Vec3) {
+        let (first, count) = (entry >> STACK_COUNT_BITS, entry & ((1 << STACK_COUNT_BITS) - 1));
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        if count > 0 {
+            for i in first..first + count {
+                covered[i as usize] += 1;
+                for v in tris[b.order[i as usize] as usize] {
+                    (lo, hi) = (lo.min(v), hi.max(v));
+                }
             }
-            continue;
+            return (lo, hi);
         }
-        interior += 1;
-        let first = n.first() as usize;
+        let n = b.nodes[first as usize];
+        let used = n.children.iter().take_while(|&&w| w != 0).count();
         assert!(
-            first > i && first + BVH_WIDTH as usize <= b.nodes.len(),
-            "node {i}: children at {first}"
+            n.children[used..].iter().all(|&w| w == 0),
+            "node {first}: a used child after an unused slot"
         );
-        let mut used = true;
-        for c in &b.nodes[first..first + BVH_WIDTH as usize] {
-            let empty = c.lo[..3].iter().chain(&c.hi[..3]).all(|v| *v == f32::INFINITY);
-            if empty {
-                used = false;
-                continue;
-            }
-            assert!(used, "node {i}: a used child after an unused slot");
-            assert!(inside(c, &n), "node {i}: a child's box outside its parent's");
+        assert!(used >= 2 || first == 0, "node {first}: fewer than two children");
+        for c in 0..used {
+            assert!(
+                n.children[c] >> STACK_COUNT_BITS > first || n.children[c] & 7 > 0,
+                "node {first}: a cycle"
+            );
+            let (clo, chi) = walk(b, tris, n.children[c], covered);
+            let (qlo, qhi) = n.child_box(c).expect("a used slot has a box");
+            assert!(
+                (0..3).all(|k| qlo[k] <= clo[k] && qhi[k] >= chi[k]),
+                "node {first} child {c}: decoded box {qlo:?}..{qhi:?} does not hold {clo:?}..{chi:?}"
+            );
+            (lo, hi) = (lo.min(clo), hi.max(chi));
         }
-        let used_children = b.nodes[first..first + BVH_WIDTH as usize]
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.lo[0] != f32::INFINITY)
-            .map(|(k, _)| first + k);
-        assert!(used_children.clone().count() >= 2, "node {i}: fewer than two children");
-        work.extend(used_children);
+        assert!(used <= BVH_WIDTH as usize);
+        (lo, hi)
     }
-    assert!(interior > 0, "the test needs a tree with interior nodes");
+    walk(b, tris, 0, &mut covered);
     assert!(
         covered.iter().all(|&c| c == 1),
         "every triangle sits in exactly one leaf"

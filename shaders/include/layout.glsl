@@ -5,12 +5,15 @@
 #extension GL_GOOGLE_include_directive : require
 #include "shared_constants.glsl"
 
-// 32 bytes, one node as its parent sees it. Interior: w of lo = the first of its BVH_WIDTH child records (consecutive;
-// unused ones have lo = hi = +inf, a box no ray enters), w of hi = 0. Leaf: w of lo = first triangle, w of hi =
-// triangle count (> 0). Both w hold uint bits.
+// 64 bytes (4 texels): an interior node, holding its BVH_WIDTH children's boxes quantised to 8 bits per bound on a grid
+// of origin + q * 2^(e - 127) per axis (the builder rounds outwards, so a decoded box holds the true one). children:
+// each child as a stack entry (first << STACK_COUNT_BITS | count): an interior child is the index of its own BvhNode with
+// count 0, a leaf its first triangle and triangle count (> 0); 0 marks an unused slot. Node 0 is the root.
 struct BvhNode {
-    vec4 lo;
-    vec4 hi;
+    uvec4 origin;   // xyz: f32 bits of the grid origin, w: biased exponents of x, y, z in bytes 0, 1, 2
+    uvec4 children;
+    uvec4 q0;       // byte c of each word belongs to child c: lo.x, lo.y, lo.z, hi.x
+    uvec4 q1;       // hi.y, hi.z, unused, unused
 };
 
 // 48 bytes: precomputed edges for Moller-Trumbore. v0.w = material index (uint bits); e1.w = 1 when the material
@@ -176,7 +179,10 @@ layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_c
 layout(set = 0, binding = BINDING_IMAGE_TEXELS) uniform usamplerBuffer image_texels;
 #define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
 #define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
-BvhNode load_node(uint i) { return BvhNode(FETCH(node_texels, 2u * i), FETCH(node_texels, 2u * i + 1u)); }
+BvhNode load_node(uint i) {
+    return BvhNode(texelFetch(node_texels, int(4u * i)), texelFetch(node_texels, int(4u * i + 1u)),
+                   texelFetch(node_texels, int(4u * i + 2u)), texelFetch(node_texels, int(4u * i + 3u)));
+}
 TriVerts load_tri_verts(uint i) { return TriVerts(FETCH3(tri_texels, i)); }
 TriShading load_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texels, i)); }
 TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoord_texels, i)); }

@@ -67,13 +67,15 @@ uint traverse_node_visits = 0u;
 // lavapipe runs both sides of every branch under a mask, so a loop step costs a node test plus a triangle test
 // whichever one a lane needs. Each step therefore does one of each: the next interior node (all its children), and
 // the next triangle of a pending leaf. A leaf reached while another is pending waits as the current node. Four-wide
-// nodes halve the steps of two-wide ones; on lavapipe a step then costs more (twice the node reads, three stack
-// stores), so the gain is smaller than the steps suggest (see README).
-// A child's entry distance (+inf when missed) and its (first, count) packed as a stack entry holds it.
-float test_child(uint record, vec3 o, vec3 inv_d, float tmin, float tmax, out uint packed) {
-    BvhNode n = load_node(record);
-    packed = (floatBitsToUint(n.lo.w) << STACK_COUNT_BITS) | floatBitsToUint(n.hi.w);
-    return intersect_box(n.lo.xyz, n.hi.xyz, o, inv_d, tmin, tmax);
+// nodes halve the steps of two-wide ones, and quantised child boxes keep a node to four texel reads (see README).
+
+// Child c's entry distance: +inf when the ray misses its box or the slot is unused.
+float test_child(BvhNode n, uint c, vec3 origin, vec3 scale, vec3 o, vec3 inv_d, float tmin, float tmax) {
+    uint shift = 8u * c;
+    vec3 lo = origin + vec3((n.q0.xyz >> shift) & 0xFFu) * scale;
+    vec3 hi = origin + vec3((uvec3(n.q0.w, n.q1.xy) >> shift) & 0xFFu) * scale;
+    float t = intersect_box(lo, hi, o, inv_d, tmin, tmax);
+    return n.children[c] == 0u ? uintBitsToFloat(0x7F800000u) : t;
 }
 
 // One compare-exchange of the sorting network that orders a node's children near to far.
@@ -93,24 +95,19 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
     hit.tri = NO_HIT;
     hit.uv = vec2(0.0);
     vec3 inv_d = safe_inverse(d);
-    // A node is known by its (first, count) words, read when its parent tested its box: visiting it fetches nothing
-    // more (a leaf) or only its two children. Each waiting node keeps its entry distance, so a pop compares that
-    // with the closest hit instead of fetching the box again (the same decision: the entry stays below the exit).
+    // A node is known by its (first, count) word, read when its parent tested its box: visiting an interior node
+    // fetches only its own record, a leaf nothing more. Each waiting node keeps its entry distance, so a pop compares
+    // that with the closest hit instead of testing the box again (the same decision: the entry stays below the exit).
     // An entry is one uvec2, (first << STACK_COUNT_BITS | count, entry distance): one dynamically indexed array
     // instead of two was 3 % faster on lavapipe.
     uvec2 stack[BVH_STACK_SIZE];
     uint sp = 0u;
-    // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
-    BvhNode root = load_node(0u);
-    uint first = floatBitsToUint(root.lo.w);
-    uint count = floatBitsToUint(root.hi.w);
+    // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
+    uint first = 0u;
+    uint count = 0u;
 #ifdef TRAVERSE_COUNT_NODES
-    traverse_node_visits = 1u;
+    traverse_node_visits = 0u;
 #endif
-    if ((first == 0u && count == 0u) ||
-        intersect_box(root.lo.xyz, root.hi.xyz, o, inv_d, tmin, hit.t) == uintBitsToFloat(0x7F800000u)) {
-        return hit;
-    }
     bool has_node = true; // (first, count) is a node still to visit
     uint tri = 0u;        // the pending leaf: triangles tri .. end - 1 are still to test
     uint end = 0u;
@@ -126,12 +123,14 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
             // All four children (BVH_WIDTH) at once, sorted near to far (misses, at +inf, sort last): the nearest is
             // visited next, the others entered wait on the stack, farthest first. Stores are unconditional (a missed
             // child is written, then overwritten) and sp moves only for hits, since branches cost their bodies anyway.
-            vec4 ct;
-            uvec4 cw;
-            ct.x = test_child(first, o, inv_d, tmin, hit.t, cw.x);
-            ct.y = test_child(first + 1u, o, inv_d, tmin, hit.t, cw.y);
-            ct.z = test_child(first + 2u, o, inv_d, tmin, hit.t, cw.z);
-            ct.w = test_child(first + 3u, o, inv_d, tmin, hit.t, cw.w);
+            BvhNode n = load_node(first);
+            vec3 origin = uintBitsToFloat(n.origin.xyz);
+            vec3 scale = uintBitsToFloat(((uvec3(n.origin.w) >> uvec3(0u, 8u, 16u)) & 0xFFu) << 23u);
+            vec4 ct = vec4(test_child(n, 0u, origin, scale, o, inv_d, tmin, hit.t),
+                           test_child(n, 1u, origin, scale, o, inv_d, tmin, hit.t),
+                           test_child(n, 2u, origin, scale, o, inv_d, tmin, hit.t),
+                           test_child(n, 3u, origin, scale, o, inv_d, tmin, hit.t));
+            uvec4 cw = n.children;
 #ifdef TRAVERSE_COUNT_NODES
             traverse_node_visits += BVH_WIDTH;
 #endif

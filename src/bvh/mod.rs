@@ -4,6 +4,7 @@ mod traverse;
 
 pub use traverse::{brute_force, intersect_triangle, trace, Ray, TraceHit};
 
+use crate::constants::STACK_COUNT_BITS;
 use crate::constants::{BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH};
 use crate::layout::BvhNode;
 use glam::Vec3;
@@ -64,8 +65,28 @@ pub struct Bvh {
     pub stats: BvhStats,
 }
 
-fn node(b: &Aabb, first: u32, count: u32) -> BvhNode {
-    BvhNode {
+/// A node of the binary tree the SAH build makes, before widening: 32 bytes, the box with `first` in lo.w (left
+/// child index, the right child follows it; or first triangle) and `count` in hi.w (0 for interior nodes).
+#[derive(Clone, Copy, Debug, Default)]
+struct BinaryNode {
+    lo: [f32; 4],
+    hi: [f32; 4],
+}
+
+impl BinaryNode {
+    fn is_leaf(&self) -> bool {
+        self.count() > 0
+    }
+    fn first(&self) -> u32 {
+        self.lo[3].to_bits()
+    }
+    fn count(&self) -> u32 {
+        self.hi[3].to_bits()
+    }
+}
+
+fn node(b: &Aabb, first: u32, count: u32) -> BinaryNode {
+    BinaryNode {
         lo: [b.lo.x, b.lo.y, b.lo.z, f32::from_bits(first)],
         hi: [b.hi.x, b.hi.y, b.hi.z, f32::from_bits(count)],
     }
@@ -110,13 +131,13 @@ pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
     }
     let mut order: Vec<u32> = (0..n as u32).collect();
     if n == 0 {
-        // first = 0 and count = 0 marks the empty tree; both traversals return at once.
+        // A root without children: every ray misses it.
         let stats = BvhStats {
             nodes: 1,
             ..Default::default()
         };
         return Bvh {
-            nodes: vec![node(&Aabb::EMPTY, 0, 0)],
+            nodes: vec![BvhNode::default()],
             order,
             stats,
         };
@@ -147,7 +168,7 @@ fn build_range(
     bounds: Aabb,
     depth: u32,
     threads: usize,
-) -> (Vec<BvhNode>, BvhStats) {
+) -> (Vec<BinaryNode>, BvhStats) {
     // The shape of the splice depends on the triangle count only, never on `threads`: same bytes on any machine.
     if order.len() < PARALLEL_MIN_TRIS {
         return build_sequential(inputs, order, start, bounds, depth);
@@ -175,7 +196,7 @@ fn build_range(
     let left_base = 3;
     let right_base = 3 + left.len() - 1;
     let place = |local: usize, base: usize| if local == 0 { usize::MAX } else { base + local - 1 };
-    let remap = |n: &BvhNode, base: usize| {
+    let remap = |n: &BinaryNode, base: usize| {
         let mut n = *n;
         if !n.is_leaf() {
             n.lo[3] = f32::from_bits(place(n.first() as usize, base) as u32);
@@ -203,8 +224,8 @@ fn build_sequential(
     start: usize,
     bounds: Aabb,
     depth0: u32,
-) -> (Vec<BvhNode>, BvhStats) {
-    let mut nodes = vec![BvhNode::default()];
+) -> (Vec<BinaryNode>, BvhStats) {
+    let mut nodes = vec![BinaryNode::default()];
     let mut stats = BvhStats::default();
     let root_area = inputs.root_area;
     // (node index, start, end, depth, bounds), positions local to `order`
@@ -226,8 +247,8 @@ fn build_sequential(
             }
             Some(mid) => {
                 let left = nodes.len();
-                nodes.push(BvhNode::default());
-                nodes.push(BvhNode::default());
+                nodes.push(BinaryNode::default());
+                nodes.push(BinaryNode::default());
                 nodes[index] = node(&bounds, left as u32, 0);
                 stats.sah_cost += TRAVERSAL_COST * bounds.area() / root_area;
                 let lb = inputs.bounds_of(&order[s..s + mid]);
@@ -329,13 +350,6 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
     Some(i)
 }
 
-/// A child slot no ray enters: every slab's entry and exit are both +inf (direction component positive) or both -inf
-/// (negative), so the interval is empty, with the same arithmetic on the device and in the CPU twin.
-const EMPTY_SLOT: BvhNode = BvhNode {
-    lo: [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0],
-    hi: [f32::INFINITY, f32::INFINITY, f32::INFINITY, 0.0],
-};
-
 /// Collapses the binary tree into BVH_WIDTH-wide nodes: each node adopts grandchildren in place of its largest
 /// interior children (by surface area, as they are the likeliest to be entered) until it has BVH_WIDTH.
 ///
@@ -343,10 +357,7 @@ const EMPTY_SLOT: BvhNode = BvhNode {
 /// entries waiting. A child is opened only while `pushes + children - 1 + height(child) < BVH_STACK_SIZE` holds for
 /// every child: a binary split always keeps it (height drops by one, pushes grow by one), so the stack bound the
 /// binary build guarantees carries over.
-fn widen(binary: &[BvhNode]) -> (Vec<BvhNode>, u32) {
-    if binary[0].is_leaf() || binary.len() == 1 {
-        return (binary.to_vec(), 0);
-    }
+fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
     // Children always follow their parent in the binary array, so one backward sweep finds every height.
     let mut height = vec![0u32; binary.len()];
     for i in (0..binary.len()).rev() {
@@ -355,17 +366,22 @@ fn widen(binary: &[BvhNode]) -> (Vec<BvhNode>, u32) {
             height[i] = 1 + height[l].max(height[l + 1]);
         }
     }
-    let area = |n: &BvhNode| {
+    let area = |n: &BinaryNode| {
         let d = [n.hi[0] - n.lo[0], n.hi[1] - n.lo[1], n.hi[2] - n.lo[2]];
         d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
     };
     const W: usize = BVH_WIDTH as usize;
-    let mut out = Vec::with_capacity(binary.len() * 2);
-    out.push(binary[0]);
+    let mut out = Vec::with_capacity(binary.len() / 2 + 1);
+    out.push(BvhNode::default());
+    if binary[0].is_leaf() {
+        // A tree of one leaf: the root holds it as its only child.
+        out[0] = quantise(&binary[0], &[(&binary[0], leaf_entry(&binary[0]))]);
+        return (out, 0);
+    }
     let mut max_waiting = 0;
-    // (binary node, its record in `out`, entries waiting on the stack when traversal reaches it)
+    // (binary node, the wide node made from it, entries waiting on the stack when traversal reaches it)
     let mut work = vec![(0usize, 0usize, 0u32)];
-    while let Some((b, slot, pushes)) = work.pop() {
+    while let Some((b, wide, pushes)) = work.pop() {
         let l = binary[b].first() as usize;
         let mut slots = [l, l + 1, 0, 0];
         let mut n = 2;
@@ -394,17 +410,76 @@ fn widen(binary: &[BvhNode]) -> (Vec<BvhNode>, u32) {
             (slots[k], slots[n]) = (g, g + 1);
             n += 1;
         }
-        let children = &slots[..n];
-        max_waiting = max_waiting.max(pushes + children.len() as u32 - 1);
-        let block = out.len();
-        out[slot].lo[3] = f32::from_bits(block as u32);
-        out.extend(children.iter().map(|&c| binary[c]));
-        out.resize(block + BVH_WIDTH as usize, EMPTY_SLOT);
-        for (k, &c) in children.iter().enumerate().rev() {
-            if !binary[c].is_leaf() {
-                work.push((c, block + k, pushes + children.len() as u32 - 1));
-            }
+        let waiting = pushes + n as u32 - 1;
+        max_waiting = max_waiting.max(waiting);
+        let mut children = Vec::with_capacity(W);
+        for &c in &slots[..n] {
+            let entry = if binary[c].is_leaf() {
+                leaf_entry(&binary[c])
+            } else {
+                let index = out.len();
+                out.push(BvhNode::default());
+                work.push((c, index, waiting));
+                (index as u32) << STACK_COUNT_BITS
+            };
+            children.push((&binary[c], entry));
         }
+        out[wide] = quantise(&binary[b], &children);
     }
     (out, max_waiting)
+}
+
+fn leaf_entry(leaf: &BinaryNode) -> u32 {
+    (leaf.first() << STACK_COUNT_BITS) | leaf.count()
+}
+
+/// One wide node: each child's box rounded outwards onto a grid of 255 steps per axis spanning `parent`, so the box
+/// traversal decodes (`BvhNode::child_box`, the same arithmetic as the device) holds the child's true box.
+fn quantise(parent: &BinaryNode, children: &[(&BinaryNode, u32)]) -> BvhNode {
+    let mut n = BvhNode::default();
+    let mut exps = [0u32; 3];
+    for (a, exp) in exps.iter_mut().enumerate() {
+        let origin = parent.lo[a];
+        n.origin[a] = origin.to_bits();
+        // The smallest step whose grid reaches the parent's far side, kept a normal power of two.
+        let extent = (parent.hi[a] - origin).max(f32::MIN_POSITIVE);
+        let mut e = ((extent / 255.0).log2().floor() as i32 + 127).clamp(1, 254);
+        while e < 254 && origin + 255.0 * f32::from_bits((e as u32) << 23) < parent.hi[a] {
+            e += 1;
+        }
+        *exp = e as u32;
+    }
+    n.origin[3] = exps[0] | exps[1] << 8 | exps[2] << 16;
+    let scale = n.scale();
+    let decode = |a: usize, q: u32| f32::from_bits(n.origin[a]) + q as f32 * scale[a];
+    for (c, (child, entry)) in children.iter().enumerate() {
+        n.children[c] = *entry;
+        let mut q = [0u32; 6];
+        for a in 0..3 {
+            // lo: the largest grid point at or below the child's; hi: the smallest at or above.
+            let mut lo = (((child.lo[a] - decode(a, 0)) / scale[a]).floor().max(0.0) as u32).min(255);
+            while lo > 0 && decode(a, lo) > child.lo[a] {
+                lo -= 1;
+            }
+            while lo < 255 && decode(a, lo + 1) <= child.lo[a] {
+                lo += 1;
+            }
+            let mut hi = (((child.hi[a] - decode(a, 0)) / scale[a]).ceil().max(0.0) as u32).min(255);
+            while hi < 255 && decode(a, hi) < child.hi[a] {
+                hi += 1;
+            }
+            while hi > 0 && decode(a, hi - 1) >= child.hi[a] {
+                hi -= 1;
+            }
+            (q[a], q[3 + a]) = (lo, hi);
+        }
+        let shift = 8 * c;
+        n.q0[0] |= q[0] << shift;
+        n.q0[1] |= q[1] << shift;
+        n.q0[2] |= q[2] << shift;
+        n.q0[3] |= q[3] << shift;
+        n.q1[0] |= q[4] << shift;
+        n.q1[1] |= q[5] << shift;
+    }
+    n
 }

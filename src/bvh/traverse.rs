@@ -56,9 +56,9 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(inv(d.x), inv(d.y), inv(d.z))
 }
 
-fn intersect_box(n: &BvhNode, o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-    let t0 = (v3(n.lo) - o) * inv_d;
-    let t1 = (v3(n.hi) - o) * inv_d;
+fn intersect_box(lo: [f32; 3], hi: [f32; 3], o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let t0 = (Vec3::from(lo) - o) * inv_d;
+    let t1 = (Vec3::from(hi) - o) * inv_d;
     let tn = t0.min(t1);
     let tf = t0.max(t1);
     let enter = tn.x.max(tn.y).max(tn.z.max(tmin));
@@ -80,25 +80,21 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     // A node is (first, count), packed on the stack as first << STACK_COUNT_BITS | count, as on the device.
     let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
-    let (mut first, mut count) = (nodes[0].first(), nodes[0].count());
-    // An empty tree is a root with no triangles and no children (no interior node's left child is node 0).
-    let empty = first == 0 && count == 0;
-    if empty || intersect_box(&nodes[0], o, inv_d, ray.tmin, hit.t).is_none() {
-        return hit;
-    }
+    // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
+    let (mut first, mut count) = (0u32, 0u32);
     let mut has_node = true;
     // The pending leaf: triangles tri .. end - 1 are still to test.
     let (mut tri, mut end) = (0u32, 0u32);
     loop {
         if has_node && count == 0 {
             // All children, sorted near to far by the same network as the device (misses are +inf and sort last).
-            let mut ct = [0f32; BVH_WIDTH as usize];
-            let mut cw = [0u32; BVH_WIDTH as usize];
-            for c in 0..BVH_WIDTH as usize {
-                let n = &nodes[first as usize + c];
-                ct[c] = intersect_box(n, o, inv_d, ray.tmin, hit.t).unwrap_or(f32::INFINITY);
-                cw[c] = (n.first() << STACK_COUNT_BITS) | n.count();
-            }
+            let n = &nodes[first as usize];
+            let mut ct: [f32; BVH_WIDTH as usize] = std::array::from_fn(|c| {
+                n.child_box(c)
+                    .and_then(|(lo, hi)| intersect_box(lo, hi, o, inv_d, ray.tmin, hit.t))
+                    .unwrap_or(f32::INFINITY)
+            });
+            let mut cw = n.children;
             for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if ct[b] < ct[a] {
                     ct.swap(a, b);
