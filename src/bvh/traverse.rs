@@ -76,9 +76,9 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     };
     let (o, d) = (ray.origin, ray.dir);
     let inv_d = safe_inverse(d);
-    // Waiting nodes keep their entry distance; a pop compares it with the closest hit instead of re-testing the box.
-    // A node is (first, count), packed on the stack as first << STACK_COUNT_BITS | count, as on the device.
-    let mut stack = [(0u32, 0f32); BVH_STACK_SIZE as usize];
+    // A node is (first, count), packed on the stack as first << STACK_COUNT_BITS | count, as on the device, with no
+    // distance (see traverse.glsl).
+    let mut stack = [0u32; BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
     // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
     let (mut first, mut count) = (0u32, 0u32);
@@ -102,7 +102,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
                 }
             }
             for c in (1..BVH_WIDTH as usize).rev() {
-                stack[sp] = (cw[c], ct[c]);
+                stack[sp] = cw[c];
                 if ct[c] != f32::INFINITY {
                     sp += 1;
                 }
@@ -114,15 +114,10 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
             (tri, end) = (first, first + count);
             has_node = false;
         }
-        // One pop per step: a waiting node beyond the closest hit is dropped, and the next step pops again.
         if !has_node && sp > 0 {
             sp -= 1;
-            let (packed, entry) = stack[sp];
-            if entry <= hit.t {
-                first = packed >> STACK_COUNT_BITS;
-                count = packed & ((1 << STACK_COUNT_BITS) - 1);
-                has_node = true;
-            }
+            (first, count) = (stack[sp] >> STACK_COUNT_BITS, stack[sp] & ((1 << STACK_COUNT_BITS) - 1));
+            has_node = true;
         }
         if tri < end {
             let i = tri;
