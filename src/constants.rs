@@ -36,7 +36,11 @@ pub const BINDING_TRI_TANGENT_TEXELS: u32 = 22;
 pub const BINDING_TRI_COLOR_TEXELS: u32 = 23;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
 pub const BINDING_IMAGE_TEXELS: u32 = 24;
-pub const BINDING_COUNT: u32 = 25;
+/// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
+/// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
+/// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
+pub const BINDING_PATH_TEXELS: u32 = 25;
+pub const BINDING_COUNT: u32 = 26;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;

@@ -202,7 +202,13 @@ uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixel
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }
 uint frame_estimator() { return (frame.flags >> ESTIMATOR_SHIFT) & 3u; }
 
+// A stage reads a path's field before it writes it, never after: the texel view need not see the stage's own writes.
+#ifdef TEXEL_READS
+layout(set = 0, binding = BINDING_PATH_TEXELS) uniform samplerBuffer path_texels;
+vec4 path_get(uint field, uint path) { return texelFetch(path_texels, int(field * frame.path_capacity + path)); }
+#else
 vec4 path_get(uint field, uint path) { return paths[field * frame.path_capacity + path]; }
+#endif
 void path_set(uint field, uint path, vec4 v) { paths[field * frame.path_capacity + path] = v; }
 
 #endif

@@ -238,7 +238,8 @@ struct TexelViews {
 }
 
 impl TexelViews {
-    /// Image texels are viewed as R32UI (one RGBA8 texel each), everything else as RGBA32UI.
+    /// Image texels are viewed as R32UI (one RGBA8 texel each), the path state as RGBA32F, everything else as
+    /// RGBA32UI.
     fn new(ctx: &Context, buffers: &[(u32, &Buffer)]) -> Result<Self, Error> {
         let mut v = TexelViews {
             views: Vec::new(),
@@ -247,10 +248,10 @@ impl TexelViews {
         for (binding, b) in buffers {
             let info = vk::BufferViewCreateInfo::default()
                 .buffer(b.raw)
-                .format(if *binding == BINDING_IMAGE_TEXELS {
-                    vk::Format::R32_UINT
-                } else {
-                    vk::Format::R32G32B32A32_UINT
+                .format(match *binding {
+                    BINDING_IMAGE_TEXELS => vk::Format::R32_UINT,
+                    BINDING_PATH_TEXELS => vk::Format::R32G32B32A32_SFLOAT,
+                    _ => vk::Format::R32G32B32A32_UINT,
                 })
                 .offset(0)
                 .range(vk::WHOLE_SIZE);
@@ -277,6 +278,8 @@ pub struct Session {
     frame: Frame,
     pixels: u64,
     capacity: u32,
+    /// The path state's texel views: dropped before it.
+    path_views: TexelViews,
     paths: Buffer,
     queues: Buffer,
     counters: Buffer,
@@ -319,6 +322,9 @@ pub struct Renderer {
     pipelines: Pipelines,
     /// Views of scene buffers: dropped before them.
     texel_views: Option<TexelViews>,
+    /// A one-texel path-state view bound whenever no session's is: a set must not keep a destroyed view (lavapipe
+    /// reads every binding of the set when it is bound, used or not).
+    path_stand_in: (TexelViews, Buffer),
     /// Every BVH and per-triangle buffer fits the storage-buffer range (BvhReads::Storage can read the scene).
     storage_ok: bool,
     scene: SceneBuffers,
@@ -490,6 +496,15 @@ impl Renderer {
             pipelines.bind_texel_views(&ctx, &v.views);
         }
         let timestamps = Timestamps::new(&ctx, 2048)?;
+        let stand_in = Buffer::new(
+            &ctx,
+            "path state stand-in",
+            16,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
+        let path_stand_in = (TexelViews::new(&ctx, &[(BINDING_PATH_TEXELS, &stand_in)])?, stand_in);
+        pipelines.bind_texel_views(&ctx, &path_stand_in.0.views);
         let mut r = Renderer {
             timestamps,
             pipelines,
@@ -500,6 +515,7 @@ impl Renderer {
             bvh_reads,
             storage_ok,
             texel_views,
+            path_stand_in,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
@@ -740,8 +756,11 @@ impl Renderer {
             .max()
             .unwrap_or(256 << 20);
         let budget = (heap / 16).max(per_path * 1024);
+        // The TEXEL_READS stages read the path state through one texel view, which must see all of it.
+        let view_paths = self.ctx.properties.limits.max_texel_buffer_elements as u64 / PATH_FIELDS as u64;
         let capacity = (pixels * s.spp as u64)
             .min(range / per_path)
+            .min(view_paths)
             .min(budget / per_path)
             .min(u32::MAX as u64 / 4) as u32;
         let ctx = &self.ctx;
@@ -750,9 +769,10 @@ impl Renderer {
             ctx,
             "path state",
             capacity as u64 * per_path,
-            storage,
+            storage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
+        let path_views = TexelViews::new(ctx, &[(BINDING_PATH_TEXELS, &paths)])?;
         let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
         let counters = Buffer::new(
             ctx,
@@ -768,6 +788,7 @@ impl Renderer {
             frame: Frame::default(),
             pixels,
             capacity,
+            path_views,
             paths,
             queues,
             counters,
@@ -798,6 +819,7 @@ impl Renderer {
     /// covered in chunks). Returns how many were added.
     pub fn advance(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
         self.bind_scene(&session.bindings(&session.probe));
+        self.pipelines.bind_texel_views(&self.ctx, &session.path_views.views);
         let (pixels, capacity) = (session.pixels, session.capacity);
         let mut frame = session.frame;
         frame.sample_index = session.done;
@@ -1245,6 +1267,7 @@ impl Renderer {
         let mut all: Vec<(u32, &Buffer)> = extra.to_vec();
         all.extend(stand_ins.iter().map(|(b, buf)| (*b, buf)));
         self.bind_scene(&all);
+        self.pipelines.bind_texel_views(ctx, &self.path_stand_in.0.views);
         let frame = Frame {
             light_count: self.light_count,
             env_prob: self.env_prob,
