@@ -81,7 +81,7 @@ void main() {
     TriVerts tv = load_tri_verts(tri);
     TriShading ts = load_tri_shading(tri);
     vec2 uv = hit.zw;
-    Material m = material_at(materials[floatBitsToUint(tv.v0.w)], tri, uv);
+    Material m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
     vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
     vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
     bool front = dot(ng, ray_d) < 0.0;

@@ -40,7 +40,11 @@ pub const BINDING_IMAGE_TEXELS: u32 = 24;
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
 pub const BINDING_PATH_TEXELS: u32 = 25;
-pub const BINDING_COUNT: u32 = 26;
+/// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
+pub const BINDING_MATERIAL_TEXELS: u32 = 26;
+/// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
+pub const BINDING_LIGHT_TEXELS: u32 = 27;
+pub const BINDING_COUNT: u32 = 28;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -48,6 +52,8 @@ pub const TEX_METALLIC_ROUGHNESS: u32 = 1;
 pub const TEX_NORMAL: u32 = 2;
 pub const TEX_EMISSIVE: u32 = 3;
 pub const TEX_SLOTS: u32 = 4;
+/// 16-byte texels per material (layout.glsl's Material is 240 bytes).
+pub const MATERIAL_TEXELS: u32 = 15;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.

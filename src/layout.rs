@@ -198,6 +198,7 @@ const _: () = assert!(std::mem::size_of::<BvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);
 const _: () = assert!(std::mem::size_of::<TriTexcoords>() == 48);

@@ -177,8 +177,29 @@ layout(set = 0, binding = BINDING_TRI_TEXCOORD_TEXELS) uniform usamplerBuffer tr
 layout(set = 0, binding = BINDING_TRI_TANGENT_TEXELS) uniform usamplerBuffer tri_tangent_texels;
 layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_color_texels;
 layout(set = 0, binding = BINDING_IMAGE_TEXELS) uniform usamplerBuffer image_texels;
+layout(set = 0, binding = BINDING_MATERIAL_TEXELS) uniform usamplerBuffer material_texels;
+layout(set = 0, binding = BINDING_LIGHT_TEXELS) uniform usamplerBuffer light_texels;
 #define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
 #define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
+Light load_light(uint i) {
+    uvec4 t = texelFetch(light_texels, int(i));
+    return Light(t.x, uintBitsToFloat(t.y), uintBitsToFloat(t.z), uintBitsToFloat(t.w));
+}
+Material load_material(uint i) {
+    uint b = MATERIAL_TEXELS * i;
+    Material m;
+    m.base_color = FETCH(material_texels, b);
+    m.emission = FETCH(material_texels, b + 1u);
+    m.params = FETCH(material_texels, b + 2u);
+    m.specular_color = FETCH(material_texels, b + 3u);
+    m.transmission = FETCH(material_texels, b + 4u);
+    m.attenuation = FETCH(material_texels, b + 5u);
+    m.alpha = FETCH(material_texels, b + 6u);
+    for (uint k = 0u; k < TEX_SLOTS; ++k) {
+        m.textures[k] = TextureSlot(FETCH(material_texels, b + 7u + 2u * k), FETCH(material_texels, b + 8u + 2u * k));
+    }
+    return m;
+}
 BvhNode load_node(uint i) {
     return BvhNode(texelFetch(node_texels, int(4u * i)), texelFetch(node_texels, int(4u * i + 1u)),
                    texelFetch(node_texels, int(4u * i + 2u)), texelFetch(node_texels, int(4u * i + 3u)));
@@ -190,6 +211,8 @@ TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_te
 TriColors load_tri_colors(uint i) { return TriColors(FETCH3(tri_color_texels, i)); }
 uint load_image_texel(uint i) { return texelFetch(image_texels, int(i)).x; }
 #else
+Light load_light(uint i) { return lights[i]; }
+Material load_material(uint i) { return materials[i]; }
 BvhNode load_node(uint i) { return nodes[i]; }
 TriVerts load_tri_verts(uint i) { return tri_verts[i]; }
 TriShading load_tri_shading(uint i) { return tri_shading[i]; }

@@ -11,7 +11,7 @@ uint pick_light(float u) {
     uint hi = frame.light_count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) >> 1u;
-        if (u < lights[mid].cdf) hi = mid; else lo = mid + 1u;
+        if (u < load_light(mid).cdf) hi = mid; else lo = mid + 1u;
     }
     return lo;
 }
@@ -32,7 +32,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     ls.wi = vec3(0.0, 0.0, 1.0);
     ls.dist = 0.0;
     ls.delta = false;
-    Light l = lights[pick_light(u_pick)];
+    Light l = load_light(pick_light(u_pick));
     if (scene_has(FEATURE_PUNCTUAL) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
         PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
         uint kind = floatBitsToUint(pl.position.w);
@@ -83,7 +83,7 @@ LightSample sample_light(vec3 p, float u_pick, vec2 u_point) {
     ls.dist = sqrt(dist2);
     ls.wi = to_light / ls.dist;
     float cos_l = dot(lng, -ls.wi);
-    Material lm = materials[floatBitsToUint(lv.v0.w)];
+    Material lm = load_material(floatBitsToUint(lv.v0.w));
     // Counter-clockwise faces emit; both do when the material is double-sided.
     bool faces = cos_l > 0.0 || (lm.emission.w > 0.5 && cos_l < 0.0);
     if (!faces) return ls;

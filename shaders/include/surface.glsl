@@ -45,7 +45,7 @@ float material_coverage(Material m, uint tri, vec2 b) {
 // Whether a ray stops at this candidate hit on an alpha-tested triangle. BLEND stops with probability alpha, decided
 // by a hash of the ray's key and the triangle, so revisiting the triangle in one traversal gives the same answer.
 bool alpha_stops(uint tri, vec2 b, uint key) {
-    Material m = materials[floatBitsToUint(load_tri_verts(tri).v0.w)];
+    Material m = load_material(floatBitsToUint(load_tri_verts(tri).v0.w));
     float c = material_coverage(m, tri, b);
     if (c >= 1.0) return true;
     if (c <= 0.0) return false;

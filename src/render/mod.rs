@@ -404,7 +404,10 @@ impl Renderer {
         let texel_format = [uint4, uint1]
             .iter()
             .all(|f| f.buffer_features.contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER));
-        let per_triangle_bytes = [
+        // Every buffer read through an RGBA32UI view (all but the image texels).
+        let viewed_bytes = [
+            std::mem::size_of_val(&packed.materials[..]),
+            std::mem::size_of_val(&packed.lights[..]),
             std::mem::size_of_val(&packed.bvh.nodes[..]),
             std::mem::size_of_val(&packed.tri_verts[..]),
             std::mem::size_of_val(&packed.tri_shading[..]),
@@ -413,7 +416,7 @@ impl Renderer {
             std::mem::size_of_val(&packed.tri_colors[..]),
         ];
         let texel_ok = texel_format
-            && per_triangle_bytes.iter().all(|b| *b as u64 <= 16 * max_texels)
+            && viewed_bytes.iter().all(|b| *b as u64 <= 16 * max_texels)
             && packed.texels.len() as u64 <= max_texels;
         // `element`: the bytes per texel of the view the buffer is also read through, if any.
         let upload_as = |name: &str, data: &[u8], element: Option<u64>| -> Result<Buffer, Error> {
@@ -443,6 +446,9 @@ impl Renderer {
             Buffer::with_data_usage(&ctx, name, data, usage)
         };
         let upload = |name: &str, data: &[u8]| upload_as(name, data, None);
+        // Read through a view by the texel stages and from the storage buffer by the others (probe_bsdf, the storage
+        // variants), so it must fit the storage range either way: past it, the storage-only upload refuses it by name.
+        let upload_both = |name: &str, data: &[u8]| upload_as(name, data, (data.len() as u64 <= range).then_some(16));
         let per_tri = |name: &str, data: &[u8]| upload_as(name, data, Some(16));
         use bytemuck::cast_slice as bytes;
         let buffers = SceneBuffers {
@@ -452,8 +458,8 @@ impl Renderer {
             tri_texcoords: per_tri("texture coordinates", bytes(&packed.tri_texcoords))?,
             tri_tangents: per_tri("tangents", bytes(&packed.tri_tangents))?,
             tri_colors: per_tri("vertex colours", bytes(&packed.tri_colors))?,
-            materials: upload("materials", bytes(&packed.materials))?,
-            lights: upload("lights", bytes(&packed.lights))?,
+            materials: upload_both("materials", bytes(&packed.materials))?,
+            lights: upload_both("lights", bytes(&packed.lights))?,
             env: upload("environment", bytes(&packed.env_data))?,
             punctual: upload("punctual lights", bytes(&packed.punctual))?,
             textures: upload("textures", bytes(&packed.textures))?,
@@ -471,13 +477,15 @@ impl Renderer {
                     (BINDING_TRI_TANGENT_TEXELS, &b.tri_tangents),
                     (BINDING_TRI_COLOR_TEXELS, &b.tri_colors),
                     (BINDING_IMAGE_TEXELS, &b.texels),
+                    (BINDING_MATERIAL_TEXELS, &b.materials),
+                    (BINDING_LIGHT_TEXELS, &b.lights),
                 ],
             )?)
         } else {
             None
         };
         // Storage reads need every per-triangle buffer and the image texels within the storage range.
-        let storage_ok = per_triangle_bytes.iter().all(|b| *b as u64 <= range) && b.texels.size <= range;
+        let storage_ok = viewed_bytes.iter().all(|b| *b as u64 <= range) && b.texels.size <= range;
         let env = scene.environment.as_ref();
         let alpha_tested = packed.tri_verts.iter().any(|t| t.e1[3] != 0.0);
         let bvh_reads = match (&texel_views, std::env::var("PATHWAVE_BVH_READS").as_deref()) {
