@@ -12,8 +12,7 @@ void main() {
     vec4 o = path_get(PATH_SHADOW_ORIGIN, path);
     vec3 d = path_get(PATH_SHADOW_DIR, path).xyz;
     uint key = pcg4d(uvec4(path_pixel(path), path_sample(path), (frame.bounce << 8u) | DIM_SHADOW_ALPHA, frame.seed)).x;
-    Hit h = trace(o.xyz, d, 0.0, o.w, true, key);
-    if (h.tri == NO_HIT) {
+    if (!occluded(o.xyz, d, 0.0, o.w, key)) {
         vec4 l = path_get(PATH_RADIANCE, path);
         path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));
     }

@@ -89,7 +89,8 @@ void sort2(inout float ta, inout float tb, inout uint wa, inout uint wb) {
     wb = swap ? w : wb;
 }
 
-Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+// The closest (or any) hit's distance and triangle; its barycentrics are left 0 (see trace).
+Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
     Hit hit;
     hit.t = tmax;
     hit.tri = NO_HIT;
@@ -190,7 +191,17 @@ Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) 
         }
     }
 #endif
-    return with_barycentrics(hit, o, d, tmin);
+    return hit;
+}
+
+// The hit with its barycentrics, found again from the same arithmetic (traversal keeps only t and the triangle).
+Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+    return with_barycentrics(trace_hit(o, d, tmin, tmax, any_hit, alpha_key), o, d, tmin);
+}
+
+// Whether anything blocks the segment: a shadow ray, which skips the barycentrics' triangle test.
+bool occluded(vec3 o, vec3 d, float tmin, float tmax, uint alpha_key) {
+    return trace_hit(o, d, tmin, tmax, true, alpha_key).tri != NO_HIT;
 }
 
 #endif
