@@ -278,6 +278,23 @@ fn sphere_over_plane() {
     check_mesh("sphere", sphere_and_plane(), 3);
 }
 
+/// Child boxes are quantised relative to their parent on a power-of-two grid: a 2-centimetre object 1 km from the
+/// origin (its smallest nodes span a few hundred float steps of their position) and a 500-kilometre one exercise the
+/// grid's exponent at both ends, and the rounding outwards in float arithmetic. The mesh is turned off the axes so no test
+/// ray lies in its plane, where a box test and a triangle test legitimately disagree.
+#[test]
+fn quantised_boxes_hold_at_extreme_scales() {
+    let turn = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 0.2);
+    let mesh = |scale: f32, at: Vec3| -> Vec<[Vec3; 3]> {
+        sphere_and_plane()
+            .into_iter()
+            .map(|t| t.map(|v| turn * v * scale + at))
+            .collect()
+    };
+    check_mesh_with("far and small", mesh(1e-2, Vec3::new(1.0e3, -0.7e3, 0.4e3)), 21, 2_000);
+    check_mesh_with("huge", mesh(2.5e5, Vec3::ZERO), 22, 2_000);
+}
+
 #[test]
 fn cornell_box() {
     let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
