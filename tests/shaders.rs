@@ -244,8 +244,8 @@ fn watch_rebuilds_on_change_and_survives_a_compile_error() {
 }
 
 /// examples/shaders/bvh-cost holds only extend.comp and shade.comp (its includes are the built-in ones): a false
-/// colour of the nodes each camera ray visited: rays over the open floor visit few (blue), rays grazing the spheres'
-/// silhouettes many (red).
+/// colour of the child boxes each camera ray tested: rays over the open floor test few (blue), rays grazing the
+/// spheres' silhouettes many (red).
 #[test]
 fn the_bvh_cost_example_renders_a_false_colour_image() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/shaders/bvh-cost");
@@ -270,7 +270,7 @@ fn the_bvh_cost_example_renders_a_false_colour_image() {
         "{log}"
     );
     let (_, _, px) = pathwave::output::read_exr(&exr).unwrap();
-    // Under 16 nodes: blue to half green, no red. Over 32: some red.
+    // Under 32 boxes: blue to half green, no red. Over 64: some red.
     let cheap = px.iter().filter(|p| p[0] == 0.0 && p[1] < 0.5).count();
     let costly = px.iter().filter(|p| p[0] > 0.0).count();
     assert!(

@@ -54,8 +54,8 @@ Hit with_barycentrics(Hit h, vec3 o, vec3 d, float tmin) {
 }
 
 #ifdef TRAVERSE_COUNT_NODES
-// Nodes visited by the last trace(): a stage that defines TRAVERSE_COUNT_NODES before including this file can show
-// traversal cost (see examples/shaders/bvh-cost). Off by default, so it costs nothing.
+// Child boxes the last trace() tested (BVH_WIDTH per node visited): a stage that defines TRAVERSE_COUNT_NODES before
+// including this file can show traversal cost (see examples/shaders/bvh-cost). Off by default, so it costs nothing.
 uint traverse_node_visits = 0u;
 #endif
 

@@ -1,4 +1,4 @@
-// extend (example, bvh-cost): the built-in closest-hit stage, also recording how many BVH nodes each ray visited.
+// extend (example, bvh-cost): the built-in closest-hit stage, also recording how many BVH child boxes each ray tested.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #define TRAVERSE_COUNT_NODES

@@ -1,10 +1,10 @@
-// shade (example, bvh-cost): false colour of the BVH nodes each camera ray visited, blue (few) to green to red
-// (BVH_COST_SCALE or more). Paths end here, so the image is the cost of the first bounce.
+// shade (example, bvh-cost): false colour of the BVH child boxes each camera ray tested (four per node visited), blue
+// (few) to green to red (BVH_COST_SCALE or more). Paths end here, so the image is the cost of the first bounce.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
 
-const float BVH_COST_SCALE = 64.0;
+const float BVH_COST_SCALE = 128.0;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
