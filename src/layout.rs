@@ -21,19 +21,21 @@ impl BvhNode {
         std::array::from_fn(|a| f32::from_bits(((self.origin[3] >> (8 * a)) & 0xFF) << 23))
     }
 
-    /// Child `c`'s box as traversal decodes it, or None for an unused slot. Each bound is origin + q * step: the
-    /// product is exact (q < 256, the step a power of two), so the one rounding is the same with or without a fused
-    /// multiply-add, on the device and here.
+    /// Grid point `q` on `axis`: origin + q * step. The product is exact (q < 256, the step a power of two), so the
+    /// one rounding is the same with or without a fused multiply-add, on the device and here.
+    pub fn bound(&self, axis: usize, q: u32) -> f32 {
+        f32::from_bits(self.origin[axis]) + q as f32 * self.scale()[axis]
+    }
+
+    /// Child `c`'s box as traversal decodes it, or None for an unused slot.
     pub fn child_box(&self, c: usize) -> Option<([f32; 3], [f32; 3])> {
         if self.children[c] == 0 {
             return None;
         }
-        let scale = self.scale();
-        let byte = |w: u32| ((w >> (8 * c)) & 0xFF) as f32;
-        let origin: [f32; 3] = std::array::from_fn(|a| f32::from_bits(self.origin[a]));
-        let lo = std::array::from_fn(|a| origin[a] + byte(self.q0[a]) * scale[a]);
+        let byte = |w: u32| (w >> (8 * c)) & 0xFF;
         let hi_q = [self.q0[3], self.q1[0], self.q1[1]];
-        let hi = std::array::from_fn(|a| origin[a] + byte(hi_q[a]) * scale[a]);
+        let lo = std::array::from_fn(|a| self.bound(a, byte(self.q0[a])));
+        let hi = std::array::from_fn(|a| self.bound(a, byte(hi_q[a])));
         Some((lo, hi))
     }
 }

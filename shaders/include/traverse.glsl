@@ -78,6 +78,12 @@ float test_child(BvhNode n, uint c, vec3 origin, vec3 scale, vec3 o, vec3 inv_d,
     return n.children[c] == 0u ? uintBitsToFloat(0x7F800000u) : t;
 }
 
+// A child or stack word, first << STACK_COUNT_BITS | count, as (first, count).
+void unpack(uint word, out uint first, out uint count) {
+    first = word >> STACK_COUNT_BITS;
+    count = word & ((1u << STACK_COUNT_BITS) - 1u);
+}
+
 // One compare-exchange of the sorting network that orders a node's children near to far.
 void sort2(inout float ta, inout float tb, inout uint wa, inout uint wb) {
     bool swap = tb < ta;
@@ -146,8 +152,7 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
             sp += ct.z != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
             stack[sp] = cw.y;
             sp += ct.y != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
-            first = cw.x >> STACK_COUNT_BITS;
-            count = cw.x & ((1u << STACK_COUNT_BITS) - 1u);
+            unpack(cw.x, first, count);
             has_node = ct.x != uintBitsToFloat(0x7F800000u);
         }
         if (has_node && count > 0u && tri == end) {
@@ -157,8 +162,7 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
         }
         if (!has_node && sp > 0u) {
             --sp;
-            first = stack[sp] >> STACK_COUNT_BITS;
-            count = stack[sp] & ((1u << STACK_COUNT_BITS) - 1u);
+            unpack(stack[sp], first, count);
             has_node = true;
         }
         if (tri < end) {

@@ -74,6 +74,12 @@ struct BinaryNode {
 }
 
 impl BinaryNode {
+    fn bounds(&self) -> Aabb {
+        Aabb {
+            lo: Vec3::new(self.lo[0], self.lo[1], self.lo[2]),
+            hi: Vec3::new(self.hi[0], self.hi[1], self.hi[2]),
+        }
+    }
     fn is_leaf(&self) -> bool {
         self.count() > 0
     }
@@ -366,10 +372,6 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
             height[i] = 1 + height[l].max(height[l + 1]);
         }
     }
-    let area = |n: &BinaryNode| {
-        let d = [n.hi[0] - n.lo[0], n.hi[1] - n.lo[1], n.hi[2] - n.lo[2]];
-        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
-    };
     const W: usize = BVH_WIDTH as usize;
     let mut out = Vec::with_capacity(binary.len() / 2 + 1);
     out.push(BvhNode::default());
@@ -400,7 +402,7 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
                     .chain([height[g], height[g + 1]])
                     .max()
                     .unwrap_or(0);
-                let a = area(&binary[c]);
+                let a = binary[c].bounds().area();
                 if pushes + n as u32 + tallest < BVH_STACK_SIZE && best.is_none_or(|(_, ba)| a > ba) {
                     best = Some((k, a));
                 }
@@ -412,8 +414,8 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
         }
         let waiting = pushes + n as u32 - 1;
         max_waiting = max_waiting.max(waiting);
-        let mut children = Vec::with_capacity(W);
-        for &c in &slots[..n] {
+        let mut children = [(&binary[0], 0u32); W];
+        for (k, &c) in slots[..n].iter().enumerate() {
             let entry = if binary[c].is_leaf() {
                 leaf_entry(&binary[c])
             } else {
@@ -422,9 +424,9 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
                 work.push((c, index, waiting));
                 (index as u32) << STACK_COUNT_BITS
             };
-            children.push((&binary[c], entry));
+            children[k] = (&binary[c], entry);
         }
-        out[wide] = quantise(&binary[b], &children);
+        out[wide] = quantise(&binary[b], &children[..n]);
     }
     (out, max_waiting)
 }
@@ -451,7 +453,9 @@ fn quantise(parent: &BinaryNode, children: &[(&BinaryNode, u32)]) -> BvhNode {
     }
     n.origin[3] = exps[0] | exps[1] << 8 | exps[2] << 16;
     let scale = n.scale();
-    let decode = |a: usize, q: u32| f32::from_bits(n.origin[a]) + q as f32 * scale[a];
+    // The grid points exactly as traversal decodes them (the grid is set; children are filled in below).
+    let grid = n;
+    let decode = |a: usize, q: u32| grid.bound(a, q);
     for (c, (child, entry)) in children.iter().enumerate() {
         n.children[c] = *entry;
         let mut q = [0u32; 6];

@@ -66,6 +66,11 @@ fn intersect_box(lo: [f32; 3], hi: [f32; 3], o: Vec3, inv_d: Vec3, tmin: f32, tm
     (enter <= exit).then_some(enter)
 }
 
+/// A child or stack word, first << STACK_COUNT_BITS | count, as (first, count).
+fn unpack(word: u32) -> (u32, u32) {
+    (word >> STACK_COUNT_BITS, word & ((1 << STACK_COUNT_BITS) - 1))
+}
+
 /// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device: each step tests
 /// the next interior node and the next triangle of a pending leaf (see traverse.glsl for why).
 pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> TraceHit {
@@ -107,7 +112,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
                     sp += 1;
                 }
             }
-            (first, count) = (cw[0] >> STACK_COUNT_BITS, cw[0] & ((1 << STACK_COUNT_BITS) - 1));
+            (first, count) = unpack(cw[0]);
             has_node = ct[0] != f32::INFINITY;
         }
         if has_node && count > 0 && tri == end {
@@ -116,7 +121,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
         }
         if !has_node && sp > 0 {
             sp -= 1;
-            (first, count) = (stack[sp] >> STACK_COUNT_BITS, stack[sp] & ((1 << STACK_COUNT_BITS) - 1));
+            (first, count) = unpack(stack[sp]);
             has_node = true;
         }
         if tri < end {
