@@ -5,8 +5,9 @@
 #include "stage.glsl"
 
 void main() {
-        uint i = gl_GlobalInvocationID.x;
-    if (i >= frame.pass_pixels) return;
+    uint i = gl_GlobalInvocationID.x;
+    // A follow dispatch cut short left wrong samples: the host runs the pass again with the wavefront.
+    if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint pixel = frame.pixel_offset + i;
     uint pixels = frame.width * frame.height;
     vec4 sum = film[pixel];

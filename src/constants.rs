@@ -140,6 +140,10 @@ const _: () = assert!(BVH_WIDTH == 4);
 pub const BVH_MAX_LEAF_TRIS: u32 = 4;
 const _: () = assert!(BVH_MAX_LEAF_TRIS < 1 << STACK_COUNT_BITS);
 
+/// Samples one follow invocation takes through at most, per dispatch: lavapipe cuts a shader's loops short once their
+/// iterations add up to 65535 per invocation (follow.comp detects it), so a dispatch must not chain too many paths.
+pub const FOLLOW_SAMPLES: u32 = 16;
+
 /// Bounce at which Russian roulette starts.
 pub const RR_START_BOUNCE: u32 = 3;
 

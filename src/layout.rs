@@ -140,7 +140,8 @@ pub struct GpuPunctual {
     pub intensity: [f32; 4],
 }
 
-/// 48 bytes: queue counters, the indirect dispatch of the current bounce, and ray tallies.
+/// 48 bytes: queue counters, the indirect dispatch of the current bounce, ray tallies, and whether a follow dispatch was
+/// cut short (its pass is then run again by the wavefront).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Counters {
@@ -148,8 +149,8 @@ pub struct Counters {
     pub dispatch: [u32; 4],
     pub extension_rays: u32,
     pub shadow_rays: u32,
+    pub follow_cut: u32,
     pub pad0: u32,
-    pub pad1: u32,
 }
 
 /// 128 bytes: the push constants of every stage.

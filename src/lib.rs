@@ -11,7 +11,7 @@ pub mod variants;
 pub mod viewer;
 pub mod vk;
 
-pub use render::{BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, Session};
+pub use render::{BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, Schedule, Session};
 pub use scene::Scene;
 
 use std::path::PathBuf;

@@ -15,4 +15,10 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("shade", "textured", "TEXTURED"),
     ("shade", "texel", "TEXEL_READS"),
     ("shade", "textured_texel", "TEXTURED TEXEL_READS"),
+    // The fused integrator runs traversal and shading: alpha testing implies textured shading.
+    ("follow", "textured", "TEXTURED"),
+    ("follow", "alpha", "ALPHA_TEST TEXTURED"),
+    ("follow", "texel", "TEXEL_READS"),
+    ("follow", "textured_texel", "TEXTURED TEXEL_READS"),
+    ("follow", "alpha_texel", "ALPHA_TEST TEXTURED TEXEL_READS"),
 ];

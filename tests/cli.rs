@@ -58,9 +58,15 @@ fn renders_the_cornell_box_to_exr_and_png() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary = stderr(&o);
-    for word in ["samples/s", "Mrays/s", "GPU ms", "extend", "shade", "connect"] {
+    for word in ["samples/s", "Mrays/s", "GPU ms", "accumulate"] {
         assert!(summary.contains(word), "the summary line lacks {word}: {summary}");
     }
+    // Whichever schedule ran, its stages are timed: the wavefront's three per bounce, or follow.
+    let wavefront = ["extend", "shade", "connect"].iter().all(|w| summary.contains(w));
+    assert!(
+        wavefront || summary.contains("follow"),
+        "the summary line lacks the stages: {summary}"
+    );
     let (w, h, px) = pathwave::output::read_exr(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
     let mean: f64 = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).sum::<f64>() / px.len() as f64;
@@ -371,6 +377,8 @@ fn bench_reports_every_case() {
         [
             "cornell-box",
             "cornell-storage",
+            "cornell-fused",
+            "cornell-wavefront",
             "glass",
             "terrain-32k",
             "terrain-storage"
@@ -390,5 +398,19 @@ fn bench_reports_every_case() {
         }
         assert!(table.contains(c["name"].as_str().unwrap()), "{table}");
     }
-    assert!(cases[3]["triangles"].as_u64().unwrap() > 30_000);
+    assert!(cases[5]["triangles"].as_u64().unwrap() > 30_000);
+    let stages = |k: usize| {
+        cases[k]["stage_ms"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(cases[2]["schedule"], "fused");
+    assert!(stages(2).contains(&"follow".to_string()), "{:?}", stages(2));
+    assert_eq!(cases[3]["schedule"], "wavefront");
+    for s in ["generate", "extend", "shade", "connect", "accumulate"] {
+        assert!(stages(3).contains(&s.to_string()), "{:?}", stages(3));
+    }
 }

@@ -55,7 +55,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriColors => "TriColors", [c0, c1, c2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
-        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, pad0, pad1]),
+        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, pad0]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
             max_depth, pass_pixels, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,

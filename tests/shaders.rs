@@ -36,16 +36,17 @@ fn exported() -> tempfile::TempDir {
     dir
 }
 
-/// Makes the shade stage end every path with one radiance, whatever it hit.
+/// Makes the shade stage end every path with one radiance, whatever it hit. Only the wavefront runs shade.comp, so
+/// the renderer must switch to it for the edit to show.
 fn make_shade_constant(dir: &Path) {
     let path = dir.join("shade.comp");
     let src = std::fs::read_to_string(&path).unwrap();
-    let anchor = "    vec4 hit = path_get(PATH_HIT, path);";
+    let anchor = "    PathVertex v;";
     assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
     let [r, g, b] = CONSTANT;
     let patched = src.replacen(
         anchor,
-        &format!("    finish(path, vec3({r}, {g}, {b}));\n    return;\n{anchor}"),
+        &format!("    path_set(PATH_RADIANCE, path, vec4({r}, {g}, {b}, 0.0));\n    return;\n{anchor}"),
         1,
     );
     std::fs::write(&path, patched).unwrap();
@@ -154,6 +155,12 @@ fn includes_decide_which_stages_are_stale() {
         bsdf,
         [
             "energy_tables",
+            "follow",
+            "follow_alpha",
+            "follow_alpha_texel",
+            "follow_texel",
+            "follow_textured",
+            "follow_textured_texel",
             "probe_bsdf",
             "shade",
             "shade_texel",
@@ -162,10 +169,10 @@ fn includes_decide_which_stages_are_stale() {
         ]
     );
     let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);
-    let want = ["connect", "extend", "probe_trace"];
+    let want = ["connect", "extend", "follow", "probe_trace"];
     let twins = |s: &&String| want.iter().any(|w| s.as_str() == *w || s.starts_with(&format!("{w}_")));
     assert!(
-        traverse.len() == 10 && traverse.iter().all(|s| twins(&s)),
+        traverse.len() == 16 && traverse.iter().all(|s| twins(&s)),
         "{traverse:?}"
     );
     assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);

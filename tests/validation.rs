@@ -32,9 +32,13 @@ fn a_render_passes_synchronization_validation() {
     }
     let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     let mut r = pathwave::Renderer::with_validation(&scene, &DeviceChoice::Best, Validation::Sync).unwrap();
-    // Two chunks' worth of paths is not possible at this size, but several passes and all bounces are.
-    let (film, _) = r
-        .render(&common::settings(16, 16, 3, 0), &mut |_| {})
-        .unwrap_or_else(|e| panic!("{e}"));
-    assert!(film.mean().iter().any(|p| p[0] > 0.0));
+    // Two chunks' worth of paths is not possible at this size, but several passes and all bounces are, in both
+    // schedules: the wavefront's queues between stages are where a missing barrier would hide.
+    for schedule in [pathwave::Schedule::Wavefront, pathwave::Schedule::Fused] {
+        r.set_schedule(schedule);
+        let (film, _) = r
+            .render(&common::settings(16, 16, 3, 0), &mut |_| {})
+            .unwrap_or_else(|e| panic!("{schedule:?}: {e}"));
+        assert!(film.mean().iter().any(|p| p[0] > 0.0));
+    }
 }

@@ -99,14 +99,15 @@ struct PunctualLight {
 };
 
 // 48 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
-// dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages.
+// dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages. follow_cut: nonzero when a follow
+// dispatch's loops were cut short (follow.comp), and accumulate then leaves the film alone.
 struct Counters {
     uint queue_count[4];
     uint dispatch[4];
     uint extension_rays;
     uint shadow_rays;
+    uint follow_cut;
     uint pad0;
-    uint pad1;
 };
 
 // 128 bytes, the guaranteed push-constant budget. The camera basis vectors are in world space.

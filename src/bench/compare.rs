@@ -452,11 +452,14 @@ pub fn compare_mitsuba(
         Ok((stats.wall.as_secs_f64(), img, var))
     };
     // Warm-up, which also calibrates: both renderers compile on their first render, so the second one's time per
-    // sample sets each one's spp for the budget.
+    // sample sets each one's spp for the budget. pathwave's first four passes also choose its schedule on a CPU
+    // device (render::Schedule), so it warms up for four renders of one pass each.
     progress("Mitsuba comparison: warming up");
     let probe_spp = if quick { 4 } else { 16 };
-    pathwave(probe_spp, 99)?;
-    let (t_ours, _, _) = pathwave(probe_spp, 98)?;
+    for seed in 0..4 {
+        pathwave(probe_spp, 99 - seed)?;
+    }
+    let (t_ours, _, _) = pathwave(probe_spp, 95)?;
     mitsuba(&mut h, probe_spp, 99)?;
     let (t_theirs, _) = mitsuba(&mut h, probe_spp, 98)?;
     mitsuba_with(&mut h, "ldsampler", probe_spp, 99)?;

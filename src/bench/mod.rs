@@ -1,7 +1,7 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
 pub mod compare;
 
-use crate::render::{BvhReads, RenderSettings, Renderer};
+use crate::render::{BvhReads, RenderSettings, Renderer, Schedule};
 use crate::scene::{self, Camera, Environment, Material, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use crate::Error;
@@ -31,6 +31,8 @@ pub struct CaseResult {
     /// Extension rays per second of GPU time in the extend stage alone: traversal speed inside the wavefront.
     pub extend_stage_rays_per_s: f64,
     pub stage_ms: Vec<(String, f64)>,
+    /// How the passes ran ("wavefront" or "fused"): the stages in stage_ms depend on it.
+    pub schedule: String,
     pub bvh_build_s: f64,
     /// Device bytes per triangle: BVH nodes, triangle vertices and shading data.
     pub bytes_per_triangle: f64,
@@ -128,6 +130,7 @@ fn measure(
     spp: u32,
     device: &DeviceChoice,
     reads: Option<BvhReads>,
+    schedule: Option<Schedule>,
 ) -> Result<CaseResult, Error> {
     let ctx = Context::new(device, Validation::Off)?;
     let device_name = ctx.device_name();
@@ -136,6 +139,9 @@ fn measure(
     let bytes = r.traversal_bytes();
     if let Some(reads) = reads {
         r.set_bvh_reads(reads)?;
+    }
+    if let Some(schedule) = schedule {
+        r.set_schedule(schedule);
     }
     let settings = RenderSettings {
         width: size.0,
@@ -170,6 +176,7 @@ fn measure(
             0.0
         },
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
+        schedule: format!("{:?}", r.schedule()).to_lowercase(),
         bvh_build_s,
         bytes_per_triangle: bytes as f64 / scene.triangles.len().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,
@@ -275,19 +282,34 @@ fn run_cases(
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(name, &scene, (256, 256), spp, &o.device, None)?;
+        let mut c = measure(name, &scene, (256, 256), spp, &o.device, None, None)?;
         c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
         cases.push(c);
         if name == "cornell-box" {
-            // The same render with the BVH read from storage buffers: the texel path's gain, measured in this run.
+            // The same render with the BVH read from storage buffers (the texel path's gain), and with each schedule
+            // fixed (the default on a CPU device tries both in its first passes), in this run.
             let storage = Some(BvhReads::Storage);
-            cases.push(measure("cornell-storage", &scene, (256, 256), spp, &o.device, storage)?);
+            cases.push(measure(
+                "cornell-storage",
+                &scene,
+                (256, 256),
+                spp,
+                &o.device,
+                storage,
+                None,
+            )?);
+            for (name, schedule) in [
+                ("cornell-fused", Schedule::Fused),
+                ("cornell-wavefront", Schedule::Wavefront),
+            ] {
+                cases.push(measure(name, &scene, (256, 256), spp, &o.device, None, Some(schedule))?);
+            }
         }
     }
     progress("terrain");
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangles.len() / 1000);
-    cases.push(measure(&name, &t, (256, 256), spp_mesh, &o.device, None)?);
+    cases.push(measure(&name, &t, (256, 256), spp_mesh, &o.device, None, None)?);
     let storage = Some(BvhReads::Storage);
     cases.push(measure(
         "terrain-storage",
@@ -296,6 +318,7 @@ fn run_cases(
         spp_mesh,
         &o.device,
         storage,
+        None,
     )?);
     if !o.quick {
         // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
@@ -303,7 +326,7 @@ fn run_cases(
         progress("terrain past the storage range");
         let big = terrain(1300);
         let name = format!("terrain-{}k", big.triangles.len() / 1000);
-        cases.push(measure(&name, &big, (256, 256), 8, &o.device, None)?);
+        cases.push(measure(&name, &big, (256, 256), 8, &o.device, None, None)?);
     }
     Ok(())
 }
@@ -380,7 +403,7 @@ impl BenchReport {
 
     fn cases_table(&self) -> String {
         let mut s = format!(
-            "{:<14} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
+            "{:<17} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
             "case",
             "tris",
             "process",
@@ -395,7 +418,7 @@ impl BenchReport {
         );
         for c in &self.cases {
             s += &format!(
-                "{:<14} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10.2} {:>8.3} {:>7.0}\n",
+                "{:<17} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10} {:>8.3} {:>7.0}\n",
                 c.name,
                 c.triangles,
                 c.process_s.map_or("-".into(), |t| format!("{t:.2}")),
@@ -404,7 +427,12 @@ impl BenchReport {
                 c.samples_per_s,
                 c.extension_rays_per_s * 1e-6,
                 c.shadow_rays_per_s * 1e-6,
-                c.extend_stage_rays_per_s * 1e-6,
+                // The fused schedule has no extend stage to time.
+                if c.extend_stage_rays_per_s > 0.0 {
+                    format!("{:.2}", c.extend_stage_rays_per_s * 1e-6)
+                } else {
+                    "-".into()
+                },
                 c.bvh_build_s,
                 c.bytes_per_triangle
             );
@@ -412,7 +440,8 @@ impl BenchReport {
         s += "GPU ms per stage (the passes after the first, or the only one):\n";
         for c in &self.cases {
             let stages: Vec<String> = c.stage_ms.iter().map(|(l, ms)| format!("{l} {ms:.1}")).collect();
-            s += &format!("  {:<12} {}\n", c.name, stages.join(", "));
+            let schedule = format!("({})", c.schedule);
+            s += &format!("  {:<17} {:<11} {}\n", c.name, schedule, stages.join(", "));
         }
         s
     }
@@ -436,6 +465,7 @@ impl BenchReport {
                     "shadow_rays_per_s": c.shadow_rays_per_s,
                     "extend_stage_rays_per_s": c.extend_stage_rays_per_s,
                     "stage_ms": c.stage_ms.iter().map(|(l, ms)| (l.clone(), serde_json::json!(ms))).collect::<serde_json::Map<_, _>>(),
+                    "schedule": c.schedule,
                     "bvh_build_s": c.bvh_build_s,
                     "bytes_per_triangle": c.bytes_per_triangle,
                     "image_mean": c.image_mean,

@@ -222,6 +222,115 @@ pub enum BvhReads {
     Texel,
 }
 
+/// How a pass takes its paths through the stages. Both give the same bytes for a seed (tests/schedule.rs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Schedule {
+    /// generate, then extend, shade and connect once per bounce, with paths compacted through queues in between:
+    /// the default on GPUs, where stages with full, coherent waves matter most.
+    Wavefront,
+    /// One `follow` dispatch: each invocation takes one pixel's samples from camera to end with the path state in
+    /// registers, starting its next sample as soon as a path ends. No path state goes through memory (on lavapipe
+    /// each path-state store is a loop of scalar stores), but a subgroup runs a shadow-ray traversal whenever any of
+    /// its lanes has a shadow ray, where connect runs only compacted ones. On lavapipe the Cornell box renders 1.25x
+    /// as many samples per second this way; scenes where fewer bounces cast shadow rays (glass, glossy and textured
+    /// ones) run 1.2-1.45x slower.
+    Fused,
+}
+
+/// How passes pick their schedule. PATHWAVE_SCHEDULE=wavefront|fused fixes it.
+#[derive(Clone, Copy, Debug)]
+enum ScheduleChoice {
+    Fixed(Schedule),
+    /// On CPU devices, where which is faster depends on the scene: the first two passes compile one schedule each,
+    /// the next two time them (GPU time per path), and the faster is kept. Both give the same bytes, so switching
+    /// between passes changes nothing but speed.
+    Trial {
+        passes: u32,
+        ns_per_path: [f64; 2],
+    },
+}
+
+impl ScheduleChoice {
+    const ORDER: [Schedule; 2] = [Schedule::Fused, Schedule::Wavefront];
+
+    fn current(&self) -> Schedule {
+        match *self {
+            ScheduleChoice::Fixed(s) => s,
+            ScheduleChoice::Trial { passes, .. } if passes < 4 => Self::ORDER[passes as usize % 2],
+            ScheduleChoice::Trial { ns_per_path, .. } => Self::ORDER[(ns_per_path[1] < ns_per_path[0]) as usize],
+        }
+    }
+
+    /// Counts a pass that ran `current()` and took `ns` of GPU time for `paths` paths.
+    fn record(&mut self, ns: f64, paths: u32) {
+        if let ScheduleChoice::Trial { passes, ns_per_path } = self {
+            if (2..4).contains(passes) {
+                ns_per_path[*passes as usize % 2] = ns / paths.max(1) as f64;
+            }
+            *passes = passes.saturating_add(1);
+        }
+    }
+}
+
+/// Which compiled variant of each stage a scene's passes dispatch.
+struct StageVariants {
+    extend: &'static str,
+    shade: &'static str,
+    connect: &'static str,
+    follow: &'static str,
+}
+
+/// Records one pass's dispatches, each timed under its stage's name and followed by a barrier.
+struct Recorder<'a> {
+    ctx: &'a Context,
+    p: &'a Pipelines,
+    ts: &'a mut Timestamps,
+    cmd: vk::CommandBuffer,
+}
+
+impl Recorder<'_> {
+    fn dispatch(&mut self, name: &'static str, frame: &Frame, groups: u32) {
+        let (p, cmd) = (self.p, self.cmd);
+        self.ts
+            .time(cmd, stage_label(name), || p.dispatch(cmd, name, frame, groups));
+        self.ctx.barrier(cmd);
+    }
+
+    /// Sized by the queue counters queue_args turned into dispatch arguments.
+    fn dispatch_indirect(&mut self, name: &'static str, frame: &Frame, counters: &Buffer) {
+        let (p, cmd) = (self.p, self.cmd);
+        self.ts.time(cmd, stage_label(name), || {
+            p.dispatch_indirect(cmd, name, frame, counters, COUNTERS_DISPATCH_OFFSET)
+        });
+        self.ctx.barrier(cmd);
+    }
+
+    /// Camera rays into queue 0, then each bounce's stages over the paths still alive.
+    fn wavefront(&mut self, stages: &StageVariants, frame: &Frame, counters: &Buffer) {
+        self.dispatch("generate", frame, frame.path_count.div_ceil(WORKGROUP_SIZE));
+        let mut f = *frame;
+        for bounce in 0..=frame.max_depth {
+            f.bounce = bounce;
+            self.dispatch("queue_args", &f, 1);
+            self.dispatch_indirect(stages.extend, &f, counters);
+            self.dispatch_indirect(stages.shade, &f, counters);
+            // Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
+            self.dispatch_indirect(stages.connect, &f, counters);
+        }
+        // After the last bounce only the shadow-ray tally remains (queue_args.comp).
+        f.bounce = NO_HIT;
+        self.dispatch("queue_args", &f, 1);
+    }
+}
+
+/// A variant's timings count under its stage: "extend_alpha_texel" is extend.
+fn stage_label(name: &'static str) -> &'static str {
+    crate::variants::STAGE_VARIANTS
+        .iter()
+        .find(|(stage, suffix, _)| name.strip_prefix(stage).and_then(|r| r.strip_prefix('_')) == Some(suffix))
+        .map_or(name, |(stage, _, _)| stage)
+}
+
 /// Bytes for a message: MiB when large, bytes when not.
 fn size_text(bytes: u64) -> String {
     if bytes >= 1 << 20 {
@@ -337,6 +446,7 @@ pub struct Renderer {
     bvh_reads: BvhReads,
     /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
     textured: bool,
+    schedule: ScheduleChoice,
     vertex_colors: bool,
     env_prob: f32,
     env_size: (u32, u32),
@@ -499,6 +609,21 @@ impl Renderer {
             (_, Ok("storage")) | (None, _) => BvhReads::Storage,
             (Some(_), _) => BvhReads::Texel,
         };
+        let schedule = match std::env::var("PATHWAVE_SCHEDULE").as_deref() {
+            Ok("wavefront") => ScheduleChoice::Fixed(Schedule::Wavefront),
+            Ok("fused") => ScheduleChoice::Fixed(Schedule::Fused),
+            Ok(other) => {
+                return Err(Error::Settings(format!(
+                    "PATHWAVE_SCHEDULE={other}: expected wavefront or fused"
+                )))
+            }
+            // On GPUs the wavefront's compacted, coherent stages are the design; a CPU device is measured.
+            Err(_) if ctx.properties.device_type == vk::PhysicalDeviceType::CPU => ScheduleChoice::Trial {
+                passes: 0,
+                ns_per_path: [0.0; 2],
+            },
+            Err(_) => ScheduleChoice::Fixed(Schedule::Wavefront),
+        };
         let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV, packed.features())?;
         if let Some(v) = &texel_views {
             pipelines.bind_texel_views(&ctx, &v.views);
@@ -525,6 +650,7 @@ impl Renderer {
             texel_views,
             path_stand_in,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
+            schedule,
             vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
@@ -596,7 +722,8 @@ impl Renderer {
 
     /// Rebuilds the pipelines of `stages` (every stage the folder overrides when None) from a shader folder. All
     /// compile before any is replaced, so a compile error leaves the renderer exactly as it was. Returns the stages
-    /// rebuilt.
+    /// rebuilt. An edited stage must be the one that runs: a wavefront stage among them fixes the wavefront schedule,
+    /// follow alone the fused one (an edit to path.glsl rebuilds both, and both then give the same image).
     pub fn load_shaders(
         &mut self,
         dir: &crate::shaders::ShaderDir,
@@ -609,6 +736,15 @@ impl Renderer {
         }
         for (name, spv) in names.iter().zip(&compiled) {
             self.pipelines.replace(&self.ctx, name, spv)?;
+        }
+        let stage = |n: &String| stage_label(builtin_stage_names().find(|b| *b == n.as_str()).unwrap_or(""));
+        if names
+            .iter()
+            .any(|n| ["generate", "extend", "shade", "connect", "queue_args"].contains(&stage(n)))
+        {
+            self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
+        } else if names.iter().any(|n| stage(n) == "follow") {
+            self.schedule = ScheduleChoice::Fixed(Schedule::Fused);
         }
         Ok(names)
     }
@@ -957,6 +1093,16 @@ impl Renderer {
         Ok(())
     }
 
+    /// How the next pass takes paths through the stages (on a CPU device, the one timed faster after four passes).
+    pub fn schedule(&self) -> Schedule {
+        self.schedule.current()
+    }
+
+    /// Fixes how passes run; both schedules work on every device and give the same bytes.
+    pub fn set_schedule(&mut self, schedule: Schedule) {
+        self.schedule = ScheduleChoice::Fixed(schedule);
+    }
+
     /// The camera renders use; `set_camera` changes it for the next `begin` or `restart`.
     pub fn camera(&self) -> Camera {
         self.camera
@@ -974,12 +1120,30 @@ impl Renderer {
     /// Runs one pass and adds its ray tallies and (after the first pass, which also compiles) GPU stage times.
     fn run_pass(&mut self, frame: &Frame, counters: &Buffer, stats: &mut RenderStats) -> Result<(), Error> {
         let pass_start = Instant::now();
-        self.pass(frame, counters)?;
-        let tally: Counters = counters.download(&self.ctx)?[0];
+        let schedule = self.schedule.current();
+        self.pass(frame, counters, schedule)?;
+        let mut tally: Counters = counters.download(&self.ctx)?[0];
+        if tally.follow_cut != 0 {
+            // lavapipe cut follow's loops short (follow.comp), and accumulate skipped the pass: run it again as a
+            // wavefront, whose invocations each trace one ray, and stay with the wavefront.
+            self.warnings
+                .push("the fused schedule ran past lavapipe's loop budget on this scene; using the wavefront".into());
+            self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
+            self.pass(frame, counters, Schedule::Wavefront)?;
+            tally = counters.download(&self.ctx)?[0];
+        }
         stats.extension_rays += tally.extension_rays as u64;
         stats.shadow_rays += tally.shadow_rays as u64;
         stats.samples += frame.path_count as u64;
         let times = self.timestamps.read()?;
+        // Without timestamps (some devices), the pass's wall time, which also holds the tally's download.
+        let gpu_ns: f64 = times.iter().map(|(_, ns)| ns).sum();
+        let ns = if gpu_ns > 0.0 {
+            gpu_ns
+        } else {
+            pass_start.elapsed().as_nanos() as f64
+        };
+        self.schedule.record(ns, frame.path_count);
         if stats.passes == 0 {
             stats.first_pass = pass_start.elapsed();
             // Kept apart (it includes compilation) and reported only if no other pass follows.
@@ -997,57 +1161,68 @@ impl Renderer {
     }
 
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
-    fn pass(&mut self, frame: &Frame, counters: &Buffer) -> Result<(), Error> {
-        // The variants with alpha testing and textures cost up to 4x in traversal: only scenes that need them use them.
-        let (extend, connect) = match (self.alpha_tested, self.bvh_reads) {
-            (false, BvhReads::Storage) => ("extend", "connect"),
-            (true, BvhReads::Storage) => ("extend_alpha", "connect_alpha"),
-            (false, BvhReads::Texel) => ("extend_texel", "connect_texel"),
-            (true, BvhReads::Texel) => ("extend_alpha_texel", "connect_alpha_texel"),
+    fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
+        let stages = self.stage_variants();
+        let Renderer {
+            ctx,
+            pipelines,
+            timestamps,
+            ..
+        } = self;
+        let mut rec = Recorder {
+            ctx,
+            p: pipelines,
+            ts: timestamps,
+            cmd: vk::CommandBuffer::null(),
         };
-        let shade = match (self.textured, self.bvh_reads) {
-            (false, BvhReads::Storage) => "shade",
-            (true, BvhReads::Storage) => "shade_textured",
-            (false, BvhReads::Texel) => "shade_texel",
-            (true, BvhReads::Texel) => "shade_textured_texel",
-        };
-        let ctx = &self.ctx;
-        let p = &self.pipelines;
-        let ts = &mut self.timestamps;
-        let groups = frame.path_count.div_ceil(WORKGROUP_SIZE);
         ctx.submit_and_wait(|cmd| {
-            ts.reset(cmd);
+            rec.cmd = cmd;
+            rec.ts.reset(cmd);
             unsafe { ctx.device.cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0) };
             ctx.barrier(cmd);
-            ts.time(cmd, "generate", || p.dispatch(cmd, "generate", frame, groups));
-            ctx.barrier(cmd);
-            let mut f = *frame;
-            for bounce in 0..=frame.max_depth {
-                f.bounce = bounce;
-                ts.time(cmd, "queue_args", || p.dispatch(cmd, "queue_args", &f, 1));
-                ctx.barrier(cmd);
-                ts.time(cmd, "extend", || {
-                    p.dispatch_indirect(cmd, extend, &f, counters, COUNTERS_DISPATCH_OFFSET)
-                });
-                ctx.barrier(cmd);
-                ts.time(cmd, "shade", || {
-                    p.dispatch_indirect(cmd, shade, &f, counters, COUNTERS_DISPATCH_OFFSET)
-                });
-                ctx.barrier(cmd);
-                // Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
-                ts.time(cmd, "connect", || {
-                    p.dispatch_indirect(cmd, connect, &f, counters, COUNTERS_DISPATCH_OFFSET)
-                });
-                ctx.barrier(cmd);
+            match schedule {
+                Schedule::Wavefront => rec.wavefront(&stages, frame, counters),
+                Schedule::Fused => {
+                    // FOLLOW_SAMPLES sample rows per dispatch (frame.bounce is the first), each invocation one pixel.
+                    let mut f = *frame;
+                    for first in (0..frame.path_count / frame.pass_pixels).step_by(FOLLOW_SAMPLES as usize) {
+                        f.bounce = first;
+                        rec.dispatch(stages.follow, &f, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
+                    }
+                }
             }
-            f.bounce = NO_HIT;
-            p.dispatch(cmd, "queue_args", &f, 1);
-            ctx.barrier(cmd);
-            ts.time(cmd, "accumulate", || {
-                p.dispatch(cmd, "accumulate", frame, frame.pass_pixels.div_ceil(WORKGROUP_SIZE))
-            });
-            ctx.barrier(cmd);
+            rec.dispatch("accumulate", frame, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
         })
+    }
+
+    /// The pipelines this scene's passes run: the variants with alpha testing and textures cost up to 4x in
+    /// traversal, so only scenes that need them use them.
+    fn stage_variants(&self) -> StageVariants {
+        let texel = self.bvh_reads == BvhReads::Texel;
+        let pick = |names: [&'static str; 2]| names[texel as usize];
+        let (extend, connect) = if self.alpha_tested {
+            (
+                pick(["extend_alpha", "extend_alpha_texel"]),
+                pick(["connect_alpha", "connect_alpha_texel"]),
+            )
+        } else {
+            (pick(["extend", "extend_texel"]), pick(["connect", "connect_texel"]))
+        };
+        let shade = match self.textured {
+            false => pick(["shade", "shade_texel"]),
+            true => pick(["shade_textured", "shade_textured_texel"]),
+        };
+        let follow = match (self.alpha_tested, self.textured) {
+            (true, _) => pick(["follow_alpha", "follow_alpha_texel"]),
+            (false, true) => pick(["follow_textured", "follow_textured_texel"]),
+            (false, false) => pick(["follow", "follow_texel"]),
+        };
+        StageVariants {
+            extend,
+            shade,
+            connect,
+            follow,
+        }
     }
 
     /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.

@@ -1,0 +1,73 @@
+// follow: the fused integrator. One invocation takes one pixel's samples of this pass through generate, extend, shade
+// and connect in registers, starting the next sample as soon as a path ends, and leaves each sample's radiance in its
+// slot for accumulate. The same functions as the wavefront stages, so the same bytes.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_vote : require
+#include "stage.glsl"
+#include "camera.glsl"
+#include "path.glsl"
+#include "traverse.glsl"
+
+// frame.bounce: the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes FOLLOW_SAMPLES rows.
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint rays = 0u;
+    uint shadow_rays = 0u;
+    uint rows = frame.path_count / frame.pass_pixels;
+    uint end = min(frame.bounce + FOLLOW_SAMPLES, rows) * frame.pass_pixels;
+    uint path = i + frame.bounce * frame.pass_pixels;
+    if (i < frame.pass_pixels) {
+        // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).
+        uint pixel = path_pixel(i);
+        uint bounce = 0u;
+        PathVertex v;
+        camera_ray(pixel, path_sample(path), v.origin.xyz, v.dir);
+        v.origin.w = 0.0;
+        v.beta = vec3(1.0);
+        v.radiance = vec3(0.0);
+        // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
+        // samples; the wavefront gets the same by compacting its queues.
+        while (path < end) {
+            uint s = path_sample(path);
+            uint key = pcg4d(uvec4(pixel, s, (bounce << 8u) | DIM_ALPHA, frame.seed)).x;
+            Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, key);
+            rays++;
+            ShadowRay shadow;
+            bool alive = shade_path(pixel, s, bounce, vec4(h.t, uintBitsToFloat(h.tri), h.uv), v, shadow);
+            if (shadow.wanted) {
+                shadow_rays++;
+                uint shadow_key = pcg4d(uvec4(pixel, s, (bounce << 8u) | DIM_SHADOW_ALPHA, frame.seed)).x;
+                if (!occluded(shadow.origin.xyz, shadow.dir, 0.0, shadow.origin.w, shadow_key)) {
+                    v.radiance += shadow.radiance;
+                }
+            }
+            bounce++;
+            if (!alive) {
+                path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
+                path += frame.pass_pixels;
+                bounce = 0u;
+                camera_ray(pixel, path_sample(path), v.origin.xyz, v.dir);
+                v.origin.w = 0.0;
+                v.beta = vec3(1.0);
+                v.radiance = vec3(0.0);
+            }
+        }
+    }
+    // lavapipe (gallivm) guards against endless loops by ending every loop of an invocation once their iterations
+    // together reach 65535, silently. Once spent, that budget stops every loop after one step, so a two-step loop
+    // with a bound the compiler cannot see that runs fewer than two steps, or a lane left with samples to do, shows
+    // the loops above may have been cut. Then accumulate skips this pass and the host runs it again as a wavefront.
+    uint steps = 0u;
+    for (uint k = 0u; k < 2u + (frame.path_count == 0u ? 1u : 0u); k++) steps++;
+    bool cut = steps != 2u || (i < frame.pass_pixels && path < end);
+    if (subgroupAny(cut) && gl_SubgroupInvocationID == 0u) atomicAdd(counters.follow_cut, 1u);
+    // The wavefront's tallies, one atomic per subgroup.
+    uint sum_rays = subgroupAdd(rays);
+    uint sum_shadow = subgroupAdd(shadow_rays);
+    if (gl_SubgroupInvocationID == 0u) {
+        atomicAdd(counters.extension_rays, sum_rays);
+        atomicAdd(counters.shadow_rays, sum_shadow);
+    }
+}

@@ -1,0 +1,156 @@
+// One bounce of a path: what the shade stage and the fused follow stage both run at a hit (or a miss).
+#ifndef PATH_GLSL
+#define PATH_GLSL
+
+#include "rng.glsl"
+#include "bsdf.glsl"
+#include "lights.glsl"
+
+// What a path carries from one bounce to the next; the wavefront keeps it in the PATH_* fields, follow in registers.
+struct PathVertex {
+    vec4 origin;   // of the ray just traced; .w: the pdf of the BSDF sample that chose it, 0 after a delta bounce
+    vec3 dir;      // of that ray, unit length
+    vec3 beta;     // throughput up to the ray's origin
+    vec3 radiance; // gathered so far
+};
+
+// Next-event estimation's ray: it adds `radiance` when nothing blocks origin -> origin + dir * origin.w.
+struct ShadowRay {
+    vec4 origin;
+    vec3 dir;
+    vec3 radiance;
+    bool wanted;
+};
+
+// Moves p off the surface along n by a few ulps, so the next ray cannot hit the surface it leaves
+// (Waechter and Binder, Ray Tracing Gems ch. 6): robust at any scene scale.
+vec3 offset_ray(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0;
+    const float float_scale = 1.0 / 65536.0;
+    const float int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(
+        intBitsToFloat(floatBitsToInt(p.x) + (p.x < 0.0 ? -of_i.x : of_i.x)),
+        intBitsToFloat(floatBitsToInt(p.y) + (p.y < 0.0 ? -of_i.y : of_i.y)),
+        intBitsToFloat(floatBitsToInt(p.z) + (p.z < 0.0 ? -of_i.z : of_i.z)));
+    return vec3(
+        abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+        abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+        abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+// Bounce `bounce` of sample s of pixel: v's ray found `hit` (t, triangle bits, barycentrics). Adds the emission the
+// ray sees (MIS-weighted), asks for a shadow ray towards a light in `shadow`, and turns v into the continuation.
+// Returns whether the path goes on. Randomness depends only on (pixel, s, bounce, dimension), so the wavefront and
+// follow give the same bytes.
+bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, out ShadowRay shadow) {
+    uint tri = floatBitsToUint(hit.y);
+    vec4 ray_o = v.origin;
+    vec3 ray_d = v.dir;
+    vec3 beta = v.beta;
+    shadow.wanted = false;
+    shadow.origin = vec4(0.0);
+    shadow.dir = vec3(0.0);
+    shadow.radiance = vec3(0.0);
+    // After the camera or a delta bounce, nothing else could have found this light: it counts in full.
+    bool camera_or_delta = bounce == 0u || ray_o.w == 0.0;
+
+    // No early exit: lavapipe runs every line for every lane anyway, so an early return only adds stores. A lane stops
+    // being `alive` where its path ends; what follows still runs for it but changes nothing it returns.
+    bool alive = tri != NO_HIT;
+    if (!alive) {
+        bool hidden = bounce == 0u && (frame.flags & FLAG_HIDE_ENV) != 0u;
+        if (scene_has(FEATURE_ENV) && frame.env_width > 0u && !hidden) {
+            float w = 1.0;
+            if (!camera_or_delta) {
+                if (frame_estimator() == ESTIMATOR_LIGHT) {
+                    w = 0.0;
+                } else if (frame_estimator() == ESTIMATOR_MIS) {
+                    w = power_heuristic(ray_o.w, frame.env_prob * env_pdf(ray_d));
+                }
+            }
+            v.radiance += beta * env_radiance(ray_d) * w;
+        }
+    }
+
+    TriVerts tv = load_tri_verts(tri);
+    TriShading ts = load_tri_shading(tri);
+    vec2 uv = hit.zw;
+    Material m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
+    vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
+    vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
+    bool front = dot(ng, ray_d) < 0.0;
+    vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
+    vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
+    ns = normal_mapped(m, tri, uv, ns);
+    if (dot(ns, n_in) < 0.0) ns = -ns;
+
+    // Emission seen by this ray, weighted against the chance NEE would have found the same point.
+    bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));
+    if (alive && emits) {
+        float w = 1.0;
+        if (!camera_or_delta) {
+            if (frame_estimator() == ESTIMATOR_LIGHT) {
+                w = 0.0;
+            } else if (frame_estimator() == ESTIMATOR_MIS) {
+                float cos_l = abs(dot(ng, ray_d));
+                float pdf_light = cos_l > 0.0 ? ts.n0.w * hit.x * hit.x / cos_l : 0.0;
+                w = power_heuristic(ray_o.w, pdf_light);
+            }
+        }
+        v.radiance += beta * m.emission.rgb * w;
+    }
+    alive = alive && bounce < frame.max_depth;
+
+    // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
+    if (scene_has(FEATURE_TRANSMISSION) && !front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
+        beta *= exp(-m.attenuation.rgb * hit.x);
+    }
+    Bsdf bsdf = bsdf_from_material(m, front);
+    vec3 p_back = offset_ray(p, -n_in); // origin for rays that go through the surface
+    vec3 p_off = offset_ray(p, n_in);
+    // The shading frame: z along the shading normal on the incoming side.
+    vec3 tx, ty;
+    basis(ns, tx, ty);
+    vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
+
+    // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
+    if (frame.light_count > 0u) {
+        LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
+        vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
+        // The shading and true normals must agree on which side the light is (reflection or transmission).
+        float side = dot(n_in, ls.wi);
+        bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
+        if (alive && wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
+            vec3 f = bsdf_eval(bsdf, wo, wi_local);
+            bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
+            float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
+            vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
+            shadow.wanted = any(greaterThan(contribution, vec3(0.0)));
+            // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
+            shadow.origin = vec4(side > 0.0 ? p_off : p_back, ls.dist * (1.0 - 1e-4));
+            shadow.dir = ls.wi;
+            shadow.radiance = contribution;
+        }
+    }
+
+    vec2 u_dir = rand2(pixel, s, bounce, DIM_BSDF);
+    BsdfSample bs;
+    bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
+    vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
+    // A direction the shading normal puts on one side and the true surface on the other carries no light.
+    alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
+    beta *= bs.weight;
+    if (bounce >= RR_START_BOUNCE) {
+        float survive = min(max(beta.r, max(beta.g, beta.b)), 0.95);
+        alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
+        beta /= survive;
+    }
+    // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
+    v.origin = vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf);
+    v.dir = wi;
+    v.beta = beta;
+    return alive;
+}
+
+#endif
