@@ -57,11 +57,18 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
         .map_err(|e| err(format!("cannot create a file here: {e}")))?;
     match format {
         Format::Exr => {
-            exr::prelude::write_rgb_file(tmp.path(), width as usize, height as usize, |x, y| {
+            use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
+            let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
                 let p = rgb[y * width as usize + x];
                 (p[0], p[1], p[2])
-            })
-            .map_err(|e| err(format!("EXR encoding failed: {e}")))?;
+            });
+            // Not exr's parallel writer: it stores chunks in the order they finish compressing, so the same image
+            // gave different file bytes from run to run.
+            Image::from_channels((width as usize, height as usize), channels)
+                .write()
+                .non_parallel()
+                .to_file(tmp.path())
+                .map_err(|e| err(format!("EXR encoding failed: {e}")))?;
         }
         Format::Png => {
             let scale = 2f32.powf(exposure);
