@@ -31,7 +31,8 @@ pub struct CaseResult {
     /// Extension rays per second of GPU time in the extend stage alone: traversal speed inside the wavefront.
     pub extend_stage_rays_per_s: f64,
     pub stage_ms: Vec<(String, f64)>,
-    /// How the passes ran ("wavefront" or "fused"): the stages in stage_ms depend on it.
+    /// Which schedule the timed passes ran ("wavefront", "fused", or "both" while a CPU device tries them): the
+    /// stages in stage_ms depend on it.
     pub schedule: String,
     pub bvh_build_s: f64,
     /// Device bytes per triangle: BVH nodes, triangle vertices and shading data.
@@ -176,7 +177,15 @@ fn measure(
             0.0
         },
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
-        schedule: format!("{:?}", r.schedule()).to_lowercase(),
+        // What the passes ran: on a CPU device the default tries both before it keeps one.
+        schedule: match (
+            stats.stage_ms.iter().any(|(l, _)| *l == "follow"),
+            stats.stage_ms.iter().any(|(l, _)| *l == "extend"),
+        ) {
+            (true, true) => "both".into(),
+            (true, false) => "fused".into(),
+            _ => "wavefront".into(),
+        },
         bvh_build_s,
         bytes_per_triangle: bytes as f64 / scene.triangles.len().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,

@@ -241,31 +241,37 @@ pub enum Schedule {
 #[derive(Clone, Copy, Debug)]
 enum ScheduleChoice {
     Fixed(Schedule),
-    /// On CPU devices, where which is faster depends on the scene: the first two passes compile one schedule each,
-    /// the next two time them (GPU time per path), and the faster is kept. Both give the same bytes, so switching
+    /// On CPU devices, where which is faster depends on the scene: passes 0 and 1 run the wavefront, 2 and 3 the
+    /// fused schedule; the second of each pair (the first compiles) is timed, GPU time per path, and the faster is
+    /// kept. Renders of one or two passes never build the fused pipelines. Both give the same bytes, so switching
     /// between passes changes nothing but speed.
     Trial {
         passes: u32,
+        /// Wavefront, fused.
         ns_per_path: [f64; 2],
     },
 }
 
 impl ScheduleChoice {
-    const ORDER: [Schedule; 2] = [Schedule::Fused, Schedule::Wavefront];
-
     fn current(&self) -> Schedule {
         match *self {
             ScheduleChoice::Fixed(s) => s,
-            ScheduleChoice::Trial { passes, .. } if passes < 4 => Self::ORDER[passes as usize % 2],
-            ScheduleChoice::Trial { ns_per_path, .. } => Self::ORDER[(ns_per_path[1] < ns_per_path[0]) as usize],
+            ScheduleChoice::Trial { passes: 0..=1, .. } => Schedule::Wavefront,
+            ScheduleChoice::Trial { passes: 2..=3, .. } => Schedule::Fused,
+            ScheduleChoice::Trial {
+                ns_per_path: [w, f], ..
+            } if f < w => Schedule::Fused,
+            ScheduleChoice::Trial { .. } => Schedule::Wavefront,
         }
     }
 
     /// Counts a pass that ran `current()` and took `ns` of GPU time for `paths` paths.
     fn record(&mut self, ns: f64, paths: u32) {
         if let ScheduleChoice::Trial { passes, ns_per_path } = self {
-            if (2..4).contains(passes) {
-                ns_per_path[*passes as usize % 2] = ns / paths.max(1) as f64;
+            match *passes {
+                1 => ns_per_path[0] = ns / paths.max(1) as f64,
+                3 => ns_per_path[1] = ns / paths.max(1) as f64,
+                _ => {}
             }
             *passes = passes.saturating_add(1);
         }
@@ -1163,6 +1169,18 @@ impl Renderer {
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
     fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
         let stages = self.stage_variants();
+        let names: &[&str] = match schedule {
+            Schedule::Wavefront => &[
+                "generate",
+                "queue_args",
+                stages.extend,
+                stages.shade,
+                stages.connect,
+                "accumulate",
+            ],
+            Schedule::Fused => &[stages.follow, "accumulate"],
+        };
+        self.pipelines.ensure(&self.ctx, names)?;
         let Renderer {
             ctx,
             pipelines,
@@ -1471,5 +1489,46 @@ impl Renderer {
         }
         self.check_validation()?;
         Ok(times)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Schedule, ScheduleChoice};
+
+    /// The trial runs each schedule twice, times the second run of each, and keeps the faster per path.
+    #[test]
+    fn the_schedule_trial_keeps_the_faster_per_path() {
+        for (wave_ns, fused_ns, want) in [(2.0e6, 1.0e6, Schedule::Fused), (1.0e6, 2.0e6, Schedule::Wavefront)] {
+            let mut c = ScheduleChoice::Trial {
+                passes: 0,
+                ns_per_path: [0.0; 2],
+            };
+            let mut ran = Vec::new();
+            for pass in 0..6 {
+                let s = c.current();
+                ran.push(s);
+                // The first pass of each schedule compiles: its time must not count.
+                let ns = match (s, pass) {
+                    (_, 0) | (_, 2) => 1e12,
+                    (Schedule::Wavefront, _) => wave_ns,
+                    (Schedule::Fused, _) => fused_ns,
+                };
+                c.record(ns, 1000);
+            }
+            assert_eq!(
+                ran[..4],
+                [
+                    Schedule::Wavefront,
+                    Schedule::Wavefront,
+                    Schedule::Fused,
+                    Schedule::Fused
+                ]
+            );
+            assert_eq!(ran[4..], [want, want]);
+        }
+        let mut fixed = ScheduleChoice::Fixed(Schedule::Fused);
+        fixed.record(1.0, 1);
+        assert_eq!(fixed.current(), Schedule::Fused);
     }
 }

@@ -21,6 +21,9 @@ pub struct Pipelines {
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     pipelines: HashMap<String, vk::Pipeline>,
+    /// Render stages not built yet: `ensure` builds them before their first pass. Building all eighteen render
+    /// variants up front cost start-up about a second on lavapipe (each fused variant holds two traversals).
+    pending: HashMap<String, Vec<u8>>,
     /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
     features: u32,
     device: ash::Device,
@@ -88,17 +91,33 @@ impl Pipelines {
             pool,
             set,
             pipelines: HashMap::new(),
+            pending: HashMap::new(),
             features,
             device: d.clone(),
         };
         for (name, spv) in stages {
-            me.replace(ctx, name, spv)?;
+            if scene_independent(name) || *name == "tonemap" {
+                me.replace(ctx, name, spv)?;
+            } else {
+                me.pending.insert(name.to_string(), spv.to_vec());
+            }
         }
         Ok(me)
     }
 
+    /// Builds the pipelines of `names` that are still pending.
+    pub fn ensure(&mut self, ctx: &Context, names: &[&str]) -> Result<(), Error> {
+        for name in names {
+            if let Some(spv) = self.pending.remove(*name) {
+                self.replace(ctx, name, &spv)?;
+            }
+        }
+        Ok(())
+    }
+
     /// Builds (or rebuilds) one stage's pipeline from SPIR-V.
     pub fn replace(&mut self, ctx: &Context, name: &str, spv: &[u8]) -> Result<(), Error> {
+        self.pending.remove(name);
         let d = &ctx.device;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
