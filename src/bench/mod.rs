@@ -171,7 +171,8 @@ fn measure(
         samples_per_s: stats.samples_per_sec(),
         extension_rays_per_s: stats.rays_per_sec_split().0,
         shadow_rays_per_s: stats.rays_per_sec_split().1,
-        extend_stage_rays_per_s: if extend_ms > 0.0 {
+        // Only when every timed pass ran the wavefront: fused passes trace extension rays outside any extend stage.
+        extend_stage_rays_per_s: if extend_ms > 0.0 && !stats.stage_ms.iter().any(|(l, _)| *l == "follow") {
             stats.extension_rays as f64 * steady_share / (extend_ms * 1e-3)
         } else {
             0.0
