@@ -67,6 +67,19 @@ fn renders_the_cornell_box_to_exr_and_png() {
         wavefront || summary.contains("follow"),
         "the summary line lacks the stages: {summary}"
     );
+    // Written through a private temporary file, the image still gets a new file's permissions (0666 less the umask).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let fresh = exr.with_file_name("fresh");
+        std::fs::write(&fresh, b"").unwrap();
+        let mode = |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(
+            mode(&exr),
+            mode(&fresh),
+            "the image's permissions are not those of a new file"
+        );
+    }
     let (w, h, px) = pathwave::output::read_exr(&exr).unwrap();
     assert_eq!((w, h), (40, 30));
     let mean: f64 = px.iter().map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0).sum::<f64>() / px.len() as f64;

@@ -50,7 +50,12 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
         return Err(err(format!("directory {} does not exist", dir.display())));
     }
     let suffix = if format == Format::Exr { ".exr" } else { ".png" };
-    let tmp = tempfile::Builder::new()
+    let mut builder = tempfile::Builder::new();
+    // A temporary file is private (0600) by default; the image it becomes gets the permissions of any new file
+    // (0666 less the umask), as if written in place.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let tmp = builder
         .prefix(".pathwave-")
         .suffix(suffix)
         .tempfile_in(dir)
