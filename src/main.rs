@@ -297,8 +297,13 @@ fn render_and_write(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let device = renderer.context().device_name();
+    let warned = renderer.warnings.len();
     let (film, stats) = renderer.render(settings, &mut |done| bar.set_position(done as u64))?;
     bar.finish_and_clear();
+    // What the renderer learned while rendering (e.g. falling back to the wavefront schedule).
+    for w in &renderer.warnings[warned..] {
+        eprintln!("warning: {}: {w}", args.common.scene.display());
+    }
     let pixels = film.mean();
     for out in &args.output {
         output::write_image(out, film.width, film.height, &pixels, args.exposure)?;
