@@ -8,5 +8,5 @@
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= frame.path_count) return;
-    probe[k] = pick_light(rand2(k, frame.sample_index, 0u, DIM_LIGHT_PICK).x);
+    probe[k] = pick_light(rand2(k, frame.sample_index, 0u, DIM_LIGHT).x);
 }

@@ -150,8 +150,8 @@ pub const RR_START_BOUNCE: u32 = 3;
 /// Random-number dimensions, so each use of randomness has its own stream.
 pub const DIM_PIXEL: u32 = 0;
 pub const DIM_LENS: u32 = 1;
-pub const DIM_LIGHT_PICK: u32 = 2;
-pub const DIM_LIGHT_POINT: u32 = 3;
+/// Next-event estimation: x picks the light and, rescaled, with y places the point on it (lights.glsl).
+pub const DIM_LIGHT: u32 = 3;
 pub const DIM_BSDF: u32 = 5;
 pub const DIM_BSDF_LOBE: u32 = 6;
 pub const DIM_RR: u32 = 7;

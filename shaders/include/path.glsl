@@ -116,7 +116,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, o
 
     // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
     if (frame.light_count > 0u) {
-        LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT_PICK).x, rand2(pixel, s, bounce, DIM_LIGHT_POINT));
+        LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT));
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
