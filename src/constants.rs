@@ -105,6 +105,10 @@ pub const FEATURE_TRANSMISSION: u32 = 4;
 pub const FEATURE_PUNCTUAL: u32 = 8;
 /// The scene has an environment.
 pub const FEATURE_ENV: u32 = 16;
+/// A thin lens (aperture > 0): a render setting, not the scene's, so the renderer rebuilds the render stages when a
+/// pass changes it. In the fused schedule every bounce runs the camera code for the lanes starting a sample, lens
+/// included, whichever lanes need it: folding it away made the Cornell box 3.5 % faster.
+pub const FEATURE_LENS: u32 = 32;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
 
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.

@@ -12,12 +12,16 @@ fn render(r: &mut Renderer, s: &RenderSettings, schedule: Schedule) -> (Film, Re
     (film, stats)
 }
 
-/// Renders with both schedules and requires identical film words (sums and sums of squares) and ray counts.
-fn assert_schedules_agree(what: &str, r: &mut Renderer, s: &RenderSettings) {
+fn bits(f: &Film) -> Vec<u32> {
+    f.sum.iter().chain(&f.sum_sq).flatten().map(|v| v.to_bits()).collect()
+}
+
+/// Renders with both schedules and requires identical film words (sums and sums of squares) and ray counts; returns
+/// the film's words.
+fn assert_schedules_agree(what: &str, r: &mut Renderer, s: &RenderSettings) -> Vec<u32> {
     eprintln!("{what}:");
     let (wave, wave_stats) = render(r, s, Schedule::Wavefront);
     let (fused, fused_stats) = render(r, s, Schedule::Fused);
-    let bits = |f: &Film| -> Vec<u32> { f.sum.iter().chain(&f.sum_sq).flatten().map(|v| v.to_bits()).collect() };
     let (a, b) = (bits(&wave), bits(&fused));
     let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
     assert_eq!(
@@ -34,6 +38,7 @@ fn assert_schedules_agree(what: &str, r: &mut Renderer, s: &RenderSettings) {
     // A film of zeros would agree trivially.
     let lit = wave.sum.iter().filter(|p| p[0] + p[1] + p[2] > 0.0).count();
     assert!(lit * 2 > wave.sum.len(), "{what}: only {lit} pixels received light");
+    a
 }
 
 fn renderer_for(scene: &scene::Scene) -> Renderer {
@@ -49,13 +54,22 @@ fn the_cornell_box_is_the_same_bytes_either_way_with_either_bvh_read() {
     let mut r = renderer_for(&load("cornell-box.gltf"));
     // Several samples per pixel in one pass, so fused lanes start new samples mid-flight; a depth cap and a lens too.
     let s = settings(24, 20, 9, 3);
-    assert_schedules_agree("cornell box", &mut r, &s);
+    let pinhole = assert_schedules_agree("cornell box", &mut r, &s);
+    // The lens is folded out of the render stages until a pass has an aperture (FEATURE_LENS): the same renderer
+    // must rebuild them for the lens, and again without it.
     let lens = RenderSettings {
         aperture: 0.02,
-        max_depth: Some(3),
         ..s.clone()
     };
-    assert_schedules_agree("cornell box, thin lens, depth 3", &mut r, &lens);
+    let with_lens = assert_schedules_agree("cornell box, thin lens", &mut r, &lens);
+    assert!(with_lens != pinhole, "the thin lens changed nothing");
+    let again = assert_schedules_agree("cornell box again", &mut r, &s);
+    assert!(again == pinhole, "the pinhole came back different");
+    let capped = RenderSettings {
+        max_depth: Some(3),
+        ..lens.clone()
+    };
+    assert_schedules_agree("cornell box, thin lens, depth 3", &mut r, &capped);
     if r.set_bvh_reads(BvhReads::Storage).is_ok() {
         assert_schedules_agree("cornell box, storage reads", &mut r, &s);
     }
@@ -123,7 +137,6 @@ fn a_follow_dispatch_cut_short_by_the_loop_budget_is_run_again_as_a_wavefront() 
         "the renderer kept the fused schedule after a cut"
     );
     assert!(r.warnings.iter().any(|w| w.contains("loop budget")), "{:?}", r.warnings);
-    let bits = |f: &Film| -> Vec<u32> { f.sum.iter().chain(&f.sum_sq).flatten().map(|v| v.to_bits()).collect() };
     assert!(
         bits(&want) == bits(&got),
         "the pass run again differs from a wavefront render"

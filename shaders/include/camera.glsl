@@ -18,7 +18,7 @@ void camera_ray(uint pixel, uint s, out vec3 origin, out vec3 d) {
     d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
     origin = frame.cam_origin.xyz;
     float aperture = frame.cam_up.w;
-    if (aperture > 0.0) {
+    if (scene_has(FEATURE_LENS) && aperture > 0.0) {
         // Thin lens: every ray through the lens meets the pinhole ray on the plane of focus.
         vec3 focus = origin + d * (frame.cam_forward.w / dot(d, frame.cam_forward.xyz));
         vec2 lens = aperture * sample_concentric_disk(rand2(pixel, s, 0u, DIM_LENS));

@@ -453,6 +453,8 @@ pub struct Renderer {
     /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
     textured: bool,
     schedule: ScheduleChoice,
+    /// The scene's FEATURE_* bits; a pass adds FEATURE_LENS when its camera has an aperture.
+    scene_features: u32,
     vertex_colors: bool,
     env_prob: f32,
     env_size: (u32, u32),
@@ -630,7 +632,8 @@ impl Renderer {
             },
             Err(_) => ScheduleChoice::Fixed(Schedule::Wavefront),
         };
-        let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV, packed.features())?;
+        let scene_features = packed.features();
+        let pipelines = Pipelines::new(&ctx, crate::shaders::BUILTIN_SPIRV, scene_features)?;
         if let Some(v) = &texel_views {
             pipelines.bind_texel_views(&ctx, &v.views);
         }
@@ -657,6 +660,7 @@ impl Renderer {
             path_stand_in,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             schedule,
+            scene_features,
             vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
@@ -1180,6 +1184,8 @@ impl Renderer {
             ],
             Schedule::Fused => &[stages.follow, "accumulate"],
         };
+        let lens = if frame.cam_up[3] > 0.0 { FEATURE_LENS } else { 0 };
+        self.pipelines.set_features(self.scene_features | lens);
         self.pipelines.ensure(&self.ctx, names)?;
         let Renderer {
             ctx,

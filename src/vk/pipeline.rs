@@ -24,6 +24,8 @@ pub struct Pipelines {
     /// Render stages not built yet: `ensure` builds them before their first pass. Building all eighteen render
     /// variants up front cost start-up about a second on lavapipe (each fused variant holds two traversals).
     pending: HashMap<String, Vec<u8>>,
+    /// Every render stage's SPIR-V, so `set_features` can send built ones back to `pending`.
+    render_spirv: HashMap<String, Vec<u8>>,
     /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
     features: u32,
     device: ash::Device,
@@ -92,6 +94,7 @@ impl Pipelines {
             set,
             pipelines: HashMap::new(),
             pending: HashMap::new(),
+            render_spirv: HashMap::new(),
             features,
             device: d.clone(),
         };
@@ -100,9 +103,25 @@ impl Pipelines {
                 me.replace(ctx, name, spv)?;
             } else {
                 me.pending.insert(name.to_string(), spv.to_vec());
+                me.render_spirv.insert(name.to_string(), spv.to_vec());
             }
         }
         Ok(me)
+    }
+
+    /// Specialises the render stages for `features` from now on: built ones are dropped and built again by `ensure`.
+    pub fn set_features(&mut self, features: u32) {
+        if features == self.features {
+            return;
+        }
+        self.features = features;
+        for (name, spv) in &self.render_spirv {
+            if let Some(old) = self.pipelines.remove(name) {
+                // The caller waits for the device before a pass, so no command buffer still uses it.
+                unsafe { self.device.destroy_pipeline(old, None) };
+                self.pending.insert(name.clone(), spv.clone());
+            }
+        }
     }
 
     /// Builds the pipelines of `names` that are still pending.
@@ -118,6 +137,9 @@ impl Pipelines {
     /// Builds (or rebuilds) one stage's pipeline from SPIR-V.
     pub fn replace(&mut self, ctx: &Context, name: &str, spv: &[u8]) -> Result<(), Error> {
         self.pending.remove(name);
+        if !scene_independent(name) && name != "tonemap" {
+            self.render_spirv.insert(name.to_string(), spv.to_vec());
+        }
         let d = &ctx.device;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
