@@ -11,7 +11,7 @@ void main() {
     uint path = queues[QUEUE_SHADOW * frame.path_capacity + i];
     vec4 o = path_get(PATH_SHADOW_ORIGIN, path);
     vec3 d = path_get(PATH_SHADOW_DIR, path).xyz;
-    uint key = pcg4d(uvec4(path_pixel(path), path_sample(path), (frame.bounce << 8u) | DIM_SHADOW_ALPHA, frame.seed)).x;
+    uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_SHADOW_ALPHA);
     if (!occluded(o.xyz, d, 0.0, o.w, key)) {
         vec4 l = path_get(PATH_RADIANCE, path);
         path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));

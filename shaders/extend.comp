@@ -12,7 +12,7 @@ void main() {
     uint path = queues[cur * frame.path_capacity + i];
     vec3 o = path_get(PATH_ORIGIN, path).xyz;
     vec3 d = path_get(PATH_DIR, path).xyz;
-    uint key = pcg4d(uvec4(path_pixel(path), path_sample(path), (frame.bounce << 8u) | DIM_ALPHA, frame.seed)).x;
+    uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_ALPHA);
     Hit h = trace(o, d, 0.0, 3.0e38, false, key);
     path_set(PATH_HIT, path, vec4(h.t, uintBitsToFloat(h.tri), h.uv));
 }

@@ -6,7 +6,6 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_vote : require
 #include "stage.glsl"
-#include "camera.glsl"
 #include "path.glsl"
 #include "traverse.glsl"
 
@@ -22,23 +21,18 @@ void main() {
         // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).
         uint pixel = path_pixel(i);
         uint bounce = 0u;
-        PathVertex v;
-        camera_ray(pixel, path_sample(path), v.origin.xyz, v.dir);
-        v.origin.w = 0.0;
-        v.beta = vec3(1.0);
-        v.radiance = vec3(0.0);
+        PathVertex v = start_path(pixel, path_sample(path));
         // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
         // samples; the wavefront gets the same by compacting its queues.
         while (path < end) {
             uint s = path_sample(path);
-            uint key = pcg4d(uvec4(pixel, s, (bounce << 8u) | DIM_ALPHA, frame.seed)).x;
-            Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, key);
+            Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, ray_key(pixel, s, bounce, DIM_ALPHA));
             rays++;
             ShadowRay shadow;
             bool alive = shade_path(pixel, s, bounce, vec4(h.t, uintBitsToFloat(h.tri), h.uv), v, shadow);
             if (shadow.wanted) {
                 shadow_rays++;
-                uint shadow_key = pcg4d(uvec4(pixel, s, (bounce << 8u) | DIM_SHADOW_ALPHA, frame.seed)).x;
+                uint shadow_key = ray_key(pixel, s, bounce, DIM_SHADOW_ALPHA);
                 if (!occluded(shadow.origin.xyz, shadow.dir, 0.0, shadow.origin.w, shadow_key)) {
                     v.radiance += shadow.radiance;
                 }
@@ -48,10 +42,7 @@ void main() {
                 path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
                 path += frame.pass_pixels;
                 bounce = 0u;
-                camera_ray(pixel, path_sample(path), v.origin.xyz, v.dir);
-                v.origin.w = 0.0;
-                v.beta = vec3(1.0);
-                v.radiance = vec3(0.0);
+                v = start_path(pixel, path_sample(path));
             }
         }
     }

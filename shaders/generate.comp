@@ -8,11 +8,10 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i == 0u) counters.queue_count[0] = frame.path_count;
     if (i >= frame.path_count) return;
-    vec3 origin, d;
-    camera_ray(path_pixel(i), path_sample(i), origin, d);
-    path_set(PATH_ORIGIN, i, vec4(origin, 0.0));
-    path_set(PATH_DIR, i, vec4(d, 0.0));
-    path_set(PATH_THROUGHPUT, i, vec4(1.0));
-    path_set(PATH_RADIANCE, i, vec4(0.0));
+    PathVertex v = start_path(path_pixel(i), path_sample(i));
+    path_set(PATH_ORIGIN, i, v.origin);
+    path_set(PATH_DIR, i, vec4(v.dir, 0.0));
+    path_set(PATH_THROUGHPUT, i, vec4(v.beta, 0.0));
+    path_set(PATH_RADIANCE, i, vec4(v.radiance, 0.0));
     queues[i] = i;
 }

@@ -32,7 +32,6 @@ void main() {
     ShadowRay shadow;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), v, shadow);
 
-    // To look at any quantity while editing (README): `v.radiance = ns * 0.5 + 0.5; alive = false;` in shade_path.
     path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
     if (shadow.wanted) {
         queue_push(QUEUE_SHADOW, path);

@@ -1,7 +1,7 @@
 //! The two schedules, wavefront (queues between stages) and fused (follow: each invocation takes its paths from camera
 //! to end), are one integrator: for a seed they give the same bytes and trace the same rays, on every scene feature.
 mod common;
-use common::{scenes_dir, settings, validation};
+use common::{renderer, scene_renderer, scenes_dir, settings};
 use pathwave::scene::{self, Environment};
 use pathwave::{BvhReads, Film, RenderSettings, RenderStats, Renderer, Schedule};
 
@@ -41,17 +41,13 @@ fn assert_schedules_agree(what: &str, r: &mut Renderer, s: &RenderSettings) -> V
     a
 }
 
-fn renderer_for(scene: &scene::Scene) -> Renderer {
-    Renderer::with_validation(scene, &pathwave::vk::DeviceChoice::Best, validation()).unwrap_or_else(|e| panic!("{e}"))
-}
-
 fn load(name: &str) -> scene::Scene {
     scene::load(&scenes_dir().join(name), None).unwrap_or_else(|e| panic!("{e}"))
 }
 
 #[test]
 fn the_cornell_box_is_the_same_bytes_either_way_with_either_bvh_read() {
-    let mut r = renderer_for(&load("cornell-box.gltf"));
+    let mut r = renderer(&scenes_dir().join("cornell-box.gltf"));
     // Several samples per pixel in one pass, so fused lanes start new samples mid-flight; a depth cap and a lens too.
     let s = settings(24, 20, 9, 3);
     let pinhole = assert_schedules_agree("cornell box", &mut r, &s);
@@ -80,7 +76,7 @@ fn glass_punctual_textured_and_alpha_scenes_are_the_same_bytes_either_way() {
     // glass: delta reflection and refraction; punctual lights: delta lights; textured: the textured and alpha-tested
     // variants (MASK and BLEND in traversal, textures in shading and in emitters).
     for name in ["glass.gltf", "punctual-lights.gltf", "textured.gltf"] {
-        let mut r = renderer_for(&load(name));
+        let mut r = renderer(&scenes_dir().join(name));
         assert_schedules_agree(name, &mut r, &settings(20, 16, 6, 11));
     }
 }
@@ -89,7 +85,7 @@ fn glass_punctual_textured_and_alpha_scenes_are_the_same_bytes_either_way() {
 fn an_environment_lit_scene_is_the_same_bytes_either_way() {
     let mut scene = load("material-grid.gltf");
     scene.environment = Some(Environment::constant([0.6, 0.7, 0.9]));
-    let mut r = renderer_for(&scene);
+    let mut r = scene_renderer(&scene);
     assert_schedules_agree("material grid in an environment", &mut r, &settings(20, 16, 6, 5));
 }
 
@@ -109,7 +105,7 @@ fn a_follow_dispatch_cut_short_by_the_loop_budget_is_run_again_as_a_wavefront() 
     let patched = src.replacen(anchor, &format!("{burn}{anchor}    if (burn == 1u) rays++;\n"), 1);
     std::fs::write(&follow, patched).unwrap();
 
-    let mut r = renderer_for(&load("cornell-box.gltf"));
+    let mut r = renderer(&scenes_dir().join("cornell-box.gltf"));
     let s = settings(16, 12, 4, 2);
     r.set_schedule(Schedule::Wavefront);
     let (want, _) = r.render(&s, &mut |_| {}).unwrap();

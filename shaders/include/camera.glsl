@@ -1,4 +1,5 @@
-// Camera rays: a jittered point in the pixel (box filter) through a pinhole or a thin lens.
+// Where paths start: camera rays (a jittered point in the pixel, box filter, through a pinhole or a thin lens) and the
+// path state they begin.
 #ifndef CAMERA_GLSL
 #define CAMERA_GLSL
 
@@ -25,6 +26,24 @@ void camera_ray(uint pixel, uint s, out vec3 origin, out vec3 d) {
         origin += lens.x * frame.cam_right.xyz + lens.y * frame.cam_up.xyz;
         d = normalize(focus - origin);
     }
+}
+
+// What a path carries from one bounce to the next; the wavefront keeps it in the PATH_* fields, follow in registers.
+struct PathVertex {
+    vec4 origin;   // of the ray just traced; .w: the pdf of the BSDF sample that chose it, 0 after a delta bounce
+    vec3 dir;      // of that ray, unit length
+    vec3 beta;     // throughput up to the ray's origin
+    vec3 radiance; // gathered so far
+};
+
+// Sample s of pixel, about to trace its camera ray: full throughput, nothing gathered, counted like a delta bounce.
+PathVertex start_path(uint pixel, uint s) {
+    PathVertex v;
+    camera_ray(pixel, s, v.origin.xyz, v.dir);
+    v.origin.w = 0.0;
+    v.beta = vec3(1.0);
+    v.radiance = vec3(0.0);
+    return v;
 }
 
 #endif

@@ -4,15 +4,8 @@
 
 #include "rng.glsl"
 #include "bsdf.glsl"
+#include "camera.glsl"
 #include "lights.glsl"
-
-// What a path carries from one bounce to the next; the wavefront keeps it in the PATH_* fields, follow in registers.
-struct PathVertex {
-    vec4 origin;   // of the ray just traced; .w: the pdf of the BSDF sample that chose it, 0 after a delta bounce
-    vec3 dir;      // of that ray, unit length
-    vec3 beta;     // throughput up to the ray's origin
-    vec3 radiance; // gathered so far
-};
 
 // Next-event estimation's ray: it adds `radiance` when nothing blocks origin -> origin + dir * origin.w.
 struct ShadowRay {
@@ -84,6 +77,8 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, o
     vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
     ns = normal_mapped(m, tri, uv, ns);
     if (dot(ns, n_in) < 0.0) ns = -ns;
+    // To look at any quantity while editing (README), e.g. the shading normals: `v.radiance = ns * 0.5 + 0.5;
+    // return false;` here.
 
     // Emission seen by this ray, weighted against the chance NEE would have found the same point.
     bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));

@@ -53,6 +53,11 @@ vec2 rand2(uint pixel, uint sample_index, uint bounce, uint dim) {
     return vec2(uvec2(x, y) >> 8u) * (1.0 / 16777216.0);
 }
 
+// A hash of (pixel, sample, bounce, dimension): a ray's key for stochastic transparency (alpha_stops in surface.glsl).
+uint ray_key(uint pixel, uint sample_index, uint bounce, uint dim) {
+    return pcg4d(uvec4(pixel, sample_index, (bounce << 8u) | dim, frame.seed)).x;
+}
+
 // Per-pixel rotated R2 sequence: low discrepancy over samples, decorrelated across pixels.
 // Fixed point keeps it exact for any sample index.
 vec2 pixel_jitter(uint pixel, uint sample_index) {

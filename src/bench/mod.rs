@@ -159,6 +159,13 @@ fn measure(
         1.0
     };
     let mean = film.mean();
+    // What the timed passes ran: on a CPU device the default tries both schedules before it keeps one.
+    let ran = |stage: &str| stats.stage_ms.iter().any(|(l, _)| *l == stage);
+    let schedule = match (ran("follow"), ran("extend")) {
+        (true, true) => "both",
+        (true, false) => "fused",
+        _ => "wavefront",
+    };
     Ok(CaseResult {
         name: name.into(),
         device: device_name,
@@ -172,21 +179,13 @@ fn measure(
         extension_rays_per_s: stats.rays_per_sec_split().0,
         shadow_rays_per_s: stats.rays_per_sec_split().1,
         // Only when every timed pass ran the wavefront: fused passes trace extension rays outside any extend stage.
-        extend_stage_rays_per_s: if extend_ms > 0.0 && !stats.stage_ms.iter().any(|(l, _)| *l == "follow") {
+        extend_stage_rays_per_s: if extend_ms > 0.0 && schedule == "wavefront" {
             stats.extension_rays as f64 * steady_share / (extend_ms * 1e-3)
         } else {
             0.0
         },
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
-        // What the passes ran: on a CPU device the default tries both before it keeps one.
-        schedule: match (
-            stats.stage_ms.iter().any(|(l, _)| *l == "follow"),
-            stats.stage_ms.iter().any(|(l, _)| *l == "extend"),
-        ) {
-            (true, true) => "both".into(),
-            (true, false) => "fused".into(),
-            _ => "wavefront".into(),
-        },
+        schedule: schedule.into(),
         bvh_build_s,
         bytes_per_triangle: bytes as f64 / scene.triangles.len().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,

@@ -329,8 +329,11 @@ impl Recorder<'_> {
     }
 }
 
+/// The stages only the wavefront runs: an edited one must be run (Renderer::load_shaders).
+const WAVEFRONT_STAGES: [&str; 5] = ["generate", "queue_args", "extend", "shade", "connect"];
+
 /// A variant's timings count under its stage: "extend_alpha_texel" is extend.
-fn stage_label(name: &'static str) -> &'static str {
+fn stage_label(name: &str) -> &str {
     crate::variants::STAGE_VARIANTS
         .iter()
         .find(|(stage, suffix, _)| name.strip_prefix(stage).and_then(|r| r.strip_prefix('_')) == Some(suffix))
@@ -747,13 +750,9 @@ impl Renderer {
         for (name, spv) in names.iter().zip(&compiled) {
             self.pipelines.replace(&self.ctx, name, spv)?;
         }
-        let stage = |n: &String| stage_label(builtin_stage_names().find(|b| *b == n.as_str()).unwrap_or(""));
-        if names
-            .iter()
-            .any(|n| ["generate", "extend", "shade", "connect", "queue_args"].contains(&stage(n)))
-        {
+        if names.iter().any(|n| WAVEFRONT_STAGES.contains(&stage_label(n))) {
             self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
-        } else if names.iter().any(|n| stage(n) == "follow") {
+        } else if names.iter().any(|n| stage_label(n) == "follow") {
             self.schedule = ScheduleChoice::Fixed(Schedule::Fused);
         }
         Ok(names)

@@ -21,10 +21,8 @@ pub struct Pipelines {
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
     pipelines: HashMap<String, vk::Pipeline>,
-    /// Render stages not built yet: `ensure` builds them before their first pass. Building all eighteen render
-    /// variants up front cost start-up about a second on lavapipe (each fused variant holds two traversals).
-    pending: HashMap<String, Vec<u8>>,
-    /// Every render stage's SPIR-V, so `set_features` can send built ones back to `pending`.
+    /// Every render stage's SPIR-V: `ensure` builds the ones a pass needs that are not in `pipelines` yet (building
+    /// all eighteen render variants up front cost start-up about a second on lavapipe), `set_features` drops them.
     render_spirv: HashMap<String, Vec<u8>>,
     /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
     features: u32,
@@ -35,6 +33,11 @@ pub struct Pipelines {
 /// their own, and the energy tables integrate the full BSDF.
 fn scene_independent(stage: &str) -> bool {
     stage.starts_with("probe_") || stage == "energy_tables"
+}
+
+/// The stages a pass dispatches: specialised for the scene's features, built when a pass first needs them.
+fn render_stage(stage: &str) -> bool {
+    !scene_independent(stage) && stage != "tonemap"
 }
 
 impl Pipelines {
@@ -93,17 +96,15 @@ impl Pipelines {
             pool,
             set,
             pipelines: HashMap::new(),
-            pending: HashMap::new(),
             render_spirv: HashMap::new(),
             features,
             device: d.clone(),
         };
         for (name, spv) in stages {
-            if scene_independent(name) || *name == "tonemap" {
-                me.replace(ctx, name, spv)?;
-            } else {
-                me.pending.insert(name.to_string(), spv.to_vec());
+            if render_stage(name) {
                 me.render_spirv.insert(name.to_string(), spv.to_vec());
+            } else {
+                me.replace(ctx, name, spv)?;
             }
         }
         Ok(me)
@@ -115,20 +116,21 @@ impl Pipelines {
             return;
         }
         self.features = features;
-        for (name, spv) in &self.render_spirv {
+        for name in self.render_spirv.keys() {
             if let Some(old) = self.pipelines.remove(name) {
                 // The caller waits for the device before a pass, so no command buffer still uses it.
                 unsafe { self.device.destroy_pipeline(old, None) };
-                self.pending.insert(name.clone(), spv.clone());
             }
         }
     }
 
-    /// Builds the pipelines of `names` that are still pending.
+    /// Builds the render stages among `names` that are not built yet.
     pub fn ensure(&mut self, ctx: &Context, names: &[&str]) -> Result<(), Error> {
         for name in names {
-            if let Some(spv) = self.pending.remove(*name) {
-                self.replace(ctx, name, &spv)?;
+            if !self.pipelines.contains_key(*name) {
+                if let Some(spv) = self.render_spirv.get(*name).cloned() {
+                    self.replace(ctx, name, &spv)?;
+                }
             }
         }
         Ok(())
@@ -136,8 +138,7 @@ impl Pipelines {
 
     /// Builds (or rebuilds) one stage's pipeline from SPIR-V.
     pub fn replace(&mut self, ctx: &Context, name: &str, spv: &[u8]) -> Result<(), Error> {
-        self.pending.remove(name);
-        if !scene_independent(name) && name != "tonemap" {
+        if render_stage(name) {
             self.render_spirv.insert(name.to_string(), spv.to_vec());
         }
         let d = &ctx.device;

@@ -24,8 +24,12 @@ pub fn validation() -> pathwave::vk::Validation {
 
 /// A renderer for a scene file on the best device, with the tests' validation setting.
 pub fn renderer(path: &std::path::Path) -> pathwave::Renderer {
-    let scene = pathwave::scene::load(path, None).unwrap_or_else(|e| panic!("{e}"));
-    pathwave::Renderer::with_validation(&scene, &pathwave::vk::DeviceChoice::Best, validation())
+    scene_renderer(&pathwave::scene::load(path, None).unwrap_or_else(|e| panic!("{e}")))
+}
+
+/// A renderer for a scene on the best device, with the tests' validation setting.
+pub fn scene_renderer(scene: &pathwave::scene::Scene) -> pathwave::Renderer {
+    pathwave::Renderer::with_validation(scene, &pathwave::vk::DeviceChoice::Best, validation())
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
