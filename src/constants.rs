@@ -109,6 +109,10 @@ pub const FEATURE_ENV: u32 = 16;
 /// pass changes it. In the fused schedule every bounce runs the camera code for the lanes starting a sample, lens
 /// included, whichever lanes need it: folding it away made the Cornell box 3.5 % faster.
 pub const FEATURE_LENS: u32 = 32;
+/// The traversal stack can hold more than REGISTER_STACK entries (BvhStats::max_waiting): traversal keeps it in
+/// memory. Cleared, it lives in REGISTER_STACK registers. Unlike the other bits this one is the BVH's, so the
+/// probe_trace kernel takes it from the scene too and the BVH tests check the traversal the render stages run.
+pub const FEATURE_DEEP_STACK: u32 = 64;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
 
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.
@@ -131,6 +135,11 @@ pub const ESTIMATOR_SHIFT: u32 = 4;
 
 /// Traversal stack depth; the builder guarantees the tree is no deeper than this.
 pub const BVH_STACK_SIZE: u32 = 64;
+/// Stack entries traversal can keep in registers (FEATURE_DEEP_STACK). lavapipe turns each store to a per-lane
+/// indexed array into eight scalar stores, run whether a lane pushes or not; in registers a push is a few selects
+/// per entry. The Cornell box (at most 8 entries) traces 6.5 % faster so; a bigger register stack with memory below
+/// it, refilled outside the loop, was slower than memory alone on the glass scene (21 entries).
+pub const REGISTER_STACK: u32 = 8;
 /// A traversal stack entry packs a node as first << STACK_COUNT_BITS | count: leaves hold fewer triangles than
 /// 2^STACK_COUNT_BITS, and scenes are limited to 2^(32 - STACK_COUNT_BITS) nodes and triangles (MAX_SCENE_ITEMS).
 pub const STACK_COUNT_BITS: u32 = 3;

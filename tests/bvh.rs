@@ -3,7 +3,7 @@ mod common;
 
 use glam::Vec3;
 use pathwave::bvh::{self, brute_force, intersect_triangle, Ray, TraceHit};
-use pathwave::constants::NO_HIT;
+use pathwave::constants::{NO_HIT, REGISTER_STACK};
 use pathwave::layout::TriVerts;
 use pathwave::render::gpu_scene;
 use pathwave::scene::{Material, Scene};
@@ -247,10 +247,38 @@ fn check_mesh_with(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64, ray_count: 
     }
 }
 
+/// The most entries the mesh's traversal stack can hold: up to REGISTER_STACK, traversal keeps them in registers
+/// (FEATURE_DEEP_STACK cleared), past it in memory.
+fn stack_bound(triangles: &[[Vec3; 3]]) -> u32 {
+    gpu_scene::pack(&scene_of(triangles.to_vec())).bvh.stats.max_waiting
+}
+
 #[test]
 fn random_triangle_soup() {
     let mut rng = Rng(1);
-    check_mesh("soup", soup(&mut rng, 3000), 2);
+    let tris = soup(&mut rng, 3000);
+    assert!(
+        stack_bound(&tris) > REGISTER_STACK,
+        "this test is for the stack in memory"
+    );
+    check_mesh("soup", tris, 2);
+}
+
+#[test]
+fn small_soup_with_the_stack_in_registers() {
+    let mut rng = Rng(5);
+    // Large, overlapping triangles, so enough of the rays hit one.
+    let tris: Vec<[Vec3; 3]> = (0..24)
+        .map(|_| {
+            let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
+            [c + rng.dir(), c + rng.dir(), c + rng.dir()]
+        })
+        .collect();
+    assert!(
+        stack_bound(&tris) <= REGISTER_STACK,
+        "this test is for the stack in registers"
+    );
+    check_mesh("small soup", tris, 6);
 }
 
 /// 80k triangles: enough for the build to split across threads and splice subtrees (past 32k triangles).
@@ -298,6 +326,10 @@ fn quantised_boxes_hold_at_extreme_scales() {
 #[test]
 fn cornell_box() {
     let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    assert!(
+        stack_bound(&scene.triangles) <= REGISTER_STACK,
+        "the bench's Cornell box traces with the stack in registers"
+    );
     check_mesh("cornell", scene.triangles, 4);
 }
 

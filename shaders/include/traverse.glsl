@@ -95,6 +95,9 @@ void sort2(inout float ta, inout float tb, inout uint wa, inout uint wb) {
     wb = swap ? w : wb;
 }
 
+// The register stack (s0 .. s7 in trace_hit) is written out for REGISTER_STACK = 8: any other value fails to compile.
+const uint register_stack_is_written_out_for_8[REGISTER_STACK == 8u ? 1 : 0] = uint[](0u);
+
 // The closest (or any) hit's distance and triangle; its barycentrics are left 0 (see trace).
 Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
     Hit hit;
@@ -107,7 +110,11 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
     // distance too, to drop nodes beyond the closest hit when popped, cost more than it saved on lavapipe (each word
     // pushed is a per-lane scatter): without it random rays ran 4 % faster and the Cornell box's extend and connect
     // stages 5-15 %. A popped node's children are still tested against the closest hit.
+    //
+    // Scenes whose stack never holds more than REGISTER_STACK entries (no FEATURE_DEEP_STACK) keep it in registers
+    // instead, s0 on top: a push shifts the entries down by the number pushed, a pop up by one (see constants.rs).
     uint stack[BVH_STACK_SIZE];
+    uint s0 = 0u, s1 = 0u, s2 = 0u, s3 = 0u, s4 = 0u, s5 = 0u, s6 = 0u, s7 = 0u;
     uint sp = 0u;
     // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
     uint first = 0u;
@@ -146,12 +153,27 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
             sort2(ct.x, ct.z, cw.x, cw.z);
             sort2(ct.y, ct.w, cw.y, cw.w);
             sort2(ct.y, ct.z, cw.y, cw.z);
-            stack[sp] = cw.w;
-            sp += ct.w != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
-            stack[sp] = cw.z;
-            sp += ct.z != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
-            stack[sp] = cw.y;
-            sp += ct.y != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+            if (scene_has(FEATURE_DEEP_STACK)) {
+                stack[sp] = cw.w;
+                sp += ct.w != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+                stack[sp] = cw.z;
+                sp += ct.z != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+                stack[sp] = cw.y;
+                sp += ct.y != uintBitsToFloat(0x7F800000u) ? 1u : 0u;
+            } else {
+                // Entered children are a prefix of the sorted four, so y, z, w push as the top 0 to 3 entries.
+                const float miss = uintBitsToFloat(0x7F800000u);
+                uint n = (ct.y != miss ? 1u : 0u) + (ct.z != miss ? 1u : 0u) + (ct.w != miss ? 1u : 0u);
+                s7 = n == 0u ? s7 : n == 1u ? s6 : n == 2u ? s5 : s4;
+                s6 = n == 0u ? s6 : n == 1u ? s5 : n == 2u ? s4 : s3;
+                s5 = n == 0u ? s5 : n == 1u ? s4 : n == 2u ? s3 : s2;
+                s4 = n == 0u ? s4 : n == 1u ? s3 : n == 2u ? s2 : s1;
+                s3 = n == 0u ? s3 : n == 1u ? s2 : n == 2u ? s1 : s0;
+                s2 = n == 0u ? s2 : n == 1u ? s1 : n == 2u ? s0 : cw.w;
+                s1 = n == 0u ? s1 : n == 1u ? s0 : cw.z;
+                s0 = n == 0u ? s0 : cw.y;
+                sp += n;
+            }
             unpack(cw.x, first, count);
             has_node = ct.x != uintBitsToFloat(0x7F800000u);
         }
@@ -162,7 +184,18 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
         }
         if (!has_node && sp > 0u) {
             --sp;
-            unpack(stack[sp], first, count);
+            if (scene_has(FEATURE_DEEP_STACK)) {
+                unpack(stack[sp], first, count);
+            } else {
+                unpack(s0, first, count);
+                s0 = s1;
+                s1 = s2;
+                s2 = s3;
+                s3 = s4;
+                s4 = s5;
+                s5 = s6;
+                s6 = s7;
+            }
             has_node = true;
         }
         if (tri < end) {

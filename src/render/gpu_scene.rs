@@ -62,6 +62,9 @@ impl PackedScene {
         if !self.env_data.is_empty() {
             bits |= FEATURE_ENV;
         }
+        if self.bvh.stats.max_waiting > REGISTER_STACK {
+            bits |= FEATURE_DEEP_STACK;
+        }
         bits
     }
 }
@@ -312,7 +315,10 @@ mod tests {
     #[test]
     fn scene_features_name_what_materials_and_lights_use() {
         assert_eq!(features_of("cornell-box.gltf"), 0);
-        assert_eq!(features_of("glass.gltf"), FEATURE_COAT | FEATURE_TRANSMISSION);
+        assert_eq!(
+            features_of("glass.gltf"),
+            FEATURE_COAT | FEATURE_TRANSMISSION | FEATURE_DEEP_STACK
+        );
         assert_eq!(features_of("punctual-lights.gltf") & FEATURE_PUNCTUAL, FEATURE_PUNCTUAL);
         let grid = features_of("material-grid.gltf");
         assert_eq!(grid & (FEATURE_COAT | FEATURE_METAL), FEATURE_COAT | FEATURE_METAL);

@@ -1,6 +1,6 @@
 //! Compute pipelines that share one descriptor set layout and one push-constant block, and per-stage GPU timers.
 use super::{Buffer, Context};
-use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, FEATURES_ALL, SPEC_SCENE_FEATURES};
+use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, FEATURES_ALL, FEATURE_DEEP_STACK, SPEC_SCENE_FEATURES};
 use crate::layout::Frame;
 use crate::Error;
 use ash::vk;
@@ -146,7 +146,8 @@ impl Pipelines {
             .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
         let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
         let features = if scene_independent(name) {
-            FEATURES_ALL
+            // Probes keep every bit but the BVH's own (FEATURE_DEEP_STACK), so probe_trace traverses as render stages do.
+            (FEATURES_ALL & !FEATURE_DEEP_STACK) | (self.features & FEATURE_DEEP_STACK)
         } else {
             self.features
         };
