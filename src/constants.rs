@@ -151,7 +151,10 @@ pub const BVH_WIDTH: u32 = 4;
 const _: () = assert!(BVH_WIDTH == 4);
 /// Triangles per leaf the SAH builder may create at most.
 pub const BVH_MAX_LEAF_TRIS: u32 = 4;
-const _: () = assert!(BVH_MAX_LEAF_TRIS < 1 << STACK_COUNT_BITS);
+/// A BvhNode child's kind, STACK_COUNT_BITS wide: 0 an unused slot, 1 ..= BVH_MAX_LEAF_TRIS a leaf of that many
+/// triangles, BVH_CHILD_INTERIOR an interior node.
+pub const BVH_CHILD_INTERIOR: u32 = 7;
+const _: () = assert!(BVH_MAX_LEAF_TRIS < BVH_CHILD_INTERIOR && BVH_CHILD_INTERIOR < 1 << STACK_COUNT_BITS);
 
 /// Samples one follow invocation takes through at most, per dispatch: lavapipe cuts a shader's loops short once their
 /// iterations add up to 65535 per invocation (follow.comp detects it), so a dispatch must not chain too many paths.

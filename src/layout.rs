@@ -1,21 +1,58 @@
 //! Rust mirrors of the structs in `shaders/include/layout.glsl`; tests/layout.rs checks them against the SPIR-V.
+use crate::constants::{BVH_CHILD_INTERIOR, STACK_COUNT_BITS};
 use bytemuck::{Pod, Zeroable};
 
-/// 64 bytes: one interior node and its BVH_WIDTH children's boxes, quantised. See `BvhNode` in layout.glsl.
+/// 48 bytes (three texels): one interior node, its BVH_WIDTH children's boxes quantised and where the children are.
+/// See `BvhNode` in layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct BvhNode {
-    /// xyz: f32 bits of the quantisation origin; w: the biased exponent of each axis's step (bytes 0, 1, 2).
+    /// xyz: f32 bits of the quantisation origin; w: the biased exponent of each axis's step (bytes 0, 1, 2), and the
+    /// kinds (BVH_CHILD_INTERIOR, a leaf's triangle count, or 0 for unused) of children 0 and 1 in bits 24 and 27.
     pub origin: [u32; 4],
-    /// Each child as a traversal stack entry holds it, `first << STACK_COUNT_BITS | count`; 0 for an unused slot.
-    pub children: [u32; 4],
     /// Byte c of each word is child c's: lo.x, lo.y, lo.z, hi.x.
     pub q0: [u32; 4],
-    /// Byte c of each word is child c's: hi.y, hi.z; zw unused.
+    /// Byte c of x and y is child c's hi.y, hi.z. z: the first interior child's node index << STACK_COUNT_BITS |
+    /// child 2's kind; w: the first triangle of the leaf children << STACK_COUNT_BITS | child 3's kind.
     pub q1: [u32; 4],
 }
 
 impl BvhNode {
+    /// Child `c`'s kind: 0 for an unused slot, a leaf's triangle count, or BVH_CHILD_INTERIOR.
+    pub fn kind(&self, c: usize) -> u32 {
+        let word = [self.origin[3] >> 24, self.origin[3] >> 27, self.q1[2], self.q1[3]][c];
+        word & ((1 << STACK_COUNT_BITS) - 1)
+    }
+
+    /// Records child `c`'s kind (into a node whose kind bits are still 0).
+    pub fn set_kind(&mut self, c: usize, kind: u32) {
+        match c {
+            0 => self.origin[3] |= kind << 24,
+            1 => self.origin[3] |= kind << 27,
+            2 => self.q1[2] |= kind,
+            _ => self.q1[3] |= kind,
+        }
+    }
+
+    /// Each child as a traversal stack entry holds it, `first << STACK_COUNT_BITS | count` (count 0 for an interior
+    /// node), or 0 for an unused slot. A node's interior children are consecutive nodes from q1.z's index, and its
+    /// leaves' triangles consecutive from q1.w's, both in slot order: the same arithmetic as traverse.glsl.
+    pub fn child_entries(&self) -> [u32; 4] {
+        let mut node = self.q1[2] >> STACK_COUNT_BITS;
+        let mut tri = self.q1[3] >> STACK_COUNT_BITS;
+        std::array::from_fn(|c| match self.kind(c) {
+            0 => 0,
+            BVH_CHILD_INTERIOR => {
+                node += 1;
+                (node - 1) << STACK_COUNT_BITS
+            }
+            count => {
+                tri += count;
+                (tri - count) << STACK_COUNT_BITS | count
+            }
+        })
+    }
+
     /// The step of each axis's quantisation grid: 2^(exponent - 127), a normal power of two.
     pub fn scale(&self) -> [f32; 3] {
         std::array::from_fn(|a| f32::from_bits(((self.origin[3] >> (8 * a)) & 0xFF) << 23))
@@ -29,7 +66,7 @@ impl BvhNode {
 
     /// Child `c`'s box as traversal decodes it, or None for an unused slot.
     pub fn child_box(&self, c: usize) -> Option<([f32; 3], [f32; 3])> {
-        if self.children[c] == 0 {
+        if self.kind(c) == 0 {
             return None;
         }
         let byte = |w: u32| (w >> (8 * c)) & 0xFF;
@@ -197,7 +234,7 @@ pub struct ToneMap {
 }
 
 const _: () = assert!(std::mem::size_of::<ToneMap>() == 32);
-const _: () = assert!(std::mem::size_of::<BvhNode>() == 64);
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 48);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);

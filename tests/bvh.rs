@@ -389,18 +389,19 @@ fn assert_wide_tree_is_sound(b: &bvh::Bvh, tris: &[[Vec3; 3]]) {
             return (lo, hi);
         }
         let n = b.nodes[first as usize];
-        let used = n.children.iter().take_while(|&&w| w != 0).count();
+        let entries = n.child_entries();
+        let used = entries.iter().take_while(|&&w| w != 0).count();
         assert!(
-            n.children[used..].iter().all(|&w| w == 0),
+            entries[used..].iter().all(|&w| w == 0),
             "node {first}: a used child after an unused slot"
         );
         assert!(used >= 2 || first == 0, "node {first}: fewer than two children");
-        for c in 0..used {
+        for (c, &entry) in entries.iter().enumerate().take(used) {
             assert!(
-                n.children[c] >> STACK_COUNT_BITS > first || n.children[c] & 7 > 0,
+                entry >> STACK_COUNT_BITS > first || entry & 7 > 0,
                 "node {first}: a cycle"
             );
-            let (clo, chi) = walk(b, tris, n.children[c], covered);
+            let (clo, chi) = walk(b, tris, entry, covered);
             let (qlo, qhi) = n.child_box(c).expect("a used slot has a box");
             assert!(
                 (0..3).all(|k| qlo[k] <= clo[k] && qhi[k] >= chi[k]),

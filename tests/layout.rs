@@ -43,7 +43,7 @@ macro_rules! mirror {
 /// Adding a shared struct is one line here.
 fn mirrors() -> Vec<Mirror> {
     vec![
-        mirror!(BvhNode => "BvhNode", [origin, children, q0, q1]),
+        mirror!(BvhNode => "BvhNode", [origin, q0, q1]),
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
         mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, textures]),

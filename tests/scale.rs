@@ -29,8 +29,8 @@ fn worst_difference(film: &Film, expected: &Film) -> f32 {
 
 #[test]
 fn per_triangle_data_beyond_the_storage_range_render_through_texel_reads() {
-    // 4608 triangles: nodes, vertices and shading each take over 64 KiB.
-    let scene = pathwave::bench::terrain(48);
+    // 6272 triangles: nodes, vertices and shading each take over 64 KiB.
+    let scene = pathwave::bench::terrain(56);
     let packed = gpu_scene::pack(&scene);
     assert!(std::mem::size_of_val(&packed.tri_shading[..]) > SMALL_RANGE as usize);
     assert!(std::mem::size_of_val(&packed.bvh.nodes[..]) > SMALL_RANGE as usize);
@@ -115,7 +115,7 @@ fn textures_beyond_the_storage_range_render_through_texel_reads() {
 
 #[test]
 fn a_scene_beyond_every_limit_is_refused_by_buffer_name() {
-    let scene = pathwave::bench::terrain(48);
+    let scene = pathwave::bench::terrain(56);
     let mut ctx = Context::new(&Default::default(), common::validation()).unwrap();
     ctx.properties.limits.max_storage_buffer_range = SMALL_RANGE;
     ctx.properties.limits.max_texel_buffer_elements = 1024;

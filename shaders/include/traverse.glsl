@@ -67,15 +67,27 @@ uint traverse_node_visits = 0u;
 // lavapipe runs both sides of every branch under a mask, so a loop step costs a node test plus a triangle test
 // whichever one a lane needs. Each step therefore does one of each: the next interior node (all its children), and
 // the next triangle of a pending leaf. A leaf reached while another is pending waits as the current node. Four-wide
-// nodes halve the steps of two-wide ones, and quantised child boxes keep a node to four texel reads (see README).
+// nodes halve the steps of two-wide ones, and quantised child boxes keep a node to three texel reads (see README).
 
 // Child c's entry distance: +inf when the ray misses its box or the slot is unused.
 float test_child(BvhNode n, uint c, vec3 origin, vec3 scale, vec3 o, vec3 inv_d, float tmin, float tmax) {
     uint shift = 8u * c;
     vec3 lo = origin + vec3((n.q0.xyz >> shift) & 0xFFu) * scale;
     vec3 hi = origin + vec3((uvec3(n.q0.w, n.q1.xy) >> shift) & 0xFFu) * scale;
-    float t = intersect_box(lo, hi, o, inv_d, tmin, tmax);
-    return n.children[c] == 0u ? uintBitsToFloat(0x7F800000u) : t;
+    return intersect_box(lo, hi, o, inv_d, tmin, tmax);
+}
+
+// Each child as a stack entry, first << STACK_COUNT_BITS | count (count 0 for an interior node), or 0 for an unused
+// slot: layout.glsl's BvhNode keeps kinds and where the runs start, BvhNode::child_entries is the CPU twin.
+uvec4 child_entries(BvhNode n) {
+    uvec4 kind = uvec4(n.origin.w >> 24u, n.origin.w >> 27u, n.q1.z, n.q1.w) & ((1u << STACK_COUNT_BITS) - 1u);
+    bvec4 interior = equal(kind, uvec4(BVH_CHILD_INTERIOR));
+    uvec4 nodes = uvec4(interior);
+    uvec4 tris = mix(kind, uvec4(0u), interior);
+    uvec4 node = (n.q1.z >> STACK_COUNT_BITS) + uvec4(0u, nodes.x, nodes.x + nodes.y, nodes.x + nodes.y + nodes.z);
+    uvec4 tri = (n.q1.w >> STACK_COUNT_BITS) + uvec4(0u, tris.x, tris.x + tris.y, tris.x + tris.y + tris.z);
+    uvec4 entry = mix(tri << STACK_COUNT_BITS | tris, node << STACK_COUNT_BITS, interior);
+    return mix(entry, uvec4(0u), equal(kind, uvec4(0u)));
 }
 
 // A child or stack word, first << STACK_COUNT_BITS | count, as (first, count).
@@ -144,7 +156,9 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
                            test_child(n, 1u, origin, scale, o, inv_d, tmin, hit.t),
                            test_child(n, 2u, origin, scale, o, inv_d, tmin, hit.t),
                            test_child(n, 3u, origin, scale, o, inv_d, tmin, hit.t));
-            uvec4 cw = n.children;
+            uvec4 cw = child_entries(n);
+            // An unused slot is a miss.
+            ct = mix(ct, vec4(uintBitsToFloat(0x7F800000u)), equal(cw, uvec4(0u)));
 #ifdef TRAVERSE_COUNT_NODES
             traverse_node_visits += BVH_WIDTH;
 #endif

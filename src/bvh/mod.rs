@@ -4,8 +4,7 @@ mod traverse;
 
 pub use traverse::{brute_force, intersect_triangle, trace, Ray, TraceHit};
 
-use crate::constants::STACK_COUNT_BITS;
-use crate::constants::{BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH};
+use crate::constants::{BVH_CHILD_INTERIOR, BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH, STACK_COUNT_BITS};
 use crate::layout::BvhNode;
 use glam::Vec3;
 
@@ -159,7 +158,7 @@ pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
         ..inputs
     };
     let (binary, mut stats) = build_range(&inputs, &mut order, 0, root_box, 0, threads);
-    let (nodes, max_waiting) = widen(&binary);
+    let (nodes, order, max_waiting) = widen(&binary, &order);
     stats.max_waiting = max_waiting;
     stats.nodes = nodes.len();
     Bvh { nodes, order, stats }
@@ -363,7 +362,11 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
 /// entries waiting. A child is opened only while `pushes + children - 1 + height(child) < BVH_STACK_SIZE` holds for
 /// every child: a binary split always keeps it (height drops by one, pushes grow by one), so the stack bound the
 /// binary build guarantees carries over.
-fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
+///
+/// A node's interior children get consecutive indices and its leaves' triangles consecutive positions, in slot order,
+/// so the node stores where each run starts (`BvhNode::child_entries`). Returns the nodes, the triangle order that
+/// makes (original indices, as `order` holds them for the binary tree's positions) and the stack bound.
+fn widen(binary: &[BinaryNode], order: &[u32]) -> (Vec<BvhNode>, Vec<u32>, u32) {
     // Children always follow their parent in the binary array, so one backward sweep finds every height.
     let mut height = vec![0u32; binary.len()];
     for i in (0..binary.len()).rev() {
@@ -376,10 +379,12 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
     let mut out = Vec::with_capacity(binary.len() / 2 + 1);
     out.push(BvhNode::default());
     if binary[0].is_leaf() {
-        // A tree of one leaf: the root holds it as its only child.
-        out[0] = quantise(&binary[0], &[(&binary[0], leaf_entry(&binary[0]))]);
-        return (out, 0);
+        // A tree of one leaf: the root holds it as its only child, triangles from position 0.
+        out[0] = quantise(&binary[0], &[&binary[0]]);
+        out[0].set_kind(0, binary[0].count());
+        return (out, order.to_vec(), 0);
     }
+    let mut placed = Vec::with_capacity(order.len());
     let mut max_waiting = 0;
     // (binary node, the wide node made from it, entries waiting on the stack when traversal reaches it)
     let mut work = vec![(0usize, 0usize, 0u32)];
@@ -414,30 +419,38 @@ fn widen(binary: &[BinaryNode]) -> (Vec<BvhNode>, u32) {
         }
         let waiting = pushes + n as u32 - 1;
         max_waiting = max_waiting.max(waiting);
-        let mut children = [(&binary[0], 0u32); W];
+        let first_node = out.len() as u32;
+        let first_tri = placed.len() as u32;
+        let mut children = [&binary[0]; W];
+        let mut kinds = [0u32; W];
         for (k, &c) in slots[..n].iter().enumerate() {
-            let entry = if binary[c].is_leaf() {
-                leaf_entry(&binary[c])
+            kinds[k] = if binary[c].is_leaf() {
+                let (first, count) = (binary[c].first() as usize, binary[c].count());
+                placed.extend_from_slice(&order[first..first + count as usize]);
+                count
             } else {
-                let index = out.len();
                 out.push(BvhNode::default());
-                work.push((c, index, waiting));
-                (index as u32) << STACK_COUNT_BITS
+                work.push((c, out.len() - 1, waiting));
+                BVH_CHILD_INTERIOR
             };
-            children[k] = (&binary[c], entry);
+            children[k] = &binary[c];
         }
-        out[wide] = quantise(&binary[b], &children[..n]);
+        let mut node = quantise(&binary[b], &children[..n]);
+        for (k, &kind) in kinds[..n].iter().enumerate() {
+            node.set_kind(k, kind);
+        }
+        node.q1[2] |= first_node << STACK_COUNT_BITS;
+        node.q1[3] |= first_tri << STACK_COUNT_BITS;
+        out[wide] = node;
     }
-    (out, max_waiting)
-}
-
-fn leaf_entry(leaf: &BinaryNode) -> u32 {
-    (leaf.first() << STACK_COUNT_BITS) | leaf.count()
+    // Every triangle sits in exactly one leaf, and every leaf under exactly one node.
+    debug_assert_eq!(placed.len(), order.len());
+    (out, placed, max_waiting)
 }
 
 /// One wide node: each child's box rounded outwards onto a grid of 255 steps per axis spanning `parent`, so the box
 /// traversal decodes (`BvhNode::child_box`, the same arithmetic as the device) holds the child's true box.
-fn quantise(parent: &BinaryNode, children: &[(&BinaryNode, u32)]) -> BvhNode {
+fn quantise(parent: &BinaryNode, children: &[&BinaryNode]) -> BvhNode {
     let mut n = BvhNode::default();
     let mut exps = [0u32; 3];
     for (a, exp) in exps.iter_mut().enumerate() {
@@ -456,8 +469,7 @@ fn quantise(parent: &BinaryNode, children: &[(&BinaryNode, u32)]) -> BvhNode {
     // The grid points exactly as traversal decodes them (the grid is set; children are filled in below).
     let grid = n;
     let decode = |a: usize, q: u32| grid.bound(a, q);
-    for (c, (child, entry)) in children.iter().enumerate() {
-        n.children[c] = *entry;
+    for (c, child) in children.iter().enumerate() {
         let mut q = [0u32; 6];
         for a in 0..3 {
             // lo: the largest grid point at or below the child's; hi: the smallest at or above.

@@ -99,7 +99,7 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
                     .and_then(|(lo, hi)| intersect_box(lo, hi, o, inv_d, ray.tmin, hit.t))
                     .unwrap_or(f32::INFINITY)
             });
-            let mut cw = n.children;
+            let mut cw = n.child_entries();
             for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if ct[b] < ct[a] {
                     ct.swap(a, b);
