@@ -64,15 +64,28 @@ impl BvhNode {
         f32::from_bits(self.origin[axis]) + q as f32 * self.scale()[axis]
     }
 
-    /// Child `c`'s box as traversal decodes it, or None for an unused slot.
+    /// Child `c`'s box in grid steps from the origin: (lo, hi) per axis.
+    pub fn child_q(&self, c: usize) -> ([u32; 3], [u32; 3]) {
+        let byte = |w: u32| (w >> (8 * c)) & 0xFF;
+        (
+            [byte(self.q0[0]), byte(self.q0[1]), byte(self.q0[2])],
+            [byte(self.q0[3]), byte(self.q1[0]), byte(self.q1[1])],
+        )
+    }
+
+    /// The grid origin.
+    pub fn grid_origin(&self) -> [f32; 3] {
+        std::array::from_fn(|a| f32::from_bits(self.origin[a]))
+    }
+
+    /// Child `c`'s box as the builder decodes it, or None for an unused slot.
     pub fn child_box(&self, c: usize) -> Option<([f32; 3], [f32; 3])> {
         if self.kind(c) == 0 {
             return None;
         }
-        let byte = |w: u32| (w >> (8 * c)) & 0xFF;
-        let hi_q = [self.q0[3], self.q1[0], self.q1[1]];
-        let lo = std::array::from_fn(|a| self.bound(a, byte(self.q0[a])));
-        let hi = std::array::from_fn(|a| self.bound(a, byte(hi_q[a])));
+        let (lo_q, hi_q) = self.child_q(c);
+        let lo = std::array::from_fn(|a| self.bound(a, lo_q[a]));
+        let hi = std::array::from_fn(|a| self.bound(a, hi_q[a]));
         Some((lo, hi))
     }
 }

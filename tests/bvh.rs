@@ -403,6 +403,19 @@ fn assert_wide_tree_is_sound(b: &bvh::Bvh, tris: &[[Vec3; 3]]) {
             );
             let (clo, chi) = walk(b, tris, entry, covered);
             let (qlo, qhi) = n.child_box(c).expect("a used slot has a box");
+            // Traversal measures grid points as base + q * step, the unrounded origin + q * scale: the builder keeps
+            // every grid point a float, so that is the box checked below.
+            let (lo_q, hi_q) = n.child_q(c);
+            for a in 0..3 {
+                for q in [lo_q[a], hi_q[a]] {
+                    let exact = n.grid_origin()[a] as f64 + q as f64 * n.scale()[a] as f64;
+                    assert_eq!(
+                        n.bound(a, q) as f64,
+                        exact,
+                        "node {first} child {c}: grid point {q} is not a float"
+                    );
+                }
+            }
             assert!(
                 (0..3).all(|k| qlo[k] <= clo[k] && qhi[k] >= chi[k]),
                 "node {first} child {c}: decoded box {qlo:?}..{qhi:?} does not hold {clo:?}..{chi:?}"

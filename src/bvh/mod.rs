@@ -454,14 +454,26 @@ fn quantise(parent: &BinaryNode, children: &[&BinaryNode]) -> BvhNode {
     let mut n = BvhNode::default();
     let mut exps = [0u32; 3];
     for (a, exp) in exps.iter_mut().enumerate() {
-        let origin = parent.lo[a];
-        n.origin[a] = origin.to_bits();
-        // The smallest step whose grid reaches the parent's far side, kept a normal power of two.
-        let extent = (parent.hi[a] - origin).max(f32::MIN_POSITIVE);
+        let (lo, hi) = (parent.lo[a] as f64, parent.hi[a] as f64);
+        // The smallest step whose grid reaches the parent's far side, kept a normal power of two, with two more
+        // conditions that make every grid point a float, so origin + q * step is exact and the distances traversal
+        // finds as base + q * step (traverse.glsl) belong to the very box checked here: the origin is a multiple of
+        // the step (at or below the parent's near side), and the step no finer than the spacing of floats at the
+        // grid's largest magnitude. Only nodes narrower than 255 float steps of their position get coarser.
+        let extent = (hi - lo).max(f32::MIN_POSITIVE as f64);
         let mut e = ((extent / 255.0).log2().floor() as i32 + 127).clamp(1, 254);
-        while e < 254 && origin + 255.0 * f32::from_bits((e as u32) << 23) < parent.hi[a] {
+        let origin = loop {
+            let step = 2f64.powi(e - 127);
+            let origin = (lo / step).floor() * step;
+            let far = origin.abs().max((origin + 255.0 * step).abs());
+            // The biased exponent of the float spacing at `far` (f64 exponent rebased to f32's, less 23 bits).
+            let spacing = ((far.to_bits() >> 52) & 0x7FF) as i32 - 1023 + 127 - 23;
+            if e >= 254 || (origin + 255.0 * step >= hi && e >= spacing) {
+                break origin as f32;
+            }
             e += 1;
-        }
+        };
+        n.origin[a] = origin.to_bits();
         *exp = e as u32;
     }
     n.origin[3] = exps[0] | exps[1] << 8 | exps[2] << 16;

@@ -56,9 +56,16 @@ fn safe_inverse(d: Vec3) -> Vec3 {
     Vec3::new(inv(d.x), inv(d.y), inv(d.z))
 }
 
-fn intersect_box(lo: [f32; 3], hi: [f32; 3], o: Vec3, inv_d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-    let t0 = (Vec3::from(lo) - o) * inv_d;
-    let t1 = (Vec3::from(hi) - o) * inv_d;
+/// Child `c`'s entry distance, if the ray enters its box within (tmin, tmax): the slab distances of grid point q are
+/// base + q * step, with base = (origin - o) * inv_d and step = scale * inv_d found once per node, as traverse.glsl
+/// does (the device may fuse the multiply-add, so the last bit of a distance can differ; the hits do not).
+fn test_child(n: &BvhNode, c: usize, base: Vec3, step: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    if n.kind(c) == 0 {
+        return None;
+    }
+    let (lo, hi) = n.child_q(c);
+    let t0 = base + Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32) * step;
+    let t1 = base + Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32) * step;
     let tn = t0.min(t1);
     let tf = t0.max(t1);
     let enter = tn.x.max(tn.y).max(tn.z.max(tmin));
@@ -94,11 +101,10 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
         if has_node && count == 0 {
             // All children, sorted near to far by the same network as the device (misses are +inf and sort last).
             let n = &nodes[first as usize];
-            let mut ct: [f32; BVH_WIDTH as usize] = std::array::from_fn(|c| {
-                n.child_box(c)
-                    .and_then(|(lo, hi)| intersect_box(lo, hi, o, inv_d, ray.tmin, hit.t))
-                    .unwrap_or(f32::INFINITY)
-            });
+            let base = (Vec3::from(n.grid_origin()) - o) * inv_d;
+            let step = Vec3::from(n.scale()) * inv_d;
+            let mut ct: [f32; BVH_WIDTH as usize] =
+                std::array::from_fn(|c| test_child(n, c, base, step, ray.tmin, hit.t).unwrap_or(f32::INFINITY));
             let mut cw = n.child_entries();
             for (a, b) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if ct[b] < ct[a] {
