@@ -52,8 +52,25 @@ pub fn intersect_triangle(tv: &TriVerts, o: Vec3, d: Vec3, tmin: f32, tmax: f32)
 }
 
 fn safe_inverse(d: Vec3) -> Vec3 {
-    let inv = |x: f32| if x != 0.0 { 1.0 / x } else { 1e30 };
+    let inv = |x: f32| if x != 0.0 { (1.0 / x).clamp(-1e30, 1e30) } else { 1e30 };
     Vec3::new(inv(d.x), inv(d.y), inv(d.z))
+}
+
+/// The device's min and max in the slab test, written as it writes them (traverse.glsl's sooner and later).
+fn sooner(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+fn later(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// Child `c`'s entry distance, if the ray enters its box within (tmin, tmax): the slab distances of grid point q are
@@ -66,10 +83,11 @@ fn test_child(n: &BvhNode, c: usize, base: Vec3, step: Vec3, tmin: f32, tmax: f3
     let (lo, hi) = n.child_q(c);
     let t0 = base + Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32) * step;
     let t1 = base + Vec3::new(hi[0] as f32, hi[1] as f32, hi[2] as f32) * step;
-    let tn = t0.min(t1);
-    let tf = t0.max(t1);
-    let enter = tn.x.max(tn.y).max(tn.z.max(tmin));
-    let exit = tf.x.min(tf.y).min(tf.z.min(tmax));
+    let near0 = t0.cmplt(t1);
+    let tn = Vec3::select(near0, t0, t1);
+    let tf = Vec3::select(near0, t1, t0);
+    let enter = later(later(tn.x, tn.y), later(tn.z, tmin));
+    let exit = sooner(sooner(tf.x, tf.y), sooner(tf.z, tmax));
     (enter <= exit).then_some(enter)
 }
 
