@@ -20,12 +20,14 @@ void main() {
     if (i < frame.pass_pixels) {
         // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).
         uint pixel = path_pixel(i);
+        uvec2 xy = pixel_xy(pixel);
+        // The sample of slot path, path_sample(path), kept as it advances: a division is eight scalar divides here.
+        uint s = path_sample(path);
         uint bounce = 0u;
-        PathVertex v = start_path(pixel, path_sample(path));
+        PathVertex v = start_path(xy, pixel, s);
         // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
         // samples; the wavefront gets the same by compacting its queues.
         while (path < end) {
-            uint s = path_sample(path);
             Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, ray_key(pixel, s, bounce, DIM_ALPHA));
             rays++;
             ShadowRay shadow;
@@ -41,8 +43,9 @@ void main() {
             if (!alive) {
                 path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
                 path += frame.pass_pixels;
+                s++;
                 bounce = 0u;
-                v = start_path(pixel, path_sample(path));
+                v = start_path(xy, pixel, s);
             }
         }
     }

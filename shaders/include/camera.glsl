@@ -6,10 +6,16 @@
 #include "rng.glsl"
 #include "sampling.glsl"
 
-// Sample s of pixel's camera ray; the direction is unit length.
-void camera_ray(uint pixel, uint s, out vec3 origin, out vec3 d) {
-    uint px = pixel % frame.width;
-    uint py = pixel / frame.width;
+// Where pixel (row-major from the top left) is on the image. An integer division is eight scalar divides on
+// lavapipe, so follow finds this once per pixel rather than once per sample.
+uvec2 pixel_xy(uint pixel) {
+    return uvec2(pixel % frame.width, pixel / frame.width);
+}
+
+// Sample s of the camera ray of pixel, at xy = pixel_xy(pixel); the direction is unit length.
+void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
+    uint px = xy.x;
+    uint py = xy.y;
     vec2 j = pixel_jitter(pixel, s);
     float tan_half = frame.cam_origin.w;
     float aspect = frame.cam_right.w;
@@ -36,10 +42,11 @@ struct PathVertex {
     vec3 radiance; // gathered so far
 };
 
-// Sample s of pixel, about to trace its camera ray: full throughput, nothing gathered, counted like a delta bounce.
-PathVertex start_path(uint pixel, uint s) {
+// Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
+// counted like a delta bounce.
+PathVertex start_path(uvec2 xy, uint pixel, uint s) {
     PathVertex v;
-    camera_ray(pixel, s, v.origin.xyz, v.dir);
+    camera_ray(xy, pixel, s, v.origin.xyz, v.dir);
     v.origin.w = 0.0;
     v.beta = vec3(1.0);
     v.radiance = vec3(0.0);
