@@ -10,6 +10,12 @@ void main() {
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint pixel = frame.pixel_offset + i;
     uint pixels = frame.width * frame.height;
+    if ((frame.flags & FLAG_FUSED_SUMS) != 0u) {
+        // follow added the samples itself, in the same order with the same arithmetic.
+        film[pixel] = path_get(PATH_RADIANCE, i);
+        film[pixels + pixel] = path_get(PATH_THROUGHPUT, i);
+        return;
+    }
     vec4 sum = film[pixel];
     vec4 sum_sq = film[pixels + pixel];
     for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {

@@ -1,6 +1,7 @@
 // follow: the fused integrator. One invocation takes one pixel's samples of this pass through generate, extend, shade
-// and connect in registers, starting the next sample as soon as a path ends, and leaves each sample's radiance in its
-// slot for accumulate. The same functions as the wavefront stages, so the same bytes.
+// and connect in registers, starting the next sample as soon as a path ends, and adds each to the pixel's running sums
+// for accumulate to store (FLAG_FUSED_SUMS). The same functions and arithmetic as the wavefront stages and accumulate,
+// so the same bytes.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -25,6 +26,13 @@ void main() {
         uint s = path_sample(path);
         uint bounce = 0u;
         PathVertex v = start_path(xy, pixel, s);
+        // The pixel's running film sums, which accumulate would add this pass's samples to (in sample order, so the
+        // same bytes): kept here and stored once, not a sample at a time, since each store to a storage buffer is a
+        // loop over the lanes on lavapipe. The first dispatch of a pass starts from the film, later ones from where
+        // the one before left them (FLAG_FUSED_SUMS).
+        uint pixels = frame.width * frame.height;
+        vec4 sum = frame.bounce == 0u ? film[pixel] : path_get(PATH_RADIANCE, i);
+        vec4 sum_sq = frame.bounce == 0u ? film[pixels + pixel] : path_get(PATH_THROUGHPUT, i);
         // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
         // samples; the wavefront gets the same by compacting its queues.
         while (path < end) {
@@ -41,13 +49,16 @@ void main() {
             }
             bounce++;
             if (!alive) {
-                path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
+                sum += vec4(v.radiance, 1.0);
+                sum_sq += vec4(v.radiance * v.radiance, 0.0);
                 path += frame.pass_pixels;
                 s++;
                 bounce = 0u;
                 v = start_path(xy, pixel, s);
             }
         }
+        path_set(PATH_RADIANCE, i, sum);
+        path_set(PATH_THROUGHPUT, i, sum_sq);
     }
     // lavapipe (gallivm) guards against endless loops by ending every loop of an invocation once their iterations
     // together reach 65535, silently. Once spent, that budget stops every loop after one step, so a two-step loop

@@ -90,6 +90,9 @@ pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
 pub const FLAG_HIDE_ENV: u32 = 2;
 /// The scene has COLOR_0 vertex colours (tri_colors is bound): they multiply the base colour.
 pub const FLAG_VERTEX_COLORS: u32 = 4;
+/// A fused pass (follow.comp): each pixel's running film sums wait in its row-0 slots of PATH_RADIANCE (sum) and
+/// PATH_THROUGHPUT (sum of squares), and accumulate copies them to the film unless the pass was cut short.
+pub const FLAG_FUSED_SUMS: u32 = 8;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both

@@ -1203,18 +1203,20 @@ impl Renderer {
             rec.ts.reset(cmd);
             unsafe { ctx.device.cmd_fill_buffer(cmd, counters.raw, 0, vk::WHOLE_SIZE, 0) };
             ctx.barrier(cmd);
+            let mut f = *frame;
             match schedule {
                 Schedule::Wavefront => rec.wavefront(&stages, frame, counters),
                 Schedule::Fused => {
-                    // FOLLOW_SAMPLES sample rows per dispatch (frame.bounce is the first), each invocation one pixel.
-                    let mut f = *frame;
+                    // FOLLOW_SAMPLES sample rows per dispatch (frame.bounce is the first), each invocation one pixel,
+                    // which keeps its running film sums itself.
+                    f.flags |= FLAG_FUSED_SUMS;
                     for first in (0..frame.path_count / frame.pass_pixels).step_by(FOLLOW_SAMPLES as usize) {
                         f.bounce = first;
                         rec.dispatch(stages.follow, &f, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
                     }
                 }
             }
-            rec.dispatch("accumulate", frame, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
+            rec.dispatch("accumulate", &f, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
         })
     }
 
