@@ -10,13 +10,14 @@
 #include "path.glsl"
 #include "traverse.glsl"
 
-// frame.bounce: the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes FOLLOW_SAMPLES rows.
+// frame.bounce: the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes the rows up to
+// path_count / pass_pixels (the host sets path_count per dispatch).
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint rays = 0u;
     uint shadow_rays = 0u;
     uint rows = frame.path_count / frame.pass_pixels;
-    uint end = min(frame.bounce + FOLLOW_SAMPLES, rows) * frame.pass_pixels;
+    uint end = rows * frame.pass_pixels;
     uint path = i + frame.bounce * frame.pass_pixels;
     if (i < frame.pass_pixels) {
         // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).

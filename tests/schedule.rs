@@ -138,3 +138,64 @@ fn a_follow_dispatch_cut_short_by_the_loop_budget_is_run_again_as_a_wavefront() 
         "the pass run again differs from a wavefront render"
     );
 }
+
+/// A follow dispatch over more sample rows than FOLLOW_SAMPLES that runs past the loop budget is run again with half
+/// as many rows per dispatch, still fused (same bytes as a wavefront), and the renderer never takes as many again.
+#[test]
+fn a_cut_follow_dispatch_of_many_rows_runs_again_with_fewer() {
+    let dir = tempfile::tempdir().unwrap();
+    pathwave::shaders::export_builtin(dir.path()).unwrap();
+    let follow = dir.path().join("follow.comp");
+    let src = std::fs::read_to_string(&follow).unwrap();
+    let anchor = "    uint rays = 0u;\n";
+    assert!(src.contains(anchor), "follow.comp changed; update this test's anchor");
+    // 70,000 steps when this dispatch takes more than FOLLOW_SAMPLES rows (the host sets path_count per dispatch).
+    let burn = "    uint taken = frame.path_count / frame.pass_pixels - frame.bounce;\n    uint burn = 0u;\n    \
+                for (uint k = 0u; k < (taken > FOLLOW_SAMPLES ? 70000u : 1u) + frame.seed; k++) burn += k;\n";
+    let patched = src.replacen(anchor, &format!("{burn}{anchor}    if (burn == 1u) rays++;\n"), 1);
+    std::fs::write(&follow, patched).unwrap();
+
+    let mut r = renderer(&scenes_dir().join("cornell-box.gltf"));
+    let s = settings(16, 12, 80, 2);
+    r.set_schedule(Schedule::Wavefront);
+    let (want, _) = r.render(&s, &mut |_| {}).unwrap();
+    let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
+    let follows: Vec<String> = pathwave::render::builtin_stage_names()
+        .filter(|n| *n == "follow" || n.starts_with("follow_"))
+        .map(String::from)
+        .collect();
+    r.load_shaders(&shaders, Some(&follows)).unwrap();
+    assert_eq!(r.schedule(), Schedule::Fused);
+    let rows = pathwave::constants::FOLLOW_SAMPLES;
+    let mut session = r.begin(&s).unwrap();
+    // rows + 4 samples: dispatches of `rows` and 4, within the budget; the next pass may take twice as many.
+    assert_eq!(r.advance(&mut session, rows + 4).unwrap(), rows + 4);
+    assert_eq!(
+        r.follow_rows(),
+        2 * rows,
+        "a fused pass within the budget doubles the rows per dispatch"
+    );
+    // A dispatch of 2 * rows burns the budget: the pass runs again in dispatches of `rows`.
+    let rest = s.spp - (rows + 4);
+    assert_eq!(r.advance(&mut session, rest).unwrap(), rest);
+    assert_eq!(
+        r.follow_rows(),
+        rows,
+        "the cut pass did not halve the rows per dispatch"
+    );
+    assert_eq!(
+        r.schedule(),
+        Schedule::Fused,
+        "a cut with rows to spare must stay fused"
+    );
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+    let got = r.film(&session).unwrap();
+    assert!(
+        bits(&want) == bits(&got),
+        "the pass run again differs from a wavefront render"
+    );
+    // Never as many rows again.
+    let mut session = r.begin(&s).unwrap();
+    r.advance(&mut session, rows + 4).unwrap();
+    assert_eq!(r.follow_rows(), rows);
+}

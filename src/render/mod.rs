@@ -456,6 +456,10 @@ pub struct Renderer {
     /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
     textured: bool,
     schedule: ScheduleChoice,
+    /// Sample rows a follow dispatch takes, from FOLLOW_SAMPLES up to follow_rows_max: doubled after each fused pass,
+    /// halved when lavapipe's loop budget cut one short (and follow_rows_max lowered to it).
+    follow_rows: u32,
+    follow_rows_max: u32,
     /// The scene's FEATURE_* bits; a pass adds FEATURE_LENS when its camera has an aperture.
     scene_features: u32,
     vertex_colors: bool,
@@ -663,6 +667,8 @@ impl Renderer {
             path_stand_in,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             schedule,
+            follow_rows: FOLLOW_SAMPLES,
+            follow_rows_max: FOLLOW_ROWS_MAX,
             scene_features,
             vertex_colors: !packed.tri_colors.is_empty(),
             env_prob: packed.env_prob,
@@ -979,7 +985,15 @@ impl Renderer {
         let mut stats = std::mem::take(&mut session.stats);
         let added = if pixels <= capacity as u64 {
             // Whole samples of every pixel, as many as fit.
-            let k = ((capacity as u64 / pixels) as u32).min(samples.max(1));
+            // A fused pass keeps only a pixel's running sums in the path state, so it may take more samples than
+            // fit there (FOLLOW_ROWS_MAX: a dispatch takes up to that many, and the more, the less lanes wait for
+            // the last paths); a wavefront pass as many as fit.
+            let fit = (capacity as u64 / pixels) as u32;
+            let k = match self.schedule.current() {
+                Schedule::Fused => fit.max(FOLLOW_ROWS_MAX),
+                Schedule::Wavefront => fit,
+            }
+            .min(samples.max(1));
             frame.pixel_offset = 0;
             frame.pass_pixels = pixels as u32;
             frame.path_count = pixels as u32 * k;
@@ -1107,6 +1121,11 @@ impl Renderer {
         self.schedule.current()
     }
 
+    /// Sample rows the next follow dispatch takes (see FOLLOW_SAMPLES).
+    pub fn follow_rows(&self) -> u32 {
+        self.follow_rows
+    }
+
     /// Fixes how passes run; both schedules work on every device and give the same bytes.
     pub fn set_schedule(&mut self, schedule: Schedule) {
         self.schedule = ScheduleChoice::Fixed(schedule);
@@ -1130,21 +1149,31 @@ impl Renderer {
     fn run_pass(&mut self, frame: &Frame, counters: &Buffer, stats: &mut RenderStats) -> Result<(), Error> {
         let pass_start = Instant::now();
         let schedule = self.schedule.current();
-        self.pass(frame, counters, schedule)?;
-        let mut tally: Counters = counters.download(&self.ctx)?[0];
-        if tally.follow_cut != 0 {
-            // lavapipe cut follow's loops short (follow.comp), and accumulate skipped the pass: run it again as a
-            // wavefront, whose invocations each trace one ray, and stay with the wavefront.
-            self.warnings
-                .push("the fused schedule ran past lavapipe's loop budget on this scene; using the wavefront".into());
-            self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
-            self.pass(frame, counters, Schedule::Wavefront)?;
-            tally = counters.download(&self.ctx)?[0];
+        let mut times = Vec::new();
+        let mut tally = self.tallied_pass(frame, counters, schedule, &mut times)?;
+        while tally.follow_cut != 0 {
+            // lavapipe cut follow's loops short (follow.comp), and accumulate skipped the pass. With fewer rows per
+            // dispatch the pass runs fused again, and never with as many again; at the fewest, it runs again as a
+            // wavefront, whose invocations each trace one ray, and the renderer stays with the wavefront.
+            times.clear();
+            if self.follow_rows > FOLLOW_SAMPLES {
+                self.follow_rows /= 2;
+                self.follow_rows_max = self.follow_rows;
+                tally = self.tallied_pass(frame, counters, Schedule::Fused, &mut times)?;
+            } else {
+                self.warnings.push(
+                    "the fused schedule ran past lavapipe's loop budget on this scene; using the wavefront".into(),
+                );
+                self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
+                tally = self.wavefront_in_chunks(frame, counters, &mut times)?;
+            }
+        }
+        if schedule == Schedule::Fused && self.follow_rows < self.follow_rows_max {
+            self.follow_rows *= 2;
         }
         stats.extension_rays += tally.extension_rays as u64;
         stats.shadow_rays += tally.shadow_rays as u64;
         stats.samples += frame.path_count as u64;
-        let times = self.timestamps.read()?;
         // Without timestamps (some devices), the pass's wall time, which also holds the tally's download.
         let gpu_ns: f64 = times.iter().map(|(_, ns)| ns).sum();
         let ns = if gpu_ns > 0.0 {
@@ -1169,6 +1198,47 @@ impl Renderer {
         Ok(())
     }
 
+    /// `pass`, then its tallies; its GPU stage times are added to `times`.
+    fn tallied_pass(
+        &mut self,
+        frame: &Frame,
+        counters: &Buffer,
+        schedule: Schedule,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Counters, Error> {
+        self.pass(frame, counters, schedule)?;
+        let tally: Counters = counters.download(&self.ctx)?[0];
+        for (label, ns) in self.timestamps.read()? {
+            match times.iter_mut().find(|(l, _)| *l == label) {
+                Some(e) => e.1 += ns,
+                None => times.push((label, ns)),
+            }
+        }
+        Ok(tally)
+    }
+
+    /// A pass as wavefront passes of as many sample rows as the path state holds (a fused pass may have more), with
+    /// their tallies summed.
+    fn wavefront_in_chunks(
+        &mut self,
+        frame: &Frame,
+        counters: &Buffer,
+        times: &mut Vec<(&'static str, f64)>,
+    ) -> Result<Counters, Error> {
+        let rows = frame.path_count / frame.pass_pixels.max(1);
+        let fit = (frame.path_capacity / frame.pass_pixels.max(1)).max(1);
+        let mut total = Counters::default();
+        for first in (0..rows).step_by(fit as usize) {
+            let mut f = *frame;
+            f.sample_index = frame.sample_index + first;
+            f.path_count = fit.min(rows - first) * frame.pass_pixels;
+            let t = self.tallied_pass(&f, counters, Schedule::Wavefront, times)?;
+            total.extension_rays += t.extension_rays;
+            total.shadow_rays += t.shadow_rays;
+        }
+        Ok(total)
+    }
+
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
     fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
         let stages = self.stage_variants();
@@ -1186,6 +1256,7 @@ impl Renderer {
         let lens = if frame.cam_up[3] > 0.0 { FEATURE_LENS } else { 0 };
         self.pipelines.set_features(self.scene_features | lens);
         self.pipelines.ensure(&self.ctx, names)?;
+        let follow_rows = self.follow_rows;
         let Renderer {
             ctx,
             pipelines,
@@ -1207,11 +1278,13 @@ impl Renderer {
             match schedule {
                 Schedule::Wavefront => rec.wavefront(&stages, frame, counters),
                 Schedule::Fused => {
-                    // FOLLOW_SAMPLES sample rows per dispatch (frame.bounce is the first), each invocation one pixel,
-                    // which keeps its running film sums itself.
+                    // follow_rows sample rows per dispatch, from frame.bounce to path_count / pass_pixels, each
+                    // invocation one pixel, which keeps its running film sums itself.
                     f.flags |= FLAG_FUSED_SUMS;
-                    for first in (0..frame.path_count / frame.pass_pixels).step_by(FOLLOW_SAMPLES as usize) {
+                    let rows = frame.path_count / frame.pass_pixels;
+                    for first in (0..rows).step_by(follow_rows as usize) {
                         f.bounce = first;
+                        f.path_count = (first + follow_rows).min(rows) * frame.pass_pixels;
                         rec.dispatch(stages.follow, &f, frame.pass_pixels.div_ceil(WORKGROUP_SIZE));
                     }
                 }
