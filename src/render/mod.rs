@@ -990,7 +990,8 @@ impl Renderer {
             // the last paths); a wavefront pass as many as fit.
             let fit = (capacity as u64 / pixels) as u32;
             let k = match self.schedule.current() {
-                Schedule::Fused => fit.max(FOLLOW_ROWS_MAX),
+                // path_count must stay within u32, as the path state's capacity does.
+                Schedule::Fused => fit.max(FOLLOW_ROWS_MAX).min((u32::MAX as u64 / 4 / pixels) as u32),
                 Schedule::Wavefront => fit,
             }
             .min(samples.max(1));
