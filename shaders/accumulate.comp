@@ -6,7 +6,7 @@
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    // A follow dispatch cut short left wrong samples: the host runs the pass again with the wavefront.
+    // A follow dispatch cut short left wrong samples: the host runs the pass again (Renderer::run_pass).
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint pixel = frame.pixel_offset + i;
     uint pixels = frame.width * frame.height;

@@ -96,7 +96,8 @@ pub const FLAG_FUSED_SUMS: u32 = 8;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
-/// sides of a branch under a mask, so even untaken code costs there. Probe kernels keep every bit (the default).
+/// sides of a branch under a mask, so even untaken code costs there. Probe kernels keep every bit (the default) but
+/// FEATURE_DEEP_STACK, which they take from the scene.
 pub const SPEC_SCENE_FEATURES: u32 = 0;
 /// Some material has a dielectric coat (KHR_materials_specular weight above 0).
 pub const FEATURE_COAT: u32 = 1;
@@ -190,9 +191,11 @@ pub const QUEUE_SHADOW: u32 = 2;
 pub const PATH_ORIGIN: u32 = 0;
 /// xyz direction, w unused.
 pub const PATH_DIR: u32 = 1;
-/// rgb throughput, w unused.
+/// rgb throughput, w unused. In a fused pass, a pixel's row-0 slot holds its running film sum of squares instead
+/// (FLAG_FUSED_SUMS).
 pub const PATH_THROUGHPUT: u32 = 2;
-/// rgb radiance gathered by this sample so far, w unused.
+/// rgb radiance gathered by this sample so far, w unused. In a fused pass, a pixel's row-0 slot holds its running
+/// film sum instead, the sample count in w (FLAG_FUSED_SUMS).
 pub const PATH_RADIANCE: u32 = 3;
 /// x: hit distance, y: triangle index bits (NO_HIT on a miss), zw: barycentrics.
 pub const PATH_HIT: u32 = 4;

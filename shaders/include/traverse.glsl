@@ -73,8 +73,9 @@ float test_child(BvhNode n, uint c, vec3 base, vec3 step, float tmin, float tmax
     vec3 t0 = base + vec3((n.q0.xyz >> shift) & 0xFFu) * step;
     vec3 t1 = base + vec3((uvec3(n.q0.w, n.q1.xy) >> shift) & 0xFFu) * step;
     // Selects rather than min and max: gallivm gives those NaN-aware semantics, an unordered compare and a blend each
-    // besides the min or max, where a < b ? a : b is one minps. The distances are never NaN (see safe_inverse), so
-    // the result is the same: 5 % faster on the Cornell box.
+    // besides the min or max, where a < b ? a : b is one minps. The distances are never NaN (see safe_inverse) in
+    // scenes within about 1e8 units, whose grid steps keep step finite, so the result is the same: 6.5 % faster on
+    // the Cornell box.
     bvec3 near0 = lessThan(t0, t1);
     vec3 tn = mix(t1, t0, near0);
     vec3 tf = mix(t0, t1, near0);

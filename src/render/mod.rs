@@ -1157,8 +1157,10 @@ impl Renderer {
             // dispatch the pass runs fused again, and never with as many again; at the fewest, it runs again as a
             // wavefront, whose invocations each trace one ray, and the renderer stays with the wavefront.
             times.clear();
-            if self.follow_rows > FOLLOW_SAMPLES {
-                self.follow_rows /= 2;
+            // The rows the cut dispatch took: a pass may hold fewer than follow_rows.
+            let taken = self.follow_rows.min(frame.path_count / frame.pass_pixels.max(1));
+            if taken > FOLLOW_SAMPLES {
+                self.follow_rows = (taken / 2).max(FOLLOW_SAMPLES);
                 self.follow_rows_max = self.follow_rows;
                 tally = self.tallied_pass(frame, counters, Schedule::Fused, &mut times)?;
             } else {
@@ -1169,8 +1171,8 @@ impl Renderer {
                 tally = self.wavefront_in_chunks(frame, counters, &mut times)?;
             }
         }
-        if schedule == Schedule::Fused && self.follow_rows < self.follow_rows_max {
-            self.follow_rows *= 2;
+        if schedule == Schedule::Fused && self.schedule.current() == Schedule::Fused {
+            self.follow_rows = (2 * self.follow_rows).min(self.follow_rows_max);
         }
         stats.extension_rays += tally.extension_rays as u64;
         stats.shadow_rays += tally.shadow_rays as u64;
@@ -1234,8 +1236,9 @@ impl Renderer {
             f.sample_index = frame.sample_index + first;
             f.path_count = fit.min(rows - first) * frame.pass_pixels;
             let t = self.tallied_pass(&f, counters, Schedule::Wavefront, times)?;
-            total.extension_rays += t.extension_rays;
-            total.shadow_rays += t.shadow_rays;
+            // The device's tallies are u32 and wrap; so do these.
+            total.extension_rays = total.extension_rays.wrapping_add(t.extension_rays);
+            total.shadow_rays = total.shadow_rays.wrapping_add(t.shadow_rays);
         }
         Ok(total)
     }

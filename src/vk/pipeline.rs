@@ -29,8 +29,8 @@ pub struct Pipelines {
     device: ash::Device,
 }
 
-/// Stages that must keep every feature whatever the scene: the probes test device functions with parameters of
-/// their own, and the energy tables integrate the full BSDF.
+/// Stages that must keep every feature whatever the scene (but the BVH's FEATURE_DEEP_STACK, see `replace`): the
+/// probes test device functions with parameters of their own, and the energy tables integrate the full BSDF.
 fn scene_independent(stage: &str) -> bool {
     stage.starts_with("probe_") || stage == "energy_tables"
 }
