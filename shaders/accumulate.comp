@@ -19,9 +19,7 @@ void main() {
     vec4 sum = film[pixel];
     vec4 sum_sq = film[pixels + pixel];
     for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-        vec3 l = path_get(PATH_RADIANCE, path).rgb;
-        sum += vec4(l, 1.0);
-        sum_sq += vec4(l * l, 0.0);
+        film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
     }
     film[pixel] = sum;
     film[pixels + pixel] = sum_sq;

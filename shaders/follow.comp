@@ -50,8 +50,7 @@ void main() {
             }
             bounce++;
             if (!alive) {
-                sum += vec4(v.radiance, 1.0);
-                sum_sq += vec4(v.radiance * v.radiance, 0.0);
+                film_add(sum, sum_sq, v.radiance);
                 path += frame.pass_pixels;
                 s++;
                 bounce = 0u;

@@ -48,11 +48,12 @@ fn scene_of(triangles: Vec<[Vec3; 3]>) -> Scene {
     }
 }
 
-fn soup(rng: &mut Rng, n: usize) -> Vec<[Vec3; 3]> {
+/// n triangles with centres in [-1, 1]^3 and vertices at a random distance in `size` from them.
+fn soup(rng: &mut Rng, n: usize, size: (f32, f32)) -> Vec<[Vec3; 3]> {
     (0..n)
         .map(|_| {
             let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
-            let s = rng.range(0.02, 0.3);
+            let s = rng.range(size.0, size.1);
             [c + rng.dir() * s, c + rng.dir() * s, c + rng.dir() * s]
         })
         .collect()
@@ -256,7 +257,7 @@ fn stack_bound(triangles: &[[Vec3; 3]]) -> u32 {
 #[test]
 fn random_triangle_soup() {
     let mut rng = Rng(1);
-    let tris = soup(&mut rng, 3000);
+    let tris = soup(&mut rng, 3000, (0.02, 0.3));
     assert!(
         stack_bound(&tris) > REGISTER_STACK,
         "this test is for the stack in memory"
@@ -268,12 +269,7 @@ fn random_triangle_soup() {
 fn small_soup_with_the_stack_in_registers() {
     let mut rng = Rng(5);
     // Large, overlapping triangles, so enough of the rays hit one.
-    let tris: Vec<[Vec3; 3]> = (0..24)
-        .map(|_| {
-            let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
-            [c + rng.dir(), c + rng.dir(), c + rng.dir()]
-        })
-        .collect();
+    let tris = soup(&mut rng, 24, (0.8, 1.2));
     assert!(
         stack_bound(&tris) <= REGISTER_STACK,
         "this test is for the stack in registers"
@@ -285,13 +281,7 @@ fn small_soup_with_the_stack_in_registers() {
 #[test]
 fn large_soup_built_in_parallel() {
     let mut rng = Rng(11);
-    let tris: Vec<[Vec3; 3]> = (0..80_000)
-        .map(|_| {
-            let c = rng.vec(Vec3::splat(-1.0), Vec3::splat(1.0));
-            let s = rng.range(0.005, 0.05);
-            [c + rng.dir() * s, c + rng.dir() * s, c + rng.dir() * s]
-        })
-        .collect();
+    let tris = soup(&mut rng, 80_000, (0.005, 0.05));
     let one = bvh::build_with_threads(&tris, 1);
     let four = bvh::build_with_threads(&tris, 4);
     assert!(
@@ -349,7 +339,7 @@ fn empty_scene_misses_everything() {
 fn build_respects_leaf_size_and_stack_depth() {
     let mut rng = Rng(9);
     // Many coincident triangles force the median fallback.
-    let mut tris = soup(&mut rng, 2000);
+    let mut tris = soup(&mut rng, 2000, (0.02, 0.3));
     tris.extend(std::iter::repeat_n([Vec3::ZERO, Vec3::X, Vec3::Y], 500));
     let b = bvh::build(&tris);
     assert!(b.stats.max_leaf_tris <= pathwave::constants::BVH_MAX_LEAF_TRIS);

@@ -89,31 +89,38 @@ fn an_environment_lit_scene_is_the_same_bytes_either_way() {
     assert_schedules_agree("material grid in an environment", &mut r, &settings(20, 16, 6, 5));
 }
 
+/// The built-in shaders in `dir`, with follow.comp spending `burn_steps` loop iterations (a GLSL expression the
+/// compiler cannot see through) before its work; returns the folder and every follow variant's name, to load.
+fn burning_follow(dir: &std::path::Path, burn_steps: &str) -> (pathwave::shaders::ShaderDir, Vec<String>) {
+    pathwave::shaders::export_builtin(dir).unwrap();
+    let follow = dir.join("follow.comp");
+    let src = std::fs::read_to_string(&follow).unwrap();
+    let anchor = "    uint rays = 0u;\n";
+    assert!(src.contains(anchor), "follow.comp changed; update this test's anchor");
+    // A use of the result, so the loop stays.
+    let burn = format!("    uint burn = 0u;\n    for (uint k = 0u; k < {burn_steps}; k++) burn += k;\n");
+    let patched = src.replacen(anchor, &format!("{burn}{anchor}    if (burn == 1u) rays++;\n"), 1);
+    std::fs::write(&follow, patched).unwrap();
+    let follows = pathwave::render::builtin_stage_names()
+        .filter(|n| *n == "follow" || n.starts_with("follow_"))
+        .map(String::from)
+        .collect();
+    (pathwave::shaders::ShaderDir::open(dir).unwrap(), follows)
+}
+
 /// lavapipe silently ends a shader's loops once their iterations reach 65535 per invocation. A follow stage that burns
 /// that budget first must be caught: the pass runs again as a wavefront (same bytes as one from the start), and the
 /// renderer stays with the wavefront and says why.
 #[test]
 fn a_follow_dispatch_cut_short_by_the_loop_budget_is_run_again_as_a_wavefront() {
     let dir = tempfile::tempdir().unwrap();
-    pathwave::shaders::export_builtin(dir.path()).unwrap();
-    let follow = dir.path().join("follow.comp");
-    let src = std::fs::read_to_string(&follow).unwrap();
-    let anchor = "    uint rays = 0u;\n";
-    assert!(src.contains(anchor), "follow.comp changed; update this test's anchor");
-    // 70,000 steps with a bound the compiler cannot see, and a use of the result so the loop stays.
-    let burn = "    uint burn = 0u;\n    for (uint k = 0u; k < 70000u + frame.seed; k++) burn += k;\n";
-    let patched = src.replacen(anchor, &format!("{burn}{anchor}    if (burn == 1u) rays++;\n"), 1);
-    std::fs::write(&follow, patched).unwrap();
+    // 70,000 steps, past the budget.
+    let (shaders, follows) = burning_follow(dir.path(), "70000u + frame.seed");
 
     let mut r = renderer(&scenes_dir().join("cornell-box.gltf"));
     let s = settings(16, 12, 4, 2);
     r.set_schedule(Schedule::Wavefront);
     let (want, _) = r.render(&s, &mut |_| {}).unwrap();
-    let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
-    let follows: Vec<String> = pathwave::render::builtin_stage_names()
-        .filter(|n| *n == "follow" || n.starts_with("follow_"))
-        .map(String::from)
-        .collect();
     r.load_shaders(&shaders, Some(&follows)).unwrap();
     assert_eq!(
         r.schedule(),
@@ -144,26 +151,15 @@ fn a_follow_dispatch_cut_short_by_the_loop_budget_is_run_again_as_a_wavefront() 
 #[test]
 fn a_cut_follow_dispatch_of_many_rows_runs_again_with_fewer() {
     let dir = tempfile::tempdir().unwrap();
-    pathwave::shaders::export_builtin(dir.path()).unwrap();
-    let follow = dir.path().join("follow.comp");
-    let src = std::fs::read_to_string(&follow).unwrap();
-    let anchor = "    uint rays = 0u;\n";
-    assert!(src.contains(anchor), "follow.comp changed; update this test's anchor");
     // 70,000 steps when this dispatch takes more than FOLLOW_SAMPLES rows (the host sets path_count per dispatch).
-    let burn = "    uint taken = frame.path_count / frame.pass_pixels - frame.bounce;\n    uint burn = 0u;\n    \
-                for (uint k = 0u; k < (taken > FOLLOW_SAMPLES ? 70000u : 1u) + frame.seed; k++) burn += k;\n";
-    let patched = src.replacen(anchor, &format!("{burn}{anchor}    if (burn == 1u) rays++;\n"), 1);
-    std::fs::write(&follow, patched).unwrap();
+    let taken = "frame.path_count / frame.pass_pixels - frame.bounce";
+    let steps = format!("({taken} > FOLLOW_SAMPLES ? 70000u : 1u) + frame.seed");
+    let (shaders, follows) = burning_follow(dir.path(), &steps);
 
     let mut r = renderer(&scenes_dir().join("cornell-box.gltf"));
     let s = settings(16, 12, 80, 2);
     r.set_schedule(Schedule::Wavefront);
     let (want, _) = r.render(&s, &mut |_| {}).unwrap();
-    let shaders = pathwave::shaders::ShaderDir::open(dir.path()).unwrap();
-    let follows: Vec<String> = pathwave::render::builtin_stage_names()
-        .filter(|n| *n == "follow" || n.starts_with("follow_"))
-        .map(String::from)
-        .collect();
     r.load_shaders(&shaders, Some(&follows)).unwrap();
     assert_eq!(r.schedule(), Schedule::Fused);
     let rows = pathwave::constants::FOLLOW_SAMPLES;

@@ -156,6 +156,12 @@ layout(std430, set = 0, binding = BINDING_QUEUES) buffer Queues { uint queues[];
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer CountersBuf { Counters counters; };
 // Film: [0, pixels) running sum of samples, [pixels, 2 * pixels) running sum of squares.
 layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
+// Adds sample radiance l to a pixel's running film sums (rgb sum and sample count in w; sum of squares). accumulate
+// and follow both add through here, in sample order, which is what makes their film bytes the same.
+void film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
+    sum += vec4(l, 1.0);
+    sum_sq += vec4(l * l, 0.0);
+}
 // Scratch for probe kernels that test device functions from Rust.
 layout(std430, set = 0, binding = BINDING_PROBE) buffer Probe { uint probe[]; };
 // Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.

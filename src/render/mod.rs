@@ -4,7 +4,7 @@ pub mod gpu_scene;
 use crate::constants::*;
 use crate::layout::{Counters, Frame, COUNTERS_DISPATCH_OFFSET};
 use crate::scene::{Camera, Scene};
-use crate::vk::{Buffer, Context, DeviceChoice, Pipelines, Timestamps, Validation};
+use crate::vk::{add_labelled, Buffer, Context, DeviceChoice, Pipelines, Timestamps, Validation};
 use crate::Error;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -1191,10 +1191,7 @@ impl Renderer {
             stats.first_pass_stage_ms = times.iter().map(|(l, ns)| (*l, ns * 1e-6)).collect();
         } else {
             for (label, ns) in times {
-                match stats.stage_ms.iter_mut().find(|(l, _)| *l == label) {
-                    Some(e) => e.1 += ns * 1e-6,
-                    None => stats.stage_ms.push((label, ns * 1e-6)),
-                }
+                add_labelled(&mut stats.stage_ms, label, ns * 1e-6);
             }
         }
         stats.passes += 1;
@@ -1212,10 +1209,7 @@ impl Renderer {
         self.pass(frame, counters, schedule)?;
         let tally: Counters = counters.download(&self.ctx)?[0];
         for (label, ns) in self.timestamps.read()? {
-            match times.iter_mut().find(|(l, _)| *l == label) {
-                Some(e) => e.1 += ns,
-                None => times.push((label, ns)),
-            }
+            add_labelled(times, label, ns);
         }
         Ok(tally)
     }

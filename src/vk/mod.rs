@@ -3,7 +3,7 @@ mod buffer;
 mod pipeline;
 
 pub use buffer::Buffer;
-pub use pipeline::{Pipelines, Timestamps};
+pub use pipeline::{add_labelled, Pipelines, Timestamps};
 
 use crate::Error;
 use ash::vk;

@@ -341,12 +341,17 @@ impl Timestamps {
         let mut sums: Vec<(&'static str, f64)> = Vec::new();
         for (i, label) in self.labels.iter().enumerate() {
             let ns = raw[2 * i + 1].saturating_sub(raw[2 * i]) as f64 * self.period_ns;
-            match sums.iter_mut().find(|(l, _)| l == label) {
-                Some(e) => e.1 += ns,
-                None => sums.push((label, ns)),
-            }
+            add_labelled(&mut sums, label, ns);
         }
         Ok(sums)
+    }
+}
+
+/// Adds `value` to `label`'s entry of per-stage sums, appending the label the first time it is seen.
+pub fn add_labelled(sums: &mut Vec<(&'static str, f64)>, label: &'static str, value: f64) {
+    match sums.iter_mut().find(|(l, _)| *l == label) {
+        Some(e) => e.1 += value,
+        None => sums.push((label, value)),
     }
 }
 
