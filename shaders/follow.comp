@@ -10,7 +10,7 @@
 #include "path.glsl"
 #include "traverse.glsl"
 
-// frame.bounce: the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes the rows up to
+// follow_first_row(): the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes the rows up to
 // path_count / pass_pixels (the host sets path_count per dispatch).
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -18,7 +18,7 @@ void main() {
     uint shadow_rays = 0u;
     uint rows = frame.path_count / frame.pass_pixels;
     uint end = rows * frame.pass_pixels;
-    uint path = i + frame.bounce * frame.pass_pixels;
+    uint path = i + follow_first_row() * frame.pass_pixels;
     if (i < frame.pass_pixels) {
         // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).
         uint pixel = path_pixel(i);
@@ -32,8 +32,8 @@ void main() {
         // loop over the lanes on lavapipe. The first dispatch of a pass starts from the film, later ones from where
         // the one before left them (FLAG_FUSED_SUMS).
         uint pixels = frame.width * frame.height;
-        vec4 sum = frame.bounce == 0u ? film[pixel] : path_get(PATH_RADIANCE, i);
-        vec4 sum_sq = frame.bounce == 0u ? film[pixels + pixel] : path_get(PATH_THROUGHPUT, i);
+        vec4 sum = follow_first_row() == 0u ? film[pixel] : path_get(PATH_RADIANCE, i);
+        vec4 sum_sq = follow_first_row() == 0u ? film[pixels + pixel] : path_get(PATH_THROUGHPUT, i);
         // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
         // samples; the wavefront gets the same by compacting its queues.
         while (path < end) {

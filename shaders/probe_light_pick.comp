@@ -5,8 +5,10 @@
 #include "rng.glsl"
 #include "lights.glsl"
 
+layout(std430, set = 0, binding = BINDING_PROBE) writeonly buffer Probe { uint records[]; };
+
 void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= frame.path_count) return;
-    probe[k] = pick_light(rand2(k, frame.sample_index, 0u, DIM_LIGHT).x);
+    records[k] = pick_light(rand2(k, frame.sample_index, 0u, DIM_LIGHT).x);
 }

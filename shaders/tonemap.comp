@@ -20,7 +20,7 @@ struct ToneMap {
 layout(push_constant) uniform Push { ToneMap tone; };
 layout(std430, set = 0, binding = BINDING_FILM) readonly buffer Film { vec4 film[]; };
 // One packed 8-bit pixel per word, row 0 at the top, ready to copy into a swapchain image.
-layout(std430, set = 0, binding = BINDING_PROBE) writeonly buffer Pixels { uint pixels[]; };
+layout(std430, set = 0, binding = BINDING_TONEMAP_OUT) writeonly buffer Pixels { uint pixels[]; };
 
 // Narkowicz's fit of the ACES filmic curve.
 vec3 aces(vec3 x) {

@@ -22,29 +22,31 @@ pub const BINDING_TEXTURES: u32 = 13;
 pub const BINDING_TEXELS: u32 = 14;
 pub const BINDING_TRI_TEXCOORDS: u32 = 15;
 pub const BINDING_TRI_TANGENTS: u32 = 16;
+pub const BINDING_TRI_COLORS: u32 = 17;
+/// The tone map's output: packed 8-bit display pixels (tonemap.comp).
+pub const BINDING_TONEMAP_OUT: u32 = 18;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_TRI_COLORS: u32 = 17;
-pub const BINDING_FIRST_TEXEL: u32 = 18;
-pub const BINDING_NODE_TEXELS: u32 = 18;
-pub const BINDING_TRI_TEXELS: u32 = 19;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 20;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 21;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 22;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 23;
+pub const BINDING_FIRST_TEXEL: u32 = 19;
+pub const BINDING_NODE_TEXELS: u32 = 19;
+pub const BINDING_TRI_TEXELS: u32 = 20;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 21;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 22;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 23;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 24;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 24;
+pub const BINDING_IMAGE_TEXELS: u32 = 25;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 25;
+pub const BINDING_PATH_TEXELS: u32 = 26;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 26;
+pub const BINDING_MATERIAL_TEXELS: u32 = 27;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 27;
-pub const BINDING_COUNT: u32 = 28;
+pub const BINDING_LIGHT_TEXELS: u32 = 28;
+pub const BINDING_COUNT: u32 = 29;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -183,8 +185,22 @@ pub const DIM_RR: u32 = 7;
 pub const DIM_ALPHA: u32 = 8;
 pub const DIM_SHADOW_ALPHA: u32 = 9;
 
-/// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue.
+/// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue; each queue holds a path index (one
+/// u32) per path the path state holds.
 pub const QUEUE_SHADOW: u32 = 2;
+pub const QUEUE_COUNT: u32 = 3;
+
+/// The film: a vec4 running sum (rgb, sample count in w) per pixel, then a vec4 running sum of squares per pixel.
+pub const FILM_BYTES_PER_PIXEL: u32 = 32;
+
+/// Frame.bounce of the probe kernels (probe_mode() in layout.glsl): what each asks of the device function it tests.
+pub const PROBE_SAMPLE: u32 = 0;
+pub const PROBE_EVALUATE: u32 = 1;
+/// probe_trace: closest hit (PROBE_SAMPLE's value) or any hit.
+pub const PROBE_ANY_HIT: u32 = 1;
+/// probe_bsdf's BsdfProbe.flags.
+pub const PROBE_DELTA: u32 = 1;
+pub const PROBE_OK: u32 = 2;
 
 /// Path state is SoA: field `f` of path `i` is `paths[f * path_capacity + i]` (one vec4 each).
 /// xyz origin, w: solid-angle pdf of the BSDF sample that made this ray (0 for camera rays).

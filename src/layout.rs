@@ -264,3 +264,98 @@ const _: () = assert!(std::mem::size_of::<Frame>() == 128);
 
 /// Byte offset of the indirect dispatch command inside `Counters`.
 pub const COUNTERS_DISPATCH_OFFSET: u64 = std::mem::offset_of!(Counters, dispatch) as u64;
+
+/// Frame's fields mean one thing in the render stages; a few carry another meaning per stage, and these name each
+/// use so no caller sets a field for what it is not (layout.glsl's accessors read them by the same names).
+impl Frame {
+    /// The thin lens's aperture radius (cam_up.w); 0 is a pinhole.
+    pub fn aperture(&self) -> f32 {
+        self.cam_up[3]
+    }
+
+    /// The wavefront stages of `bounce`.
+    pub fn at_bounce(&self, bounce: u32) -> Frame {
+        Frame { bounce, ..*self }
+    }
+
+    /// queue_args after the last bounce: only the shadow-ray tally remains.
+    pub fn after_last_bounce(&self) -> Frame {
+        self.at_bounce(crate::constants::NO_HIT)
+    }
+
+    /// A follow dispatch over sample rows `first..end` (slots row * pass_pixels + pixel): `bounce` holds the first
+    /// row, `path_count` the end.
+    pub fn follow_rows(&self, first: u32, end: u32) -> Frame {
+        Frame {
+            bounce: first,
+            path_count: end * self.pass_pixels,
+            ..*self
+        }
+    }
+
+    /// A fused pass: follow keeps each pixel's running film sums, which accumulate copies (FLAG_FUSED_SUMS).
+    pub fn with_fused_sums(&self) -> Frame {
+        Frame {
+            flags: self.flags | crate::constants::FLAG_FUSED_SUMS,
+            ..*self
+        }
+    }
+
+    /// A probe kernel over `count` records; `mode` (PROBE_SAMPLE, PROBE_EVALUATE, PROBE_ANY_HIT, ...) is in
+    /// `bounce` (probe_mode() in layout.glsl).
+    pub fn probe(count: u32, mode: u32) -> Frame {
+        Frame {
+            path_count: count,
+            bounce: mode,
+            ..Default::default()
+        }
+    }
+}
+
+/// 48 bytes: probe_trace's ray and the hit traversal found (see `TraceRecord` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TraceRecord {
+    pub origin: [f32; 3],
+    pub tmin: f32,
+    pub dir: [f32; 3],
+    pub tmax: f32,
+    pub t: f32,
+    pub tri: u32,
+    pub uv: [f32; 2],
+}
+
+/// 96 bytes: probe_bsdf's query and the BSDF's answer (see `BsdfRecord` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct BsdfRecord {
+    pub wo: [f32; 3],
+    pub material: u32,
+    pub x: [f32; 3],
+    pub front: u32,
+    pub wi: [f32; 3],
+    pub pdf: f32,
+    pub weight: [f32; 3],
+    /// PROBE_DELTA | PROBE_OK.
+    pub flags: u32,
+    pub eval: [f32; 3],
+    pub pdf_wi: f32,
+    pub eval_reverse: [f32; 3],
+    pub pad0: u32,
+}
+
+/// 48 bytes: probe_env's query and the environment's answer (see `EnvRecord` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct EnvRecord {
+    pub x: [f32; 3],
+    pub pdf: f32,
+    pub dir: [f32; 3],
+    pub pdf_dir: f32,
+    pub radiance: [f32; 3],
+    pub pad0: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<TraceRecord>() == 48);
+const _: () = assert!(std::mem::size_of::<BsdfRecord>() == 96);
+const _: () = assert!(std::mem::size_of::<EnvRecord>() == 48);

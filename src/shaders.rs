@@ -1,5 +1,5 @@
 //! Run-time shader compilation for user stages and hot reload: glslang on a shader folder, include tracking, watching.
-use crate::Error;
+use crate::error::Error;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -12,6 +12,9 @@ mod embedded {
 
 /// The built-in stages' SPIR-V, by stage name.
 pub const BUILTIN_SPIRV: &[(&str, &[u8])] = embedded::STAGES;
+
+/// Every constant src/constants.rs shares with GLSL, as (name, u32 bits), in the order probe_constants writes them.
+pub const SHARED_CONSTANTS: &[(&str, u32)] = embedded::CONSTANTS;
 
 /// The program that compiles GLSL: $GLSLANG_VALIDATOR, else glslangValidator on the PATH.
 pub fn glslang() -> String {

@@ -1,9 +1,11 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
-    BvhNode, Counters, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, ToneMap, TriColors,
-    TriShading, TriTangents, TriTexcoords, TriVerts,
+    BsdfRecord, BvhNode, Counters, EnvRecord, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot,
+    ToneMap, TraceRecord, TriColors, TriShading, TriTangents, TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
+
+mod common;
 
 /// The push-constant size every Vulkan implementation guarantees (maxPushConstantsSize >= 128).
 const PUSH_CONSTANT_BUDGET: usize = 128;
@@ -56,6 +58,9 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, pad0]),
+        mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, t, tri, uv]),
+        mirror!(BsdfRecord => "BsdfRecord", [wo, material, x, front, wi, pdf, weight, flags, eval, pdf_wi, eval_reverse, pad0]),
+        mirror!(EnvRecord => "EnvRecord", [x, pdf, dir, pdf_dir, radiance, pad0]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
             max_depth, pass_pixels, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,
@@ -302,4 +307,26 @@ fn push_constants_fit_the_guaranteed_budget() {
         }
     }
     assert!(errors.is_empty(), "{}", errors.join("\n"));
+}
+
+/// Every constant build.rs exports to GLSL has, as the device computes it, the value Rust gives it. A constant
+/// exported without parentheses or with a stray suffix (the generated ENERGY_TABLE_FLOATS once ended in
+/// `ENERGY_RESu`) either fails to compile in probe_constants or gives another number here.
+#[test]
+fn shared_constants_have_the_same_values_in_glsl() {
+    let mut r = common::renderer(&common::scenes_dir().join("cornell-box.gltf"));
+    let device = r.probe_constants().unwrap();
+    let mut wrong = Vec::new();
+    for ((name, rust), glsl) in pathwave::shaders::SHARED_CONSTANTS.iter().zip(&device) {
+        if rust != glsl {
+            wrong.push(format!("{name}: Rust {rust:#x}, GLSL {glsl:#x}"));
+        }
+    }
+    assert_eq!(device.len(), pathwave::shaders::SHARED_CONSTANTS.len());
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    for expression in ["ENERGY_TABLE_FLOATS", "MAX_SCENE_ITEMS"] {
+        assert!(pathwave::shaders::SHARED_CONSTANTS
+            .iter()
+            .any(|(n, _)| *n == expression));
+    }
 }

@@ -162,8 +162,55 @@ void film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
     sum += vec4(l, 1.0);
     sum_sq += vec4(l * l, 0.0);
 }
-// Scratch for probe kernels that test device functions from Rust.
-layout(std430, set = 0, binding = BINDING_PROBE) buffer Probe { uint probe[]; };
+// The probe kernels' records (one per invocation, inputs then outputs) live at BINDING_PROBE, each kernel declaring
+// the buffer with its own record type; the records are here so tests/layout.rs checks them against src/layout.rs.
+
+// 48 bytes: probe_trace's ray and the hit traversal found (t, tri NO_HIT on a miss, barycentrics).
+struct TraceRecord {
+    vec3 origin;
+    float tmin;
+    vec3 dir;
+    float tmax;
+    float t;
+    uint tri;
+    vec2 uv;
+};
+
+// 96 bytes: probe_bsdf's query (material, wo, the three uniforms or wi, whether wo is outside) and what the BSDF
+// answered: the sampled (or given) wi with the pdf of sampling it, f cos / pdf with PROBE_DELTA | PROBE_OK, f(wo, wi)
+// with pdf(wo, wi), and f(wi, wo).
+struct BsdfRecord {
+    vec3 wo;
+    uint material;
+    vec3 x;
+    uint front;
+    vec3 wi;
+    float pdf;
+    vec3 weight;
+    uint flags;
+    vec3 eval;
+    float pdf_wi;
+    vec3 eval_reverse;
+    uint pad0;
+};
+
+// 48 bytes: probe_env's uniforms (xy) or direction, and the sampled or given direction with the pdf of sampling it,
+// the pdf of the direction, and the radiance from it.
+struct EnvRecord {
+    vec3 x;
+    float pdf;
+    vec3 dir;
+    float pdf_dir;
+    vec3 radiance;
+    uint pad0;
+};
+
+// What Frame.bounce means to a probe kernel: PROBE_SAMPLE or PROBE_EVALUATE (PROBE_ANY_HIT for probe_trace).
+uint probe_mode() { return frame.bounce; }
+// probe_rand's dimension rides in Frame.max_depth.
+uint probe_dimension() { return frame.max_depth; }
+// A follow dispatch's first sample row rides in Frame.bounce (Frame::follow_rows).
+uint follow_first_row() { return frame.bounce; }
 // Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.
 layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]; };
 // Environment: rgba texels (w unused) row by row from the top (+y), then the marginal cdf over rows

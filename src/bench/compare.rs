@@ -1,10 +1,10 @@
 //! `pathwave bench --compare`: the same work done by Mitsuba 3 and Embree in this run, interleaved with ours.
 use super::terrain;
 use crate::bvh::Ray;
+use crate::error::Error;
 use crate::render::{RenderSettings, Renderer};
 use crate::scene::{self, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
-use crate::Error;
 use glam::Vec3;
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};

@@ -1,10 +1,10 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
 pub mod compare;
 
+use crate::error::Error;
 use crate::render::{BvhReads, RenderSettings, Renderer, Schedule};
 use crate::scene::{self, Camera, Environment, Material, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
-use crate::Error;
 pub use compare::{EmbreeComparison, MitsubaComparison};
 use glam::{Mat4, Vec3, Vec4};
 use std::path::{Path, PathBuf};

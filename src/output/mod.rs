@@ -1,5 +1,5 @@
 //! Image files: linear float EXR and sRGB PNG, written to a temporary file and renamed so failures leave nothing behind.
-use crate::Error;
+use crate::error::Error;
 use std::path::Path;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -100,14 +100,14 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
 }
 
 /// Reads an RGB EXR back as (width, height, pixels); used by tests and tools.
-pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::Error> {
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::Error> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
         |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = [r, g, b],
     )
-    .map_err(|e| crate::Error::Output {
+    .map_err(|e| crate::error::Error::Output {
         path: path.to_path_buf(),
         message: format!("cannot read EXR: {e}"),
     })?;

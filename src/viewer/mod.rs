@@ -1,11 +1,11 @@
 //! `pathwave view`: a window on the progressive render, camera controls, adaptive samples per frame, hot reload.
 mod swapchain;
 
+use crate::error::Error;
 use crate::render::{RenderSettings, Renderer, Session};
 use crate::scene::{Camera, Scene};
 use crate::shaders::{ShaderDir, ShaderWatcher};
 use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
-use crate::Error;
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

@@ -1,6 +1,6 @@
 //! The window's swapchain: tone-mapped pixels are copied into its images and presented, one frame at a time.
+use crate::error::Error;
 use crate::vk::{Buffer, Context};
-use crate::Error;
 use ash::vk;
 
 pub struct Swapchain {

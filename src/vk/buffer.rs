@@ -1,6 +1,6 @@
 //! Storage buffers from gpu-allocator, with uploads and downloads that work whether or not the memory is mappable.
 use super::Context;
-use crate::Error;
+use crate::error::Error;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
 use gpu_allocator::MemoryLocation;
@@ -133,5 +133,40 @@ impl Drop for Buffer {
             }
         }
         unsafe { self.device.destroy_buffer(self.raw, None) };
+    }
+}
+
+/// Texel views of buffers, each for the binding it is bound at; destroyed on drop (before the buffers they view).
+pub struct TexelViews {
+    pub views: Vec<(u32, vk::BufferView)>,
+    device: ash::Device,
+}
+
+impl TexelViews {
+    /// One view of the whole of each buffer, in the format given with it.
+    pub fn new(ctx: &Context, buffers: &[(u32, &Buffer, vk::Format)]) -> Result<Self, Error> {
+        let mut v = TexelViews {
+            views: Vec::new(),
+            device: ctx.device.clone(),
+        };
+        for (binding, b, format) in buffers {
+            let info = vk::BufferViewCreateInfo::default()
+                .buffer(b.raw)
+                .format(*format)
+                .offset(0)
+                .range(vk::WHOLE_SIZE);
+            // On failure, Drop releases the views made so far.
+            v.views
+                .push((*binding, unsafe { ctx.device.create_buffer_view(&info, None) }?));
+        }
+        Ok(v)
+    }
+}
+
+impl Drop for TexelViews {
+    fn drop(&mut self) {
+        for (_, view) in &self.views {
+            unsafe { self.device.destroy_buffer_view(*view, None) };
+        }
     }
 }

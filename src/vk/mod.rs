@@ -2,10 +2,10 @@
 mod buffer;
 mod pipeline;
 
-pub use buffer::Buffer;
+pub use buffer::{Buffer, TexelViews};
 pub use pipeline::{add_labelled, Pipelines, Timestamps};
 
-use crate::Error;
+use crate::error::Error;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{c_void, CStr};

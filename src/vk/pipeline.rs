@@ -1,10 +1,8 @@
-//! Compute pipelines that share one descriptor set layout and one push-constant block, and per-stage GPU timers.
+//! Compute pipelines that share one descriptor set layout and one push-constant range, and per-stage GPU timers.
 use super::{Buffer, Context};
-use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, FEATURES_ALL, FEATURE_DEEP_STACK, SPEC_SCENE_FEATURES};
-use crate::layout::Frame;
-use crate::Error;
+use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, SPEC_SCENE_FEATURES};
+use crate::error::Error;
 use ash::vk;
-use std::collections::HashMap;
 
 /// Storage buffers, then the texel-buffer bindings (see BINDING_FIRST_TEXEL).
 fn descriptor_type(binding: u32) -> vk::DescriptorType {
@@ -15,34 +13,20 @@ fn descriptor_type(binding: u32) -> vk::DescriptorType {
     }
 }
 
+/// The one descriptor set and push-constant range every compute pipeline shares, and the creation and dispatch of
+/// pipelines. Which pipelines exist, and what for, is render::kernels' business.
 pub struct Pipelines {
     pub set_layout: vk::DescriptorSetLayout,
     pub layout: vk::PipelineLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
-    pipelines: HashMap<String, vk::Pipeline>,
-    /// Every render stage's SPIR-V: `ensure` builds the ones a pass needs that are not in `pipelines` yet (building
-    /// all eighteen render variants up front cost start-up about a second on lavapipe), `set_features` drops them.
-    render_spirv: HashMap<String, Vec<u8>>,
-    /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
-    features: u32,
+    push_bytes: u32,
     device: ash::Device,
 }
 
-/// Stages that must keep every feature whatever the scene (but the BVH's FEATURE_DEEP_STACK, see `replace`): the
-/// probes test device functions with parameters of their own, and the energy tables integrate the full BSDF.
-fn scene_independent(stage: &str) -> bool {
-    stage.starts_with("probe_") || stage == "energy_tables"
-}
-
-/// The stages a pass dispatches: specialised for the scene's features, built when a pass first needs them.
-fn render_stage(stage: &str) -> bool {
-    !scene_independent(stage) && stage != "tonemap"
-}
-
 impl Pipelines {
-    /// `features`: the scene's FEATURE_* bits; the render stages are built with code for the others folded away.
-    pub fn new(ctx: &Context, stages: &[(&str, &[u8])], features: u32) -> Result<Self, Error> {
+    /// `push_bytes`: the shared push-constant range every stage's block must fit in.
+    pub fn new(ctx: &Context, push_bytes: u32) -> Result<Self, Error> {
         let d = &ctx.device;
         let bindings: Vec<_> = (0..BINDING_COUNT)
             .map(|b| {
@@ -59,7 +43,7 @@ impl Pipelines {
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
-            .size(std::mem::size_of::<Frame>() as u32)];
+            .size(push_bytes)];
         let set_layouts = [set_layout];
         let layout = unsafe {
             d.create_pipeline_layout(
@@ -90,67 +74,23 @@ impl Pipelines {
                     .set_layouts(&set_layouts),
             )
         }?[0];
-        let mut me = Pipelines {
+        Ok(Pipelines {
             set_layout,
             layout,
             pool,
             set,
-            pipelines: HashMap::new(),
-            render_spirv: HashMap::new(),
-            features,
+            push_bytes,
             device: d.clone(),
-        };
-        for (name, spv) in stages {
-            if render_stage(name) {
-                me.render_spirv.insert(name.to_string(), spv.to_vec());
-            } else {
-                me.replace(ctx, name, spv)?;
-            }
-        }
-        Ok(me)
+        })
     }
 
-    /// Specialises the render stages for `features` from now on: built ones are dropped and built again by `ensure`.
-    pub fn set_features(&mut self, features: u32) {
-        if features == self.features {
-            return;
-        }
-        self.features = features;
-        for name in self.render_spirv.keys() {
-            if let Some(old) = self.pipelines.remove(name) {
-                // The caller waits for the device before a pass, so no command buffer still uses it.
-                unsafe { self.device.destroy_pipeline(old, None) };
-            }
-        }
-    }
-
-    /// Builds the render stages among `names` that are not built yet.
-    pub fn ensure(&mut self, ctx: &Context, names: &[&str]) -> Result<(), Error> {
-        for name in names {
-            if !self.pipelines.contains_key(*name) {
-                if let Some(spv) = self.render_spirv.get(*name).cloned() {
-                    self.replace(ctx, name, &spv)?;
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Builds (or rebuilds) one stage's pipeline from SPIR-V.
-    pub fn replace(&mut self, ctx: &Context, name: &str, spv: &[u8]) -> Result<(), Error> {
-        if render_stage(name) {
-            self.render_spirv.insert(name.to_string(), spv.to_vec());
-        }
+    /// A compute pipeline from SPIR-V with SCENE_FEATURES specialised to `features`; `label` names it for debuggers
+    /// and in errors.
+    pub fn create(&self, ctx: &Context, label: &str, spv: &[u8], features: u32) -> Result<vk::Pipeline, Error> {
         let d = &ctx.device;
         let words = ash::util::read_spv(&mut std::io::Cursor::new(spv))
-            .map_err(|e| Error::Vulkan(format!("shader {name}: not SPIR-V: {e}")))?;
+            .map_err(|e| Error::Vulkan(format!("shader {label}: not SPIR-V: {e}")))?;
         let module = unsafe { d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None) }?;
-        let features = if scene_independent(name) {
-            // Probes keep every bit but the BVH's own (FEATURE_DEEP_STACK), so probe_trace traverses as render stages do.
-            (FEATURES_ALL & !FEATURE_DEEP_STACK) | (self.features & FEATURE_DEEP_STACK)
-        } else {
-            self.features
-        };
         let entries = [vk::SpecializationMapEntry::default()
             .constant_id(SPEC_SCENE_FEATURES)
             .offset(0)
@@ -167,12 +107,14 @@ impl Pipelines {
             .layout(self.layout)];
         let result = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
         unsafe { d.destroy_shader_module(module, None) };
-        let pipeline = result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {name}: {e:?}")))?[0];
-        ctx.set_name(pipeline, name);
-        if let Some(old) = self.pipelines.insert(name.to_string(), pipeline) {
-            unsafe { d.destroy_pipeline(old, None) };
-        }
-        Ok(())
+        let pipeline = result.map_err(|(_, e)| Error::Vulkan(format!("pipeline {label}: {e:?}")))?[0];
+        ctx.set_name(pipeline, label);
+        Ok(pipeline)
+    }
+
+    /// Destroys a pipeline no command buffer still uses (callers wait for the device between passes).
+    pub fn destroy(&self, pipeline: vk::Pipeline) {
+        unsafe { self.device.destroy_pipeline(pipeline, None) };
     }
 
     /// Points storage bindings at buffers. A buffer larger than the device's storage range (only the BVH and
@@ -219,21 +161,30 @@ impl Pipelines {
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
-    /// A 2D dispatch with a stage's own push constants (within the shared range), e.g. the tone map.
-    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, name: &str, push: &[u8], groups: [u32; 2]) {
-        self.bind(cmd, name, push);
-        unsafe { self.device.cmd_dispatch(cmd, groups[0], groups[1], 1) };
+    /// `groups` workgroups of `pipeline` with `push` as its push constants (within the shared range).
+    pub fn dispatch(&self, cmd: vk::CommandBuffer, pipeline: vk::Pipeline, push: &[u8], groups: [u32; 3]) {
+        self.bind(cmd, pipeline, push);
+        unsafe { self.device.cmd_dispatch(cmd, groups[0], groups[1], groups[2]) };
     }
 
-    fn bind(&self, cmd: vk::CommandBuffer, name: &str, push: &[u8]) {
+    /// A dispatch sized by the VkDispatchIndirectCommand at `offset` in `args`.
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        pipeline: vk::Pipeline,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        self.bind(cmd, pipeline, push);
+        unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
+    }
+
+    fn bind(&self, cmd: vk::CommandBuffer, pipeline: vk::Pipeline, push: &[u8]) {
         assert!(
-            push.len() <= std::mem::size_of::<Frame>(),
+            push.len() <= self.push_bytes as usize,
             "push constants past the shared range"
         );
-        let pipeline = *self
-            .pipelines
-            .get(name)
-            .unwrap_or_else(|| panic!("no pipeline named {name}"));
         unsafe {
             self.device
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
@@ -243,24 +194,11 @@ impl Pipelines {
                 .cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
         }
     }
-
-    pub fn dispatch(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, groups: u32) {
-        self.bind(cmd, name, bytemuck::bytes_of(frame));
-        unsafe { self.device.cmd_dispatch(cmd, groups, 1, 1) };
-    }
-
-    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, name: &str, frame: &Frame, args: &Buffer, offset: u64) {
-        self.bind(cmd, name, bytemuck::bytes_of(frame));
-        unsafe { self.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
-    }
 }
 
 impl Drop for Pipelines {
     fn drop(&mut self) {
         unsafe {
-            for (_, p) in self.pipelines.drain() {
-                self.device.destroy_pipeline(p, None);
-            }
             self.device.destroy_descriptor_pool(self.pool, None);
             self.device.destroy_pipeline_layout(self.layout, None);
             self.device.destroy_descriptor_set_layout(self.set_layout, None);

@@ -1,0 +1,150 @@
+//! One pass of the integrator on the device: generate, then extend / shade / connect per bounce, then accumulate
+//! (the wavefront), or follow then accumulate (fused). Each stage is a method; `pass` reads like the algorithm.
+use super::kernels::{Built, FusedKernels, Kernels, WavefrontKernels};
+use super::{Renderer, Schedule};
+use crate::constants::*;
+use crate::error::Error;
+use crate::layout::{Frame, COUNTERS_DISPATCH_OFFSET};
+use crate::vk::{Buffer, Context, Timestamps};
+use ash::vk;
+
+/// Records one pass's dispatches into a command buffer, each timed under its stage's name and followed by a barrier.
+struct Recorder<'a> {
+    ctx: &'a Context,
+    kernels: &'a Kernels,
+    ts: &'a mut Timestamps,
+    counters: &'a Buffer,
+    cmd: vk::CommandBuffer,
+}
+
+impl Recorder<'_> {
+    fn run(&mut self, k: Built, frame: &Frame, invocations: u32) {
+        let (kernels, cmd) = (self.kernels, self.cmd);
+        let groups = invocations.div_ceil(WORKGROUP_SIZE);
+        self.ts
+            .time(cmd, k.stage.name(), || kernels.dispatch(cmd, k, frame, groups));
+        self.ctx.barrier(cmd);
+    }
+
+    /// Sized by the queue counters queue_args turned into dispatch arguments.
+    fn run_queued(&mut self, k: Built, frame: &Frame) {
+        let (kernels, cmd, counters) = (self.kernels, self.cmd, self.counters);
+        self.ts.time(cmd, k.stage.name(), || {
+            kernels.dispatch_indirect(cmd, k, frame, counters, COUNTERS_DISPATCH_OFFSET)
+        });
+        self.ctx.barrier(cmd);
+    }
+
+    fn clear_counters(&mut self) {
+        unsafe {
+            self.ctx
+                .device
+                .cmd_fill_buffer(self.cmd, self.counters.raw, 0, vk::WHOLE_SIZE, 0)
+        };
+        self.ctx.barrier(self.cmd);
+    }
+
+    /// Camera rays for every path of the pass, into queue 0.
+    fn generate(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.run(k.generate, frame, frame.path_count);
+    }
+
+    /// Turns the queue counters into the dispatch arguments of the bounce's stages.
+    fn queue_args(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.run(k.queue_args, frame, 1);
+    }
+
+    /// Closest hits of the queued rays.
+    fn extend(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.run_queued(k.extend, frame);
+    }
+
+    /// Emission, next-event estimation (a shadow ray) and the BSDF sample that continues each path.
+    fn shade(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.run_queued(k.shade, frame);
+    }
+
+    /// Shade queues at most one shadow ray per path, so the extension dispatch size bounds connect's.
+    fn connect(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.run_queued(k.connect, frame);
+    }
+
+    /// `rows` sample rows from `first_row`, each invocation one pixel's samples from camera to end.
+    fn follow(&mut self, k: &FusedKernels, frame: &Frame, first_row: u32, rows: u32) {
+        let f = frame.follow_rows(first_row, first_row + rows);
+        self.run(k.follow, &f, frame.pass_pixels);
+    }
+
+    /// Adds the pass's samples to the film (or copies follow's running sums).
+    fn accumulate(&mut self, k: Built, frame: &Frame) {
+        self.run(k, frame, frame.pass_pixels);
+    }
+}
+
+impl Renderer {
+    /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
+    pub(super) fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
+        let lens = if frame.aperture() > 0.0 { FEATURE_LENS } else { 0 };
+        self.kernels.set_features(self.scene.features | lens);
+        let variant = self.scene_variant();
+        let follow_rows = self.follow.rows;
+        let Renderer {
+            ctx,
+            kernels,
+            timestamps,
+            ..
+        } = self;
+        match schedule {
+            Schedule::Wavefront => {
+                let k = kernels.wavefront(ctx, variant)?;
+                record(ctx, kernels, timestamps, counters, |rec| {
+                    rec.generate(&k, frame);
+                    for bounce in 0..=frame.max_depth {
+                        let f = frame.at_bounce(bounce);
+                        rec.queue_args(&k, &f);
+                        rec.extend(&k, &f);
+                        rec.shade(&k, &f);
+                        rec.connect(&k, &f);
+                    }
+                    // After the last bounce only the shadow-ray tally remains (queue_args.comp).
+                    rec.queue_args(&k, &frame.after_last_bounce());
+                    rec.accumulate(k.accumulate, frame);
+                })
+            }
+            Schedule::Fused => {
+                let k = kernels.fused(ctx, variant)?;
+                record(ctx, kernels, timestamps, counters, |rec| {
+                    // Each invocation keeps its pixel's running film sums itself (FLAG_FUSED_SUMS).
+                    let f = frame.with_fused_sums();
+                    let rows = frame.path_count / frame.pass_pixels;
+                    for first in (0..rows).step_by(follow_rows as usize) {
+                        rec.follow(&k, &f, first, follow_rows.min(rows - first));
+                    }
+                    rec.accumulate(k.accumulate, &f);
+                })
+            }
+        }
+    }
+}
+
+/// Records a pass into one submission with cleared counters and the timestamps reset, and waits for it.
+fn record(
+    ctx: &Context,
+    kernels: &Kernels,
+    ts: &mut Timestamps,
+    counters: &Buffer,
+    body: impl FnOnce(&mut Recorder),
+) -> Result<(), Error> {
+    ctx.submit_and_wait(|cmd| {
+        ts.reset(cmd);
+        let mut rec = Recorder {
+            ctx,
+            kernels,
+            ts,
+            counters,
+            cmd,
+        };
+        rec.clear_counters();
+        body(&mut rec);
+    })
+}

@@ -1,0 +1,407 @@
+//! The compute kernels: the `Stage` enum, each stage's compiled variants (`Kernel`), and the pipelines built for
+//! them on demand, handed out as typed handles so a pass can only dispatch what it built.
+use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK};
+use crate::error::Error;
+use crate::layout::Frame;
+use crate::variants::STAGE_VARIANTS;
+use crate::vk::{Context, Pipelines};
+use ash::vk;
+use std::collections::HashMap;
+
+/// Every compute stage, one per `shaders/{name}.comp`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Stage {
+    Generate,
+    QueueArgs,
+    Extend,
+    Shade,
+    Connect,
+    Accumulate,
+    Follow,
+    Tonemap,
+    EnergyTables,
+    ProbeTrace,
+    ProbeBsdf,
+    ProbeEnv,
+    ProbeRand,
+    ProbeLightPick,
+    ProbeConstants,
+}
+
+impl Stage {
+    pub const ALL: [Stage; 15] = [
+        Stage::Generate,
+        Stage::QueueArgs,
+        Stage::Extend,
+        Stage::Shade,
+        Stage::Connect,
+        Stage::Accumulate,
+        Stage::Follow,
+        Stage::Tonemap,
+        Stage::EnergyTables,
+        Stage::ProbeTrace,
+        Stage::ProbeBsdf,
+        Stage::ProbeEnv,
+        Stage::ProbeRand,
+        Stage::ProbeLightPick,
+        Stage::ProbeConstants,
+    ];
+
+    /// The shader's file stem, and the label its GPU time is reported under.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Generate => "generate",
+            Stage::QueueArgs => "queue_args",
+            Stage::Extend => "extend",
+            Stage::Shade => "shade",
+            Stage::Connect => "connect",
+            Stage::Accumulate => "accumulate",
+            Stage::Follow => "follow",
+            Stage::Tonemap => "tonemap",
+            Stage::EnergyTables => "energy_tables",
+            Stage::ProbeTrace => "probe_trace",
+            Stage::ProbeBsdf => "probe_bsdf",
+            Stage::ProbeEnv => "probe_env",
+            Stage::ProbeRand => "probe_rand",
+            Stage::ProbeLightPick => "probe_light_pick",
+            Stage::ProbeConstants => "probe_constants",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Stage> {
+        Stage::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// Stages only the wavefront schedule runs: an edited one fixes that schedule, so the edit is what runs.
+    pub fn wavefront_only(self) -> bool {
+        matches!(
+            self,
+            Stage::Generate | Stage::QueueArgs | Stage::Extend | Stage::Shade | Stage::Connect
+        )
+    }
+
+    /// Stages a pass dispatches: specialised for the scene's features and built when a pass first needs them
+    /// (building every render variant up front cost start-up about a second on lavapipe).
+    fn renders(self) -> bool {
+        matches!(
+            self,
+            Stage::Generate
+                | Stage::QueueArgs
+                | Stage::Extend
+                | Stage::Shade
+                | Stage::Connect
+                | Stage::Accumulate
+                | Stage::Follow
+        )
+    }
+
+    /// Stages that keep every feature whatever the scene, but the BVH's own FEATURE_DEEP_STACK (so probe_trace
+    /// traverses as the render stages do): probes test device functions with parameters of their own, and the
+    /// energy tables integrate the full BSDF.
+    fn scene_independent(self) -> bool {
+        !self.renders() && self != Stage::Tonemap
+    }
+}
+
+/// The preprocessor defines a variant is compiled with (src/variants.rs), as bits.
+const ALPHA_TEST: u8 = 1;
+const TEXTURED: u8 = 2;
+const TEXEL_READS: u8 = 4;
+
+fn define_bits(defines: &str) -> u8 {
+    defines
+        .split_whitespace()
+        .map(|d| match d {
+            "ALPHA_TEST" => ALPHA_TEST,
+            "TEXTURED" => TEXTURED,
+            "TEXEL_READS" => TEXEL_READS,
+            other => panic!("src/variants.rs names an unknown define {other}"),
+        })
+        .fold(0, |a, b| a | b)
+}
+
+/// What the scene asks of the stages that trace and shade.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneVariant {
+    /// Some material is alpha-tested: traversal evaluates alpha at candidate hits.
+    pub alpha: bool,
+    /// Some material has a texture or alpha, or some mesh has COLOR_0.
+    pub textured: bool,
+    /// Traversal and shading read the scene through texel views (BvhReads::Texel).
+    pub texel: bool,
+}
+
+/// One compiled variant of a stage: the stage as written (`variant` 0) or `{stage}_{suffix}` of STAGE_VARIANTS
+/// entry `variant - 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Kernel {
+    pub stage: Stage,
+    variant: u8,
+}
+
+impl Kernel {
+    /// The stage as written, with no variant define.
+    pub fn of(stage: Stage) -> Kernel {
+        Kernel { stage, variant: 0 }
+    }
+
+    /// The variant of `stage` a scene runs: the one compiled with exactly the defines the scene needs among those
+    /// the stage has variants for (the variants with alpha testing and textures cost up to 4x in traversal, so only
+    /// scenes that need them use them).
+    pub fn for_scene(stage: Stage, scene: SceneVariant) -> Kernel {
+        let variants = || STAGE_VARIANTS.iter().enumerate().filter(|(_, v)| v.0 == stage.name());
+        let known = variants().fold(0, |a, (_, v)| a | define_bits(v.2));
+        // Alpha testing implies textured shading (follow_alpha is ALPHA_TEST TEXTURED); defines the stage has no
+        // variant for are not its business (extend never shades).
+        let alpha = if scene.alpha { ALPHA_TEST | TEXTURED } else { 0 };
+        let textured = if scene.textured { TEXTURED } else { 0 };
+        let texel = if scene.texel { TEXEL_READS } else { 0 };
+        let wanted = (alpha | textured | texel) & known;
+        match variants().find(|(_, v)| define_bits(v.2) == wanted) {
+            Some((i, _)) => Kernel {
+                stage,
+                variant: i as u8 + 1,
+            },
+            None => Kernel::of(stage),
+        }
+    }
+
+    /// The name build.rs and shader folders give its SPIR-V: "extend_alpha_texel".
+    pub fn name(self) -> String {
+        match self.variant {
+            0 => self.stage.name().to_string(),
+            v => format!("{}_{}", self.stage.name(), STAGE_VARIANTS[v as usize - 1].1),
+        }
+    }
+
+    /// The kernel a SPIR-V name stands for, if any.
+    pub fn from_name(name: &str) -> Option<Kernel> {
+        if let Some(stage) = Stage::from_name(name) {
+            return Some(Kernel::of(stage));
+        }
+        let (i, (stage, _, _)) = STAGE_VARIANTS.iter().enumerate().find(|(_, (stage, suffix, _))| {
+            name.strip_prefix(stage).and_then(|r| r.strip_prefix('_')) == Some(suffix)
+        })?;
+        Some(Kernel {
+            stage: Stage::from_name(stage)?,
+            variant: i as u8 + 1,
+        })
+    }
+}
+
+/// A built pipeline of a kernel: only `Kernels::get` makes one, so a pass records only what it built.
+#[derive(Clone, Copy, Debug)]
+pub struct Built {
+    pub stage: Stage,
+    pipeline: vk::Pipeline,
+}
+
+/// The kernels a wavefront pass dispatches, named by stage.
+pub struct WavefrontKernels {
+    pub generate: Built,
+    pub queue_args: Built,
+    pub extend: Built,
+    pub shade: Built,
+    pub connect: Built,
+    pub accumulate: Built,
+}
+
+/// The kernels a fused pass dispatches.
+pub struct FusedKernels {
+    pub follow: Built,
+    pub accumulate: Built,
+}
+
+/// Every kernel's SPIR-V and the pipelines built from it so far, on the one shared descriptor set.
+pub struct Kernels {
+    pub pipelines: Pipelines,
+    built: HashMap<Kernel, vk::Pipeline>,
+    spirv: HashMap<Kernel, Vec<u8>>,
+    /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
+    features: u32,
+}
+
+impl Kernels {
+    /// Builds the stages that do not render (probes, energy tables, tone map) now, the render stages when a pass
+    /// first needs them, specialised for `features`.
+    pub fn new(ctx: &Context, spirv: &[(&str, &[u8])], features: u32) -> Result<Self, Error> {
+        let mut me = Kernels {
+            pipelines: Pipelines::new(ctx, std::mem::size_of::<Frame>() as u32)?,
+            built: HashMap::new(),
+            spirv: HashMap::new(),
+            features,
+        };
+        for (name, spv) in spirv {
+            let kernel = Kernel::from_name(name)
+                .ok_or_else(|| Error::Vulkan(format!("built-in shader {name} is no known stage or variant")))?;
+            me.spirv.insert(kernel, spv.to_vec());
+            if !kernel.stage.renders() {
+                me.build(ctx, kernel)?;
+            }
+        }
+        Ok(me)
+    }
+
+    /// Specialises the render stages for `features` from now on: built ones are dropped and built again on use.
+    pub fn set_features(&mut self, features: u32) {
+        if features == self.features {
+            return;
+        }
+        self.features = features;
+        let stale: Vec<Kernel> = self.built.keys().copied().filter(|k| k.stage.renders()).collect();
+        for k in stale {
+            if let Some(old) = self.built.remove(&k) {
+                self.pipelines.destroy(old);
+            }
+        }
+    }
+
+    /// The kernel's pipeline, built first if it is not yet.
+    pub fn get(&mut self, ctx: &Context, kernel: Kernel) -> Result<Built, Error> {
+        let pipeline = match self.built.get(&kernel) {
+            Some(&p) => p,
+            None => self.build(ctx, kernel)?,
+        };
+        Ok(Built {
+            stage: kernel.stage,
+            pipeline,
+        })
+    }
+
+    /// The kernel's pipeline if it is built.
+    pub fn built(&self, kernel: Kernel) -> Option<Built> {
+        self.built.get(&kernel).map(|&pipeline| Built {
+            stage: kernel.stage,
+            pipeline,
+        })
+    }
+
+    /// The kernels a wavefront pass runs for this scene.
+    pub fn wavefront(&mut self, ctx: &Context, scene: SceneVariant) -> Result<WavefrontKernels, Error> {
+        let mut get = |stage| self.get(ctx, Kernel::for_scene(stage, scene));
+        Ok(WavefrontKernels {
+            generate: get(Stage::Generate)?,
+            queue_args: get(Stage::QueueArgs)?,
+            extend: get(Stage::Extend)?,
+            shade: get(Stage::Shade)?,
+            connect: get(Stage::Connect)?,
+            accumulate: get(Stage::Accumulate)?,
+        })
+    }
+
+    /// The kernels a fused pass runs for this scene.
+    pub fn fused(&mut self, ctx: &Context, scene: SceneVariant) -> Result<FusedKernels, Error> {
+        Ok(FusedKernels {
+            follow: self.get(ctx, Kernel::for_scene(Stage::Follow, scene))?,
+            accumulate: self.get(ctx, Kernel::of(Stage::Accumulate))?,
+        })
+    }
+
+    /// Replaces a kernel's SPIR-V (a user's shader) and builds it now, so a bad one fails here.
+    pub fn replace(&mut self, ctx: &Context, kernel: Kernel, spv: &[u8]) -> Result<(), Error> {
+        self.spirv.insert(kernel, spv.to_vec());
+        self.build(ctx, kernel).map(|_| ())
+    }
+
+    fn build(&mut self, ctx: &Context, kernel: Kernel) -> Result<vk::Pipeline, Error> {
+        let spv = self
+            .spirv
+            .get(&kernel)
+            .ok_or_else(|| Error::Vulkan(format!("no SPIR-V for kernel {}", kernel.name())))?;
+        let features = if kernel.stage.scene_independent() {
+            (FEATURES_ALL & !FEATURE_DEEP_STACK) | (self.features & FEATURE_DEEP_STACK)
+        } else {
+            self.features
+        };
+        let pipeline = self.pipelines.create(ctx, &kernel.name(), spv, features)?;
+        if let Some(old) = self.built.insert(kernel, pipeline) {
+            self.pipelines.destroy(old);
+        }
+        Ok(pipeline)
+    }
+
+    /// `groups` workgroups of a built kernel with `frame` as push constants.
+    pub fn dispatch(&self, cmd: vk::CommandBuffer, k: Built, frame: &Frame, groups: u32) {
+        self.pipelines
+            .dispatch(cmd, k.pipeline, bytemuck::bytes_of(frame), [groups, 1, 1]);
+    }
+
+    /// A dispatch sized by the indirect command at `offset` in `args`.
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        k: Built,
+        frame: &Frame,
+        args: &crate::vk::Buffer,
+        offset: u64,
+    ) {
+        self.pipelines
+            .dispatch_indirect(cmd, k.pipeline, bytemuck::bytes_of(frame), args, offset);
+    }
+
+    /// A 2D dispatch with a stage's own push block (within the shared range), e.g. the tone map.
+    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, k: Built, push: &[u8], groups: [u32; 2]) {
+        self.pipelines
+            .dispatch(cmd, k.pipeline, push, [groups[0], groups[1], 1]);
+    }
+}
+
+impl Drop for Kernels {
+    fn drop(&mut self) {
+        for (_, p) in self.built.drain() {
+            self.pipelines.destroy(p);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every built-in SPIR-V is a known kernel, and names round-trip.
+    #[test]
+    fn every_builtin_stage_is_a_kernel() {
+        for (name, _) in crate::shaders::BUILTIN_SPIRV {
+            let k = Kernel::from_name(name).unwrap_or_else(|| panic!("{name} is no kernel"));
+            assert_eq!(k.name(), *name);
+        }
+        for s in Stage::ALL {
+            assert!(
+                crate::shaders::BUILTIN_SPIRV.iter().any(|(n, _)| *n == s.name()),
+                "{s:?} has no shader"
+            );
+        }
+    }
+
+    /// The variant choice the renderer made by hand before it was derived from src/variants.rs.
+    #[test]
+    fn scenes_pick_the_variants_they_need() {
+        let pick = |stage, alpha, textured, texel| {
+            Kernel::for_scene(
+                stage,
+                SceneVariant {
+                    alpha,
+                    textured: textured || alpha,
+                    texel,
+                },
+            )
+            .name()
+        };
+        for texel in [false, true] {
+            let t = if texel { "_texel" } else { "" };
+            assert_eq!(pick(Stage::Extend, false, false, texel), format!("extend{t}"));
+            assert_eq!(pick(Stage::Extend, false, true, texel), format!("extend{t}"));
+            assert_eq!(pick(Stage::Extend, true, true, texel), format!("extend_alpha{t}"));
+            assert_eq!(pick(Stage::Connect, true, true, texel), format!("connect_alpha{t}"));
+            assert_eq!(pick(Stage::Shade, false, false, texel), format!("shade{t}"));
+            assert_eq!(pick(Stage::Shade, false, true, texel), format!("shade_textured{t}"));
+            assert_eq!(pick(Stage::Shade, true, true, texel), format!("shade_textured{t}"));
+            assert_eq!(pick(Stage::Follow, false, false, texel), format!("follow{t}"));
+            assert_eq!(pick(Stage::Follow, false, true, texel), format!("follow_textured{t}"));
+            assert_eq!(pick(Stage::Follow, true, true, texel), format!("follow_alpha{t}"));
+            assert_eq!(pick(Stage::ProbeTrace, true, true, texel), format!("probe_trace{t}"));
+            assert_eq!(pick(Stage::Generate, true, true, texel), "generate");
+            assert_eq!(pick(Stage::Accumulate, true, true, texel), "accumulate");
+        }
+    }
+}

@@ -1,0 +1,260 @@
+//! A progressive render: the film and path state on the device, and the passes that add samples to them.
+use super::film::{Film, RenderStats};
+use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
+use crate::constants::*;
+use crate::error::Error;
+use crate::layout::{Counters, Frame};
+use crate::vk::{Buffer, TexelViews};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::time::Instant;
+
+/// A progressive render: the film and path state stay on the device between `Renderer::advance` calls, so a
+/// viewer can add samples frame by frame and show the running mean.
+pub struct Session {
+    pub settings: RenderSettings,
+    frame: Frame,
+    pixels: u64,
+    capacity: u32,
+    /// The path state's texel views: dropped before it.
+    path_views: TexelViews,
+    paths: Buffer,
+    queues: Buffer,
+    counters: Buffer,
+    film: Buffer,
+    /// Samples per pixel accumulated so far.
+    pub done: u32,
+    /// Tallies since the last (re)start.
+    pub stats: RenderStats,
+    pub(super) started: Instant,
+}
+
+impl Session {
+    /// The session's buffers by binding.
+    pub(super) fn bindings(&self) -> [(u32, &Buffer); 4] {
+        [
+            (BINDING_PATHS, &self.paths),
+            (BINDING_QUEUES, &self.queues),
+            (BINDING_COUNTERS, &self.counters),
+            (BINDING_FILM, &self.film),
+        ]
+    }
+
+    pub(super) fn texel_views(&self) -> &[(u32, vk::BufferView)] {
+        &self.path_views.views
+    }
+
+    /// Samples (paths) per second since the session last (re)started.
+    pub fn samples_per_sec(&self) -> f64 {
+        self.stats.samples as f64 / self.started.elapsed().as_secs_f64().max(1e-9)
+    }
+
+    /// The film buffer on the device: running sums, then running sums of squares (see layout.glsl).
+    pub fn film_buffer(&self) -> &Buffer {
+        &self.film
+    }
+}
+
+impl Renderer {
+    /// Renders `settings.spp` samples per pixel; `progress` hears the samples per pixel done so far.
+    pub fn render(
+        &mut self,
+        settings: &RenderSettings,
+        progress: &mut dyn FnMut(u32),
+    ) -> Result<(Film, RenderStats), Error> {
+        let mut session = self.begin(settings)?;
+        while session.done < settings.spp {
+            let remaining = settings.spp - session.done;
+            self.advance(&mut session, remaining)?;
+            progress(session.done);
+        }
+        let film = self.film(&session)?;
+        let mut stats = std::mem::take(&mut session.stats);
+        stats.wall = session.started.elapsed();
+        if stats.passes == 1 {
+            stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
+        }
+        Ok((film, stats))
+    }
+
+    /// Starts a progressive render: allocates the film and path state and clears the film. `settings.spp` is not
+    /// used; `advance` adds samples until the caller stops.
+    pub fn begin(&mut self, settings: &RenderSettings) -> Result<Session, Error> {
+        let s = settings;
+        s.check()?;
+        let pixels = s.width as u64 * s.height as u64;
+        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
+        let film_bytes = pixels * 32;
+        if film_bytes > range || pixels > u32::MAX as u64 / 2 {
+            return Err(Error::Settings(format!(
+                "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} bytes",
+                s.width, s.height
+            )));
+        }
+        let capacity = self.path_capacity(pixels * s.spp as u64);
+        let per_path = PATH_FIELDS as u64 * 16;
+        let ctx = &self.ctx;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let paths = Buffer::new(
+            ctx,
+            "path state",
+            capacity as u64 * per_path,
+            storage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
+        let path_views = TexelViews::new(ctx, &[(BINDING_PATH_TEXELS, &paths, vk::Format::R32G32B32A32_SFLOAT)])?;
+        let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
+        let counters = Buffer::new(
+            ctx,
+            "counters",
+            std::mem::size_of::<Counters>() as u64,
+            storage | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
+        let mut session = Session {
+            settings: s.clone(),
+            frame: Frame::default(),
+            pixels,
+            capacity,
+            path_views,
+            paths,
+            queues,
+            counters,
+            film,
+            done: 0,
+            stats: RenderStats::default(),
+            started: Instant::now(),
+        };
+        self.restart(&mut session)?;
+        Ok(session)
+    }
+
+    /// Paths in flight for `wanted` paths: every pixel times as many samples as fit, or chunks of pixels when one
+    /// sample of the image alone is larger. The budget is a sixteenth of the largest device-local heap, within one
+    /// storage buffer's range: on lavapipe that is 2^20 paths (128 MiB), 6 % faster on the Cornell box than 2^18.
+    fn path_capacity(&self, wanted: u64) -> u32 {
+        let per_path = PATH_FIELDS as u64 * 16;
+        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
+        let memory = unsafe {
+            self.ctx
+                .instance
+                .get_physical_device_memory_properties(self.ctx.physical)
+        };
+        let heap = memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(256 << 20);
+        let budget = (heap / 16).max(per_path * 1024);
+        // The TEXEL_READS stages read the path state through one texel view, which must see all of it.
+        let view_paths = self.ctx.properties.limits.max_texel_buffer_elements as u64 / PATH_FIELDS as u64;
+        wanted
+            .min(range / per_path)
+            .min(view_paths)
+            .min(budget / per_path)
+            .min(u32::MAX as u64 / 4) as u32
+    }
+
+    /// Clears a session's film and starts again from sample 0 with the renderer's current camera and the session's
+    /// settings (the image size must stay the same).
+    pub fn restart(&mut self, session: &mut Session) -> Result<(), Error> {
+        let mut frame = self.frame(&session.settings);
+        frame.path_capacity = session.capacity;
+        session.frame = frame;
+        session.done = 0;
+        session.stats = RenderStats::default();
+        session.started = Instant::now();
+        let (ctx, film) = (&self.ctx, &session.film);
+        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })
+    }
+
+    /// Runs one pass: up to `samples` more samples per pixel (as many as fit in flight; one when the image must be
+    /// covered in chunks). Returns how many were added.
+    pub fn advance(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
+        self.bind(&session.bindings(), session.texel_views());
+        let (pixels, capacity) = (session.pixels, session.capacity);
+        let mut frame = session.frame;
+        frame.sample_index = session.done;
+        let mut stats = std::mem::take(&mut session.stats);
+        let added = if pixels <= capacity as u64 {
+            // Whole samples of every pixel, as many as fit. A fused pass keeps only a pixel's running sums in the
+            // path state, so it may take more samples than fit there (FOLLOW_ROWS_MAX: a dispatch takes up to that
+            // many, and the more, the less lanes wait for the last paths); a wavefront pass as many as fit.
+            let fit = (capacity as u64 / pixels) as u32;
+            let k = match self.schedule.current() {
+                // path_count must stay within u32, as the path state's capacity does.
+                Schedule::Fused => fit.max(FOLLOW_ROWS_MAX).min((u32::MAX as u64 / 4 / pixels) as u32),
+                Schedule::Wavefront => fit,
+            }
+            .min(samples.max(1));
+            frame.pixel_offset = 0;
+            frame.pass_pixels = pixels as u32;
+            frame.path_count = pixels as u32 * k;
+            let r = self.run_pass(&frame, &session.counters, &mut stats);
+            session.stats = stats;
+            r?;
+            k
+        } else {
+            // One sample, the image in chunks of `capacity` pixels.
+            for chunk in 0..pixels.div_ceil(capacity as u64) as u32 {
+                frame.pixel_offset = chunk * capacity;
+                frame.pass_pixels = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
+                frame.path_count = frame.pass_pixels;
+                if let Err(e) = self.run_pass(&frame, &session.counters, &mut stats) {
+                    session.stats = stats;
+                    return Err(e);
+                }
+            }
+            session.stats = stats;
+            1
+        };
+        session.done += added;
+        self.check_validation()?;
+        Ok(added)
+    }
+
+    /// The session's film so far (running sums over `done` samples per pixel).
+    pub fn film(&self, session: &Session) -> Result<Film, Error> {
+        let raw: Vec<[f32; 4]> = session.film.download(&self.ctx)?;
+        self.check_validation()?;
+        let pixels = session.pixels as usize;
+        let (sum, sum_sq) = raw.split_at(pixels);
+        Ok(Film {
+            width: session.settings.width,
+            height: session.settings.height,
+            spp: session.done,
+            sum: sum.to_vec(),
+            sum_sq: sum_sq[..pixels].to_vec(),
+        })
+    }
+
+    /// The push constants of a render with `s` from the renderer's camera and scene.
+    fn frame(&self, s: &RenderSettings) -> Frame {
+        let (right, up, forward) = self.camera.basis();
+        let o = self.camera.origin();
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
+        Frame {
+            cam_origin: [o.x, o.y, o.z, (self.camera.yfov * 0.5).tan()],
+            cam_right: [right.x, right.y, right.z, s.width as f32 / s.height as f32],
+            cam_up: [up.x, up.y, up.z, s.aperture],
+            cam_forward: [
+                forward.x,
+                forward.y,
+                forward.z,
+                s.focus_distance.unwrap_or(self.default_focus),
+            ],
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            // The cap applies to unbounded paths only; an explicit depth is taken as given.
+            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP),
+            flags: s.estimator.code() << ESTIMATOR_SHIFT
+                | flag(s.energy_compensation, FLAG_ENERGY_COMPENSATION)
+                | flag(s.hide_environment, FLAG_HIDE_ENV)
+                | flag(self.scene.vertex_colors, FLAG_VERTEX_COLORS),
+            ..self.lit(Frame::default())
+        }
+    }
+}

@@ -1,0 +1,135 @@
+//! What a render is asked for: image size, samples, depth, estimator and camera options, and the renderer's
+//! overrides read from the environment once, at the edge.
+use super::{BvhReads, Schedule};
+use crate::constants::*;
+use crate::error::Error;
+
+/// Which estimator shade uses; the three must agree in expectation (tests/estimators.rs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Estimator {
+    /// Next-event estimation and BSDF sampling combined with the power heuristic.
+    #[default]
+    Mis,
+    /// Light sampling only: emission found by BSDF-sampled rays is ignored after the camera ray.
+    Light,
+    /// BSDF sampling only: no next-event estimation.
+    Bsdf,
+}
+
+impl Estimator {
+    pub(super) fn code(self) -> u32 {
+        match self {
+            Estimator::Mis => ESTIMATOR_MIS,
+            Estimator::Light => ESTIMATOR_LIGHT,
+            Estimator::Bsdf => ESTIMATOR_BSDF,
+        }
+    }
+}
+
+/// Bounces recorded when no `max_depth` is given: Russian roulette ends paths long before this.
+pub const DEPTH_SAFETY_CAP: u32 = 64;
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Longest path in bounces; None means unbounded (Russian roulette, with DEPTH_SAFETY_CAP).
+    pub max_depth: Option<u32>,
+    pub seed: u32,
+    pub estimator: Estimator,
+    /// Return the energy rough metals lose to single scattering (Kulla-Conty); on by default.
+    pub energy_compensation: bool,
+    /// Keep the environment out of camera rays (it still lights the scene).
+    pub hide_environment: bool,
+    /// Thin-lens aperture radius in scene units; 0 is a pinhole (everything sharp).
+    pub aperture: f32,
+    /// Distance from the camera to the plane in focus, along the view direction; None: the camera's distance to
+    /// the scene's centre.
+    pub focus_distance: Option<f32>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 256,
+            height: 256,
+            spp: 16,
+            max_depth: None,
+            seed: 0,
+            estimator: Estimator::Mis,
+            energy_compensation: true,
+            hide_environment: false,
+            aperture: 0.0,
+            focus_distance: None,
+        }
+    }
+}
+
+/// How the renderer may be steered past its own choices; `from_env` is the one place that reads the environment for
+/// it (PATHWAVE_SCHEDULE, PATHWAVE_BVH_READS), so the library below takes typed options.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RendererOptions {
+    /// Fix the schedule instead of choosing (a trial on CPU devices, the wavefront on GPUs).
+    pub schedule: Option<Schedule>,
+    /// Force storage-buffer reads of the BVH and per-triangle data even where texel reads are possible.
+    pub storage_reads: bool,
+}
+
+impl RendererOptions {
+    /// PATHWAVE_SCHEDULE=wavefront|fused fixes the schedule; PATHWAVE_BVH_READS=storage forces storage reads.
+    pub fn from_env() -> Result<Self, Error> {
+        let schedule = match std::env::var("PATHWAVE_SCHEDULE").as_deref() {
+            Ok("wavefront") => Some(Schedule::Wavefront),
+            Ok("fused") => Some(Schedule::Fused),
+            Ok(other) => {
+                return Err(Error::Settings(format!(
+                    "PATHWAVE_SCHEDULE={other}: expected wavefront or fused"
+                )))
+            }
+            Err(_) => None,
+        };
+        let storage_reads = std::env::var("PATHWAVE_BVH_READS").as_deref() == Ok("storage");
+        Ok(RendererOptions {
+            schedule,
+            storage_reads,
+        })
+    }
+
+    /// How traversal reads the scene given what the device can hold (`texel`: texel views exist; `storage`: every
+    /// buffer fits the storage range).
+    pub(super) fn bvh_reads(&self, texel: bool, storage: bool) -> Result<BvhReads, Error> {
+        match (texel, self.storage_reads) {
+            (true, true) if !storage => Err(Error::Settings(
+                "PATHWAVE_BVH_READS=storage: the scene's BVH or per-triangle data outgrow this device's \
+                 storage-buffer range"
+                    .into(),
+            )),
+            (_, true) | (false, _) => Ok(BvhReads::Storage),
+            (true, false) => Ok(BvhReads::Texel),
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Refuses settings no render can honour, before anything is allocated.
+    pub(super) fn check(&self) -> Result<(), Error> {
+        if self.width == 0 || self.height == 0 {
+            return Err(Error::Settings(format!(
+                "image size {}x{} has no pixels",
+                self.width, self.height
+            )));
+        }
+        if self.spp == 0 {
+            return Err(Error::Settings("samples per pixel must be at least 1".into()));
+        }
+        if !(self.aperture.is_finite() && self.aperture >= 0.0)
+            || self.focus_distance.is_some_and(|f| !(f.is_finite() && f > 0.0))
+        {
+            return Err(Error::Settings(
+                "the aperture must be >= 0 and the focus distance > 0".into(),
+            ));
+        }
+        Ok(())
+    }
+}
