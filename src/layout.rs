@@ -265,9 +265,39 @@ const _: () = assert!(std::mem::size_of::<Frame>() == 128);
 /// Byte offset of the indirect dispatch command inside `Counters`.
 pub const COUNTERS_DISPATCH_OFFSET: u64 = std::mem::offset_of!(Counters, dispatch) as u64;
 
+/// What the stages need of the camera: a world-space basis and its scalars.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameCamera {
+    pub origin: glam::Vec3,
+    pub right: glam::Vec3,
+    pub up: glam::Vec3,
+    pub forward: glam::Vec3,
+    /// tan(yfov / 2).
+    pub tan_half_fov: f32,
+    /// Width / height of the image.
+    pub aspect: f32,
+    /// Thin-lens radius; 0 is a pinhole.
+    pub aperture: f32,
+    /// Distance to the plane in focus along `forward`.
+    pub focus_distance: f32,
+}
+
 /// Frame's fields mean one thing in the render stages; a few carry another meaning per stage, and these name each
 /// use so no caller sets a field for what it is not (layout.glsl's accessors read them by the same names).
 impl Frame {
+    /// The camera's basis and scalars, which ride in the basis vectors' w (frame_aperture() and the others in
+    /// layout.glsl read them back).
+    pub fn with_camera(self, c: &FrameCamera) -> Frame {
+        let v = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
+        Frame {
+            cam_origin: v(c.origin, c.tan_half_fov),
+            cam_right: v(c.right, c.aspect),
+            cam_up: v(c.up, c.aperture),
+            cam_forward: v(c.forward, c.focus_distance),
+            ..self
+        }
+    }
+
     /// The thin lens's aperture radius (cam_up.w); 0 is a pinhole.
     pub fn aperture(&self) -> f32 {
         self.cam_up[3]

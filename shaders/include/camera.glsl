@@ -17,17 +17,17 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
     uint px = xy.x;
     uint py = xy.y;
     vec2 j = pixel_jitter(pixel, s);
-    float tan_half = frame.cam_origin.w;
-    float aspect = frame.cam_right.w;
+    float tan_half = frame_tan_half_fov();
+    float aspect = frame_aspect();
     // Row 0 is the top of the image.
     float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * tan_half * aspect;
     float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * tan_half;
     d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
     origin = frame.cam_origin.xyz;
-    float aperture = frame.cam_up.w;
+    float aperture = frame_aperture();
     if (scene_has(FEATURE_LENS) && aperture > 0.0) {
         // Thin lens: every ray through the lens meets the pinhole ray on the plane of focus.
-        vec3 focus = origin + d * (frame.cam_forward.w / dot(d, frame.cam_forward.xyz));
+        vec3 focus = origin + d * (frame_focus_distance() / dot(d, frame.cam_forward.xyz));
         vec2 lens = aperture * sample_concentric_disk(rand2(pixel, s, 0u, DIM_LENS));
         origin += lens.x * frame.cam_right.xyz + lens.y * frame.cam_up.xyz;
         d = normalize(focus - origin);

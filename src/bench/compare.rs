@@ -364,6 +364,63 @@ fn fnv_bytes(bytes: &[u8]) -> u64 {
     })
 }
 
+/// One Mitsuba render of the loaded scene: its time and its pixels (RGB floats).
+fn mitsuba_render(h: &mut Helper, pixels: usize, sampler: &str, spp: u32, seed: u32) -> Result<(f64, Vec<f32>), Error> {
+    let out = h.path("mitsuba.f32");
+    let r = h.call(json!({"cmd": "mitsuba_render", "sampler": sampler, "spp": spp, "seed": seed, "out": out}))?;
+    let img = read_f32(&out)?;
+    if img.len() != 3 * pixels {
+        return Err(err(format!(
+            "Mitsuba returned {} floats for {pixels} pixels",
+            img.len()
+        )));
+    }
+    Ok((Helper::f64(&r, "seconds")?, img))
+}
+
+/// The reference: Mitsuba's, in two independent halves, cached under a name that changes with `key_text` (the
+/// scene, the image, the sample count and Mitsuba's version). Returns the halves and whether they came from the cache.
+fn mitsuba_reference(
+    h: &mut Helper,
+    pixels: usize,
+    key_text: &str,
+    reference_spp: u32,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<f32>, Vec<f32>, bool), Error> {
+    let key = format!("{:016x}", fnv_bytes(key_text.as_bytes()));
+    let cache = cache_dir().join(format!("cornell-reference-{key}"));
+    if let (Ok(a), Ok(b)) = (read_f32(&cache.join("a.f32")), read_f32(&cache.join("b.f32"))) {
+        if a.len() == 3 * pixels && b.len() == 3 * pixels {
+            return Ok((a, b, true));
+        }
+    }
+    let chunk = 256.min(reference_spp / 2);
+    let chunks = reference_spp / 2 / chunk;
+    let mut halves = [vec![0f32; 3 * pixels], vec![0f32; 3 * pixels]];
+    for (half, acc) in halves.iter_mut().enumerate() {
+        for c in 0..chunks {
+            progress(&format!(
+                "Mitsuba reference, {} of {} spp (cached afterwards in {})",
+                (half as u32 * chunks + c) * chunk,
+                reference_spp,
+                cache.display()
+            ));
+            let seed = 1_000_000 + half as u32 * chunks + c;
+            let (_, img) = mitsuba_render(h, pixels, "independent", chunk, seed)?;
+            for (s, v) in acc.iter_mut().zip(img) {
+                *s += v / chunks as f32;
+            }
+        }
+    }
+    std::fs::create_dir_all(&cache).map_err(err)?;
+    write_f32(&cache.join("a.f32"), &halves[0])?;
+    write_f32(&cache.join("b.f32"), &halves[1])?;
+    let [a, b] = halves;
+    Ok((a, b, false))
+}
+
+/// Mitsuba 3 against pathwave at equal time on the Cornell box. One function past 80 lines: warm-up, calibration
+/// and the interleaved rounds share both renderers and the reference, and read best as the one procedure they are.
 pub fn compare_mitsuba(
     python: &Path,
     device: &DeviceChoice,
@@ -386,54 +443,11 @@ pub fn compare_mitsuba(
         })?;
     let version = loaded["version"].as_str().unwrap_or("?").to_string();
     let pixels = (size.0 * size.1) as usize;
-    let mitsuba_with = |h: &mut Helper, sampler: &str, spp: u32, seed: u32| -> Result<(f64, Vec<f32>), Error> {
-        let out = h.path("mitsuba.f32");
-        let r = h.call(json!({"cmd": "mitsuba_render", "sampler": sampler, "spp": spp, "seed": seed, "out": out}))?;
-        let img = read_f32(&out)?;
-        if img.len() != 3 * pixels {
-            return Err(err(format!(
-                "Mitsuba returned {} floats for {pixels} pixels",
-                img.len()
-            )));
-        }
-        Ok((Helper::f64(&r, "seconds")?, img))
-    };
+    let mitsuba_with =
+        |h: &mut Helper, sampler: &str, spp: u32, seed: u32| mitsuba_render(h, pixels, sampler, spp, seed);
     let mitsuba = |h: &mut Helper, spp: u32, seed: u32| mitsuba_with(h, "independent", spp, seed);
-
-    // The reference: Mitsuba's, in two independent halves, cached under a name that changes with the scene,
-    // the image, the sample count and Mitsuba's version.
-    let key = format!(
-        "{:016x}",
-        fnv_bytes(format!("{desc}{version}{reference_spp}").as_bytes())
-    );
-    let cache = cache_dir().join(format!("cornell-reference-{key}"));
-    let (ref_a, ref_b, reference_cached) = match (read_f32(&cache.join("a.f32")), read_f32(&cache.join("b.f32"))) {
-        (Ok(a), Ok(b)) if a.len() == 3 * pixels && b.len() == 3 * pixels => (a, b, true),
-        _ => {
-            let chunk = 256.min(reference_spp / 2);
-            let chunks = reference_spp / 2 / chunk;
-            let mut halves = [vec![0f32; 3 * pixels], vec![0f32; 3 * pixels]];
-            for (half, acc) in halves.iter_mut().enumerate() {
-                for c in 0..chunks {
-                    progress(&format!(
-                        "Mitsuba reference, {} of {} spp (cached afterwards in {})",
-                        (half as u32 * chunks + c) * chunk,
-                        reference_spp,
-                        cache.display()
-                    ));
-                    let (_, img) = mitsuba(&mut h, chunk, 1_000_000 + half as u32 * chunks + c)?;
-                    for (s, v) in acc.iter_mut().zip(img) {
-                        *s += v / chunks as f32;
-                    }
-                }
-            }
-            std::fs::create_dir_all(&cache).map_err(err)?;
-            write_f32(&cache.join("a.f32"), &halves[0])?;
-            write_f32(&cache.join("b.f32"), &halves[1])?;
-            let [a, b] = halves;
-            (a, b, false)
-        }
-    };
+    let key_text = format!("{desc}{version}{reference_spp}");
+    let (ref_a, ref_b, reference_cached) = mitsuba_reference(&mut h, pixels, &key_text, reference_spp, progress)?;
 
     let ctx = Context::new(device, Validation::Off)?;
     let device = ctx.device_name();

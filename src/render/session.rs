@@ -3,7 +3,7 @@ use super::film::{Film, RenderStats};
 use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{Counters, Frame};
+use crate::layout::{Counters, Frame, FrameCamera};
 use crate::vk::{Buffer, TexelViews};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -84,7 +84,7 @@ impl Renderer {
         s.check()?;
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let film_bytes = pixels * 32;
+        let film_bytes = pixels * FILM_BYTES_PER_PIXEL as u64;
         if film_bytes > range || pixels > u32::MAX as u64 / 2 {
             return Err(Error::Settings(format!(
                 "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} bytes",
@@ -103,7 +103,8 @@ impl Renderer {
             MemoryLocation::GpuOnly,
         )?;
         let path_views = TexelViews::new(ctx, &[(BINDING_PATH_TEXELS, &paths, vk::Format::R32G32B32A32_SFLOAT)])?;
-        let queues = Buffer::new(ctx, "queues", capacity as u64 * 4 * 3, storage, MemoryLocation::GpuOnly)?;
+        let queue_bytes = capacity as u64 * 4 * QUEUE_COUNT as u64;
+        let queues = Buffer::new(ctx, "queues", queue_bytes, storage, MemoryLocation::GpuOnly)?;
         let counters = Buffer::new(
             ctx,
             "counters",
@@ -233,18 +234,18 @@ impl Renderer {
     /// The push constants of a render with `s` from the renderer's camera and scene.
     fn frame(&self, s: &RenderSettings) -> Frame {
         let (right, up, forward) = self.camera.basis();
-        let o = self.camera.origin();
+        let camera = FrameCamera {
+            origin: self.camera.origin(),
+            right,
+            up,
+            forward,
+            tan_half_fov: (self.camera.yfov * 0.5).tan(),
+            aspect: s.width as f32 / s.height as f32,
+            aperture: s.aperture,
+            focus_distance: s.focus_distance.unwrap_or(self.default_focus),
+        };
         let flag = |on: bool, bit: u32| if on { bit } else { 0 };
         Frame {
-            cam_origin: [o.x, o.y, o.z, (self.camera.yfov * 0.5).tan()],
-            cam_right: [right.x, right.y, right.z, s.width as f32 / s.height as f32],
-            cam_up: [up.x, up.y, up.z, s.aperture],
-            cam_forward: [
-                forward.x,
-                forward.y,
-                forward.z,
-                s.focus_distance.unwrap_or(self.default_focus),
-            ],
             width: s.width,
             height: s.height,
             seed: s.seed,
@@ -256,5 +257,6 @@ impl Renderer {
                 | flag(self.scene.vertex_colors, FLAG_VERTEX_COLORS),
             ..self.lit(Frame::default())
         }
+        .with_camera(&camera)
     }
 }

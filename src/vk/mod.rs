@@ -247,24 +247,7 @@ impl Context {
         let entry = load_entry()?;
         let instance = create_instance(&entry, validation, window)?;
         let log = Box::<ValidationLog>::default();
-        let debug = if validation != Validation::Off {
-            let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
-                )
-                .message_type(
-                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-                )
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(&*log as *const ValidationLog as *mut c_void);
-            let m = unsafe { du.create_debug_utils_messenger(&info, None) }?;
-            Some((du, m))
-        } else {
-            None
-        };
+        let debug = create_messenger(&entry, &instance, validation, &log)?;
         let surface = match window {
             Some(w) => {
                 let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) }?;
@@ -275,70 +258,19 @@ impl Context {
             }
             None => None,
         };
-        // With a window, the one queue must compute and present.
-        let queue_family_of = |pd: vk::PhysicalDevice| -> Option<u32> {
-            let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-            (0..families.len() as u32).find(|&i| {
-                families[i as usize].queue_flags.contains(vk::QueueFlags::COMPUTE)
-                    && surface.as_ref().is_none_or(|s| unsafe {
-                        s.loader
-                            .get_physical_device_surface_support(pd, i, s.raw)
-                            .unwrap_or(false)
-                    })
-            })
-        };
-        let devices = unsafe { instance.enumerate_physical_devices() }?;
-        let usable: Vec<(usize, vk::PhysicalDevice)> = devices
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|(_, pd)| queue_family_of(*pd).is_some())
-            .collect();
-        let picked = match choice {
-            DeviceChoice::Best => usable
-                .iter()
-                .min_by_key(|(i, pd)| {
-                    (
-                        kind_rank(unsafe { instance.get_physical_device_properties(*pd) }.device_type),
-                        *i,
-                    )
-                })
-                .copied(),
-            DeviceChoice::Index(n) => usable.iter().find(|(i, _)| i == n).copied(),
-            DeviceChoice::Name(name) => usable
-                .iter()
-                .find(|(i, pd)| {
-                    describe(&instance, *i, *pd)
-                        .name
-                        .to_lowercase()
-                        .contains(&name.to_lowercase())
-                })
-                .copied(),
-        };
-        let Some((_, physical)) = picked else {
-            let names: Vec<String> = devices
-                .iter()
-                .enumerate()
-                .map(|(i, &pd)| format!("{i}: {}", describe(&instance, i, pd).name))
-                .collect();
-            unsafe {
-                if let Some(s) = &surface {
-                    s.loader.destroy_surface(s.raw, None);
-                }
-                instance.destroy_instance(None)
-            };
-            return Err(Error::Vulkan(match choice {
-                DeviceChoice::Best if window.is_some() => {
-                    "no Vulkan device can both compute and present to this window".into()
-                }
-                DeviceChoice::Best => {
-                    "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into()
-                }
-                other => format!("no device matches {other:?}; devices: [{}]", names.join(", ")),
-            }));
+        let (physical, queue_family) = match pick_device(&instance, surface.as_ref(), choice) {
+            Ok(picked) => picked,
+            Err(e) => {
+                unsafe {
+                    if let Some(s) = &surface {
+                        s.loader.destroy_surface(s.raw, None);
+                    }
+                    instance.destroy_instance(None)
+                };
+                return Err(e);
+            }
         };
         let properties = unsafe { instance.get_physical_device_properties(physical) };
-        let queue_family = queue_family_of(physical).expect("filtered above");
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamps_valid =
             families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
@@ -525,4 +457,95 @@ impl Drop for Context {
             self.instance.destroy_instance(None);
         }
     }
+}
+
+/// The device `choice` names among those with a compute queue (that can also present to `surface`, if any), and
+/// that queue's family.
+fn pick_device(
+    instance: &ash::Instance,
+    surface: Option<&Surface>,
+    choice: &DeviceChoice,
+) -> Result<(vk::PhysicalDevice, u32), Error> {
+    // With a window, the one queue must compute and present.
+    let queue_family_of = |pd: vk::PhysicalDevice| -> Option<u32> {
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        (0..families.len() as u32).find(|&i| {
+            families[i as usize].queue_flags.contains(vk::QueueFlags::COMPUTE)
+                && surface.is_none_or(|s| unsafe {
+                    s.loader
+                        .get_physical_device_surface_support(pd, i, s.raw)
+                        .unwrap_or(false)
+                })
+        })
+    };
+    let devices = unsafe { instance.enumerate_physical_devices() }?;
+    let usable: Vec<(usize, vk::PhysicalDevice)> = devices
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|(_, pd)| queue_family_of(*pd).is_some())
+        .collect();
+    let picked = match choice {
+        DeviceChoice::Best => usable
+            .iter()
+            .min_by_key(|(i, pd)| {
+                (
+                    kind_rank(unsafe { instance.get_physical_device_properties(*pd) }.device_type),
+                    *i,
+                )
+            })
+            .copied(),
+        DeviceChoice::Index(n) => usable.iter().find(|(i, _)| i == n).copied(),
+        DeviceChoice::Name(name) => usable
+            .iter()
+            .find(|(i, pd)| {
+                describe(instance, *i, *pd)
+                    .name
+                    .to_lowercase()
+                    .contains(&name.to_lowercase())
+            })
+            .copied(),
+    };
+    let Some((_, physical)) = picked else {
+        let names: Vec<String> = devices
+            .iter()
+            .enumerate()
+            .map(|(i, &pd)| format!("{i}: {}", describe(instance, i, pd).name))
+            .collect();
+        return Err(Error::Vulkan(match choice {
+            DeviceChoice::Best if surface.is_some() => {
+                "no Vulkan device can both compute and present to this window".into()
+            }
+            DeviceChoice::Best => {
+                "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)".into()
+            }
+            other => format!("no device matches {other:?}; devices: [{}]", names.join(", ")),
+        }));
+    };
+    let queue_family = queue_family_of(physical).expect("filtered above");
+    Ok((physical, queue_family))
+}
+
+/// The messenger that collects the validation layer's errors and warnings into `log`, when validation is on.
+fn create_messenger(
+    entry: &ash::Entry,
+    instance: &ash::Instance,
+    validation: Validation,
+    log: &ValidationLog,
+) -> Result<Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>, Error> {
+    if validation == Validation::Off {
+        return Ok(None);
+    }
+    let du = ash::ext::debug_utils::Instance::new(entry, instance);
+    let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING)
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(debug_callback))
+        .user_data(log as *const ValidationLog as *mut c_void);
+    let m = unsafe { du.create_debug_utils_messenger(&info, None) }?;
+    Ok(Some((du, m)))
 }
