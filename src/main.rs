@@ -445,7 +445,13 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());
-    println!("triangles   {}", scene.triangles.len());
+    println!("triangles   {}", packed.tri_verts.len());
+    println!(
+        "instances   {} of {} unique meshes ({} triangles before instancing)",
+        scene.instances.len(),
+        scene.meshes.len(),
+        scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>()
+    );
     println!("materials   {}", scene.materials.len() - 1);
     println!(
         "lights      {} emissive triangles, {:.4} W in total",

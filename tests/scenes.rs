@@ -40,7 +40,8 @@ fn cornell_box_has_the_classic_layout() {
         (hi - lo - glam::Vec3::new(0.556, 0.5488, 0.5592)).abs().max_element() < 1e-4,
         "{lo} {hi}"
     );
-    assert_eq!(scene.triangles.len(), 32);
+    let soup = scene.flatten();
+    assert_eq!(soup.len(), 32);
     let cam = scene.camera.expect("the Cornell box has its camera");
     assert!((cam.yfov.to_degrees() - 39.3077).abs() < 1e-3);
     let (_, _, forward) = cam.basis();
@@ -50,10 +51,10 @@ fn cornell_box_has_the_classic_layout() {
     );
     // The light faces down: its emission must leave its front face towards the floor.
     let light = scene.materials.iter().position(|m| m.name == "light").unwrap() as u32;
-    for (t, _) in scene
-        .triangles
+    for (t, _) in soup
+        .positions()
         .iter()
-        .zip(&scene.material_of)
+        .zip(soup.material())
         .filter(|(_, &m)| m == light)
     {
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
@@ -72,7 +73,7 @@ fn gltf_with_external_bin_and_glb_load_the_same_scene() {
     let embedded = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     for name in ["cornell.gltf", "cornell.glb"] {
         let s = pathwave::scene::load(&dir.path().join(name), None).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(s.triangles, embedded.triangles, "{name}");
+        assert_eq!(s.flatten(), embedded.flatten(), "{name}");
         assert_eq!(s.materials, embedded.materials, "{name}");
         assert_eq!(s.camera, embedded.camera, "{name}");
     }
@@ -91,7 +92,7 @@ fn node_transforms_compose_and_mirroring_keeps_front_faces() {
     let path = dir.path().join("mirror.gltf");
     std::fs::write(&path, json).unwrap();
     let s = pathwave::scene::load(&path, None).unwrap();
-    let t = s.triangles[0];
+    let t = s.flatten().positions()[0];
     let mut xs: Vec<f32> = t.iter().map(|v| v.x).collect();
     xs.sort_by(f32::total_cmp);
     assert_eq!(

@@ -676,7 +676,7 @@ impl Renderer {
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
             default_focus: {
                 let cam = scene.camera_or_default();
-                let (lo, hi) = if scene.triangles.is_empty() {
+                let (lo, hi) = if scene.is_empty() {
                     (glam::Vec3::ZERO, glam::Vec3::ZERO)
                 } else {
                     scene.bounds()
