@@ -447,10 +447,10 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     println!("scene       {}", path.display());
     println!("triangles   {}", packed.tri_verts.len());
     println!(
-        "instances   {} of {} unique meshes ({} triangles before instancing)",
-        scene.instances.len(),
+        "meshes      {} unique ({} triangles), placed by {} instances",
         scene.meshes.len(),
-        scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>()
+        scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(),
+        scene.instances.len()
     );
     println!("materials   {}", scene.materials.len() - 1);
     println!(
