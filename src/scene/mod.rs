@@ -161,6 +161,10 @@ pub struct Primitive {
 impl Primitive {
     /// Unindexed triangles, three vertices each, as synthetic scenes (benchmarks, tests) give them.
     pub fn from_triangles(triangles: &[[Vec3; 3]], normals: Option<&[[Vec3; 3]]>, material: u32) -> Primitive {
+        assert!(
+            normals.is_none_or(|n| n.len() == triangles.len()),
+            "one normal per vertex"
+        );
         Primitive {
             positions: triangles.iter().flatten().copied().collect(),
             normals: normals.map(|n| n.iter().flatten().copied().collect()),
