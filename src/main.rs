@@ -445,7 +445,13 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());
-    println!("triangles   {}", scene.triangles.len());
+    println!("triangles   {}", packed.tri_verts.len());
+    println!(
+        "meshes      {} unique ({} triangles), placed by {} instances",
+        scene.meshes.len(),
+        scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(),
+        scene.instances.len()
+    );
     println!("materials   {}", scene.materials.len() - 1);
     println!(
         "lights      {} emissive triangles, {:.4} W in total",

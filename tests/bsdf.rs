@@ -4,7 +4,7 @@ mod common;
 use common::stats::{chi2_p_value, chi2_statistic};
 use glam::Vec3;
 use pathwave::render::{BsdfProbe, BsdfQuery};
-use pathwave::scene::{Material, Scene};
+use pathwave::scene::{Material, Mesh, Primitive, Scene};
 use pathwave::Renderer;
 
 const ROUGHNESS: [f32; 5] = [0.05, 0.1, 0.3, 0.6, 1.0];
@@ -24,13 +24,18 @@ fn material(roughness: f32, metallic: f32, base: Vec3) -> Material {
 
 /// A one-triangle scene whose materials are the ones under test.
 fn renderer_with(materials: Vec<Material>) -> Renderer {
-    let scene = Scene {
-        triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
-        normals: vec![[Vec3::Z; 3]],
-        material_of: vec![0],
+    let mut scene = Scene {
         materials,
         ..Default::default()
     };
+    let triangle = Primitive::from_triangles(&[[Vec3::ZERO, Vec3::X, Vec3::Y]], Some(&[[Vec3::Z; 3]]), 0);
+    scene.add_mesh(
+        Mesh {
+            name: "triangle".into(),
+            primitives: vec![triangle],
+        },
+        glam::Mat4::IDENTITY,
+    );
     Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap()
 }
 

@@ -6,7 +6,7 @@ use pathwave::bvh::{self, brute_force, intersect_triangle, Ray, TraceHit};
 use pathwave::constants::{NO_HIT, REGISTER_STACK};
 use pathwave::layout::TriVerts;
 use pathwave::render::gpu_scene;
-use pathwave::scene::{Material, Scene};
+use pathwave::scene::{Material, Mesh, Primitive, Scene};
 
 use common::rng::Rng;
 
@@ -34,18 +34,21 @@ impl RngExt for Rng {
     }
 }
 
+/// One mesh of face-normal triangles, placed once where they are.
 fn scene_of(triangles: Vec<[Vec3; 3]>) -> Scene {
-    let n = triangles.len();
-    Scene {
-        normals: triangles
-            .iter()
-            .map(|t| [(t[1] - t[0]).cross(t[2] - t[0]).normalize(); 3])
-            .collect(),
-        triangles,
-        material_of: vec![0; n],
+    let mut scene = Scene {
         materials: vec![Material::default()],
         ..Default::default()
-    }
+    };
+    let primitives = vec![Primitive::from_triangles(&triangles, None, 0)];
+    scene.add_mesh(
+        Mesh {
+            name: "soup".into(),
+            primitives,
+        },
+        glam::Mat4::IDENTITY,
+    );
+    scene
 }
 
 /// n triangles with centres in [-1, 1]^3 and vertices at a random distance in `size` from them.
@@ -158,9 +161,10 @@ fn check_mesh_with(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64, ray_count: 
     let mut rng = Rng(seed);
     let scene = scene_of(triangles);
     let packed = gpu_scene::pack(&scene);
-    assert_wide_tree_is_sound(&packed.bvh, &scene.triangles);
+    let soup = scene.flatten();
+    assert_wide_tree_is_sound(&packed.bvh, soup.positions());
     let (lo, hi) = scene.bounds();
-    let rays = rays(&mut rng, &scene.triangles, lo, hi, ray_count);
+    let rays = rays(&mut rng, soup.positions(), lo, hi, ray_count);
     let reference: Vec<TraceHit> = rays.iter().map(|r| brute_force(&packed.tri_verts, r)).collect();
 
     // The CPU traversal of the exact GPU layout does the same arithmetic as the brute force: the distance must
@@ -196,7 +200,7 @@ fn check_mesh_with(name: &str, triangles: Vec<[Vec3; 3]>, seed: u64, ray_count: 
         }
         eprintln!(
             "{name} ({reads:?}): {} triangles, {} rays, {hits} hits, {ambiguous} decided by rounding",
-            scene.triangles.len(),
+            soup.len(),
             rays.len()
         );
         assert!(
@@ -316,11 +320,12 @@ fn quantised_boxes_hold_at_extreme_scales() {
 #[test]
 fn cornell_box() {
     let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let triangles = scene.flatten().positions().to_vec();
     assert!(
-        stack_bound(&scene.triangles) <= REGISTER_STACK,
+        stack_bound(&triangles) <= REGISTER_STACK,
         "the bench's Cornell box traces with the stack in registers"
     );
-    check_mesh("cornell", scene.triangles, 4);
+    check_mesh("cornell", triangles, 4);
 }
 
 #[test]

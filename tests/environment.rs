@@ -4,7 +4,7 @@ mod common;
 
 use common::stats::{chi2_p_value, chi2_statistic};
 use glam::Vec3;
-use pathwave::scene::{Environment, Material, Scene};
+use pathwave::scene::{Environment, Material, Mesh, Primitive, Scene};
 use pathwave::Renderer;
 use std::f64::consts::PI;
 
@@ -35,14 +35,23 @@ fn test_map() -> Environment {
 }
 
 fn renderer_with_env(env: Environment) -> Renderer {
-    let scene = Scene {
-        triangles: vec![[Vec3::ZERO, Vec3::X * 0.01, Vec3::Y * 0.01]],
-        normals: vec![[Vec3::Z; 3]],
-        material_of: vec![0],
+    let mut scene = Scene {
         materials: vec![Material::default()],
         environment: Some(env),
         ..Default::default()
     };
+    let speck = Primitive::from_triangles(
+        &[[Vec3::ZERO, Vec3::X * 0.01, Vec3::Y * 0.01]],
+        Some(&[[Vec3::Z; 3]]),
+        0,
+    );
+    scene.add_mesh(
+        Mesh {
+            name: "speck".into(),
+            primitives: vec![speck],
+        },
+        glam::Mat4::IDENTITY,
+    );
     Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap()
 }
 

@@ -94,13 +94,14 @@ fn lights_are_picked_in_proportion_to_power() {
     let packed = pathwave::render::gpu_scene::pack(&scene);
     // Expected probabilities from the scene itself: radiance (channel mean) times area, per emissive triangle.
     let order = &packed.bvh.order;
+    let soup = scene.flatten();
     let weights: Vec<f64> = packed
         .lights
         .iter()
         .map(|l| {
             let orig = order[(l.id & pathwave::constants::LIGHT_INDEX_MASK) as usize] as usize;
-            let m = &scene.materials[scene.material_of[orig] as usize];
-            let [a, b, c] = scene.triangles[orig];
+            let m = &scene.materials[soup.material()[orig] as usize];
+            let [a, b, c] = soup.positions()[orig];
             let area = 0.5 * (b - a).cross(c - a).length() as f64;
             (m.emission.x + m.emission.y + m.emission.z) as f64 / 3.0 * area
         })

@@ -215,8 +215,9 @@ fn what_gltf_refuses_but_gltf_2_allows_loads() {
 
     let (_, scene) = load_json(dir.path(), "ok.gltf", &spec_valid_but_strict_for_gltf());
     let scene = scene.unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.triangles.len(), 1, "only the first primitive has area");
-    assert!(scene.normals[0].iter().all(|n| *n == glam::Vec3::Z));
+    let soup = scene.flatten();
+    assert_eq!(soup.len(), 1, "only the first primitive has area");
+    assert!(soup.normals()[0].iter().all(|n| *n == glam::Vec3::Z));
     for expected in [
         "mesh 'm': NORMAL accessor 1 has no bufferView (all zeros); face normals are used",
         "mesh 'm': POSITION accessor 3 has no bufferView (all zeros); the primitive is skipped",

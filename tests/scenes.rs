@@ -40,7 +40,8 @@ fn cornell_box_has_the_classic_layout() {
         (hi - lo - glam::Vec3::new(0.556, 0.5488, 0.5592)).abs().max_element() < 1e-4,
         "{lo} {hi}"
     );
-    assert_eq!(scene.triangles.len(), 32);
+    let soup = scene.flatten();
+    assert_eq!(soup.len(), 32);
     let cam = scene.camera.expect("the Cornell box has its camera");
     assert!((cam.yfov.to_degrees() - 39.3077).abs() < 1e-3);
     let (_, _, forward) = cam.basis();
@@ -50,10 +51,10 @@ fn cornell_box_has_the_classic_layout() {
     );
     // The light faces down: its emission must leave its front face towards the floor.
     let light = scene.materials.iter().position(|m| m.name == "light").unwrap() as u32;
-    for (t, _) in scene
-        .triangles
+    for (t, _) in soup
+        .positions()
         .iter()
-        .zip(&scene.material_of)
+        .zip(soup.material())
         .filter(|(_, &m)| m == light)
     {
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
@@ -72,7 +73,7 @@ fn gltf_with_external_bin_and_glb_load_the_same_scene() {
     let embedded = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
     for name in ["cornell.gltf", "cornell.glb"] {
         let s = pathwave::scene::load(&dir.path().join(name), None).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(s.triangles, embedded.triangles, "{name}");
+        assert_eq!(s.flatten(), embedded.flatten(), "{name}");
         assert_eq!(s.materials, embedded.materials, "{name}");
         assert_eq!(s.camera, embedded.camera, "{name}");
     }
@@ -91,7 +92,7 @@ fn node_transforms_compose_and_mirroring_keeps_front_faces() {
     let path = dir.path().join("mirror.gltf");
     std::fs::write(&path, json).unwrap();
     let s = pathwave::scene::load(&path, None).unwrap();
-    let t = s.triangles[0];
+    let t = s.flatten().positions()[0];
     let mut xs: Vec<f32> = t.iter().map(|v| v.x).collect();
     xs.sort_by(f32::total_cmp);
     assert_eq!(
@@ -103,4 +104,81 @@ fn node_transforms_compose_and_mirroring_keeps_front_faces() {
     // The file's triangle faces +z (counter-clockwise seen from +z); a mirror must not turn it around.
     let n = (t[1] - t[0]).cross(t[2] - t[0]);
     assert!(n.z > 0.0, "mirroring flipped the front face: {n}");
+}
+
+/// A mesh two nodes place is stored once, with an instance per node, and flattens to exactly the triangles of two
+/// meshes with the same data, one on each node: normals, colours and generated tangents included.
+#[test]
+fn a_mesh_placed_by_two_nodes_is_stored_once() {
+    use common::gltf_builder::GltfBuilder;
+    use serde_json::json;
+    // The second node mirrors (scale -1 in x), which swaps the winding, and turns the normals and tangents.
+    let moved = json!({ "translation": [0.5, 1.0, -2.0], "rotation": [0.0, 0.3826834, 0.0, 0.9238795], "scale": [-1.0, 2.0, 1.0] });
+    let build = |shared: bool| {
+        let mut b = GltfBuilder::new();
+        let m = b.material("bumpy", [0.5; 3], [1.0, 1.0, 1.0], false);
+        let image = b.png_image(
+            2,
+            2,
+            &[
+                [128, 128, 255, 255],
+                [200, 128, 230, 255],
+                [128, 60, 230, 255],
+                [128, 128, 255, 255],
+            ],
+        );
+        let t = b.texture(image, json!({}));
+        b.material_json(m)["normalTexture"] = json!({ "index": t });
+        let positions = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.1], [1.0, 1.0, 0.0], [0.0, 1.0, 0.2]];
+        let normals = [[0.0, 0.0, 1.0], [0.1, 0.0, 1.0], [0.0, 0.2, 1.0], [0.0, 0.0, 1.0]];
+        let uvs = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+        let colors = [
+            [1.0, 0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0, 1.0],
+            [0.0, 0.0, 1.0, 1.0],
+            [1.0, 1.0, 0.0, 1.0],
+        ];
+        let indices = [0, 1, 2, 0, 2, 3];
+        b.mesh_with_attributes("quad", &positions, Some(&normals), &uvs, None, &indices, m);
+        b.add_colors(&colors);
+        if shared {
+            b.place_last_mesh("quad again", moved.clone());
+        } else {
+            b.mesh_with_attributes("quad copy", &positions, Some(&normals), &uvs, None, &indices, m);
+            b.add_colors(&colors);
+            b.transform_last_node(moved.clone());
+        }
+        b
+    };
+    let (_d1, shared_path) = common::write_temp(&build(true), "shared.gltf");
+    let (_d2, copied_path) = common::write_temp(&build(false), "copied.gltf");
+    let shared = pathwave::scene::load(&shared_path, None).unwrap();
+    let copied = pathwave::scene::load(&copied_path, None).unwrap();
+    assert_eq!(shared.meshes.len(), 1, "one mesh for both nodes");
+    assert_eq!(shared.instances.len(), 2);
+    assert!(shared.instances.iter().all(|i| i.mesh == 0));
+    assert_ne!(
+        shared.instances[0].world_from_object,
+        shared.instances[1].world_from_object
+    );
+    assert_eq!(shared.meshes[0].triangle_count(), 2);
+    assert_eq!(copied.meshes.len(), 2);
+    let soup = shared.flatten();
+    assert_eq!(soup.len(), 4, "each node places both triangles");
+    assert_eq!(soup, copied.flatten(), "sharing a mesh changes no world-space triangle");
+    assert_eq!(shared.bounds(), copied.bounds());
+    assert_eq!(shared.bounds(), soup.bounds());
+    assert_eq!(shared.triangle_count(), 4);
+    assert_eq!(shared.emissive_triangle_count(), 4);
+    // The second instance's vertices are the first's object-space ones under its node's transform.
+    let world = shared.instances[1].world_from_object;
+    let object = &shared.meshes[0].primitives[0].positions;
+    for tri in &soup.positions()[2..] {
+        for v in tri {
+            assert!(
+                object.iter().any(|p| world.transform_point3(*p) == *v),
+                "{v} is not a placed vertex"
+            );
+        }
+    }
 }

@@ -117,11 +117,7 @@ impl SplitMix {
 /// Rays with origins uniform in the scene's bounding box and directions uniform on the sphere: the incoherent
 /// case DESIGN.md's prototype figures use.
 pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
-    let (lo, hi) = scene
-        .triangles
-        .iter()
-        .flatten()
-        .fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+    let (lo, hi) = scene.bounds();
     let mut rng = SplitMix(seed);
     (0..n)
         .map(|_| {
@@ -176,7 +172,8 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
     let rounds = if quick { 2 } else { 3 };
     let scene = terrain(side);
     let rays = random_rays(&scene, rays_n, 7);
-    let tris: Vec<f32> = scene.triangles.iter().flatten().flat_map(|p| p.to_array()).collect();
+    let soup = scene.flatten();
+    let tris: Vec<f32> = soup.positions().iter().flatten().flat_map(|p| p.to_array()).collect();
     let ray_data: Vec<f32> = rays
         .iter()
         .flat_map(|r| r.origin.to_array().into_iter().chain(r.dir.to_array()))
@@ -196,7 +193,7 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
     let (ours, _) = r.trace_timed(&rays, false, 1)?;
     let mut result = EmbreeComparison {
         device,
-        triangles: scene.triangles.len(),
+        triangles: soup.len(),
         rays: rays.len(),
         embree_build_s,
         pathwave_build_s,
@@ -262,15 +259,16 @@ fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(P
         return Err(err("only scenes lit by emissive triangles translate to Mitsuba"));
     }
     let camera = scene.camera.ok_or_else(|| err("the scene has no camera"))?;
+    let soup = scene.flatten();
     let mut meshes = Vec::new();
     let mut content = Vec::new();
     for (k, m) in scene.materials.iter().enumerate() {
         let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
         let textured = m.texture_refs().iter().any(Option::is_some);
-        let tris: Vec<&[Vec3; 3]> = scene
-            .triangles
+        let tris: Vec<&[Vec3; 3]> = soup
+            .positions()
             .iter()
-            .zip(&scene.material_of)
+            .zip(soup.material())
             .filter(|(_, &mk)| mk as usize == k)
             .map(|(t, _)| t)
             .collect();

@@ -3,10 +3,10 @@ pub mod compare;
 
 use crate::error::Error;
 use crate::render::{BvhReads, RenderSettings, Renderer, Schedule};
-use crate::scene::{self, Camera, Environment, Material, Scene};
+use crate::scene::{self, Camera, Environment, Material, Mesh, Primitive, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 pub use compare::{EmbreeComparison, MitsubaComparison};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -93,20 +93,29 @@ pub fn terrain(side: usize) -> Scene {
         specular: 0.0,
         ..Default::default()
     });
+    let mut triangles = Vec::with_capacity(2 * side * side);
     for j in 0..side {
         for i in 0..side {
-            let a = j * n + i;
-            let (b, c, d) = (a + 1, a + n, a + n + 1);
+            let a = (j * n + i) as u32;
+            let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
             // Counter-clockwise seen from above (+y).
-            for t in [[a, c, b], [b, c, d]] {
-                s.triangles.push(t.map(|k| p[k]));
-                s.normals.push(t.map(|k| nrm[k]));
-                s.texcoords.push([Vec4::ZERO; 3]);
-                s.tangents.push([Vec4::ZERO; 3]);
-                s.material_of.push(0);
-            }
+            triangles.extend([[a, c, b], [b, c, d]]);
         }
     }
+    let ground = Primitive {
+        positions: p,
+        normals: Some(nrm),
+        triangles,
+        material: 0,
+        ..Default::default()
+    };
+    s.add_mesh(
+        Mesh {
+            name: "terrain".into(),
+            primitives: vec![ground],
+        },
+        Mat4::IDENTITY,
+    );
     let eye = Vec3::new(0.0, 1.2, 2.2);
     let forward = (Vec3::new(0.0, 0.0, 0.0) - eye).normalize();
     let right = forward.cross(Vec3::Y).normalize();
@@ -169,7 +178,7 @@ fn measure(
     Ok(CaseResult {
         name: name.into(),
         device: device_name,
-        triangles: scene.triangles.len(),
+        triangles: scene.triangle_count(),
         size,
         spp,
         process_s: None,
@@ -187,7 +196,7 @@ fn measure(
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
         schedule: schedule.into(),
         bvh_build_s,
-        bytes_per_triangle: bytes as f64 / scene.triangles.len().max(1) as f64,
+        bytes_per_triangle: bytes as f64 / scene.triangle_count().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,
     })
 }
@@ -317,7 +326,7 @@ fn run_cases(
     }
     progress("terrain");
     let t = terrain(side);
-    let name = format!("terrain-{}k", t.triangles.len() / 1000);
+    let name = format!("terrain-{}k", t.triangle_count() / 1000);
     cases.push(measure(&name, &t, (256, 256), spp_mesh, &o.device, None, None)?);
     let storage = Some(BvhReads::Storage);
     cases.push(measure(
@@ -334,7 +343,7 @@ fn run_cases(
         // read through texel views, which is the only way this device can hold the scene.
         progress("terrain past the storage range");
         let big = terrain(1300);
-        let name = format!("terrain-{}k", big.triangles.len() / 1000);
+        let name = format!("terrain-{}k", big.triangle_count() / 1000);
         cases.push(measure(&name, &big, (256, 256), 8, &o.device, None, None)?);
     }
     Ok(())

@@ -5,7 +5,7 @@ use crate::layout::{
     GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriColors, TriShading, TriTangents, TriTexcoords,
     TriVerts,
 };
-use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, Wrap};
+use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -87,10 +87,10 @@ pub fn mean_emission(scene: &Scene, m: &Material) -> glam::Vec3 {
 }
 
 /// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
-pub fn emitted_power(scene: &Scene, tri: usize) -> f64 {
-    let m = &scene.materials[scene.material_of[tri] as usize];
+pub fn emitted_power(scene: &Scene, soup: &TriangleSoup, tri: usize) -> f64 {
+    let m = &scene.materials[soup.material()[tri] as usize];
     let e = mean_emission(scene, m);
-    let [a, b, c] = scene.triangles[tri];
+    let [a, b, c] = soup.positions()[tri];
     let area = 0.5 * (b - a).cross(c - a).length() as f64;
     let sides = if m.double_sided { 2.0 } else { 1.0 };
     (e.x + e.y + e.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
@@ -169,10 +169,11 @@ fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
 }
 
 pub fn pack(scene: &Scene) -> PackedScene {
+    let soup = scene.flatten();
     let start = std::time::Instant::now();
-    let bvh = bvh::build(&scene.triangles);
+    let bvh = bvh::build(soup.positions());
     let bvh_build = start.elapsed();
-    let n = scene.triangles.len();
+    let n = soup.len();
     let mut tri_verts = Vec::with_capacity(n);
     let mut tri_shading = Vec::with_capacity(n);
     let textured = scene
@@ -182,14 +183,14 @@ pub fn pack(scene: &Scene) -> PackedScene {
     let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
     let mut tri_texcoords = Vec::with_capacity(if textured { n } else { 0 });
     let mut tri_tangents = Vec::with_capacity(if normal_mapped { n } else { 0 });
-    let mut tri_colors = Vec::with_capacity(scene.colors.len());
+    let mut tri_colors = Vec::with_capacity(soup.colors().len());
     // (light id, power, area)
     let mut powers: Vec<(u32, f64, f32)> = Vec::new();
     for (slot, &orig) in bvh.order.iter().enumerate() {
         let orig = orig as usize;
-        let [a, b, c] = scene.triangles[orig];
-        let [na, nb, nc] = scene.normals[orig];
-        let material = scene.material_of[orig];
+        let [a, b, c] = soup.positions()[orig];
+        let [na, nb, nc] = soup.normals()[orig];
+        let material = soup.material()[orig];
         let alpha_tested = scene.materials[material as usize].alpha_tested();
         tri_verts.push(TriVerts {
             v0: v4(a, f32::from_bits(material)),
@@ -197,14 +198,14 @@ pub fn pack(scene: &Scene) -> PackedScene {
             e2: v4(c - a, 0.0),
         });
         if textured {
-            let [t0, t1, t2] = scene.texcoords[orig].map(|t| t.to_array());
+            let [t0, t1, t2] = soup.texcoords()[orig].map(|t| t.to_array());
             tri_texcoords.push(TriTexcoords { t0, t1, t2 });
         }
         if normal_mapped {
-            let [t0, t1, t2] = scene.tangents[orig].map(|t| t.to_array());
+            let [t0, t1, t2] = soup.tangents()[orig].map(|t| t.to_array());
             tri_tangents.push(TriTangents { t0, t1, t2 });
         }
-        if let Some(c) = scene.colors.get(orig) {
+        if let Some(c) = soup.colors().get(orig) {
             let [c0, c1, c2] = c.map(|v| v.to_array());
             tri_colors.push(TriColors { c0, c1, c2 });
         }
@@ -214,13 +215,13 @@ pub fn pack(scene: &Scene) -> PackedScene {
             n1: v4(nb, area),
             n2: v4(nc, 0.0),
         });
-        let p = emitted_power(scene, orig);
+        let p = emitted_power(scene, &soup, orig);
         if p > 0.0 {
             powers.push((slot as u32, p, area));
         }
     }
-    let (lo, hi) = scene.bounds();
-    let radius = if scene.triangles.is_empty() {
+    let (lo, hi) = soup.bounds();
+    let radius = if soup.is_empty() {
         1.0
     } else {
         ((hi - lo).length() * 0.5).max(1e-3)

@@ -343,7 +343,7 @@ impl Renderer {
 
 /// The camera's distance to the scene's centre along its view direction, at least 1 mm.
 fn default_focus(scene: &Scene, cam: &Camera) -> f32 {
-    let (lo, hi) = if scene.triangles.is_empty() {
+    let (lo, hi) = if scene.is_empty() {
         (glam::Vec3::ZERO, glam::Vec3::ZERO)
     } else {
         scene.bounds()

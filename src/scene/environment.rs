@@ -1,5 +1,5 @@
 //! The environment light: an equirectangular radiance map (or a constant colour) and its importance-sampling tables.
-use crate::Error;
+use crate::error::Error;
 use std::path::Path;
 
 /// Radiance arriving from infinitely far away, in linear RGB (W sr^-1 m^-2).

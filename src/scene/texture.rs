@@ -123,7 +123,7 @@ fn read_uri(uri: &str, base: &Path) -> Result<Vec<u8>, String> {
     } else if uri.contains(':') {
         return Err(format!("the URI '{uri}' is neither a relative path nor a data URI"));
     } else {
-        let decoded = super::percent_decode(uri)
+        let decoded = super::gltf::percent_decode(uri)
             .ok_or_else(|| format!("the URI '{uri}' has percent-escapes that do not decode to UTF-8"))?;
         base.join(decoded)
     };

@@ -224,6 +224,20 @@ impl GltfBuilder {
         self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
     }
 
+    /// Sets the last node's glTF transform fields (`translation`, `rotation`, `scale` or `matrix`).
+    pub fn transform_last_node(&mut self, transform: Value) {
+        let node = self.nodes.last_mut().unwrap();
+        for (k, v) in transform.as_object().unwrap() {
+            node[k] = v.clone();
+        }
+    }
+
+    /// Another node placing the last mesh, which the file then holds once for both.
+    pub fn place_last_mesh(&mut self, name: &str, transform: Value) {
+        self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
+        self.transform_last_node(transform);
+    }
+
     /// A UV sphere with smooth vertex normals, front faces outwards.
     pub fn sphere(&mut self, name: &str, center: [f32; 3], radius: f32, material: usize) {
         self.uv_sphere(name, center, radius, material, true);

@@ -1,0 +1,312 @@
+//! Materials: the metallic-roughness factors, the extensions pathwave renders, and their textures and images.
+use super::{scene_err, Loader};
+use crate::error::Error;
+use crate::scene::texture::{self, Texture, TextureRef};
+use crate::scene::{AlphaMode, Material};
+use glam::Vec3;
+
+/// A material's texture slots, resolved to scene textures.
+struct Slots {
+    base_color: Option<TextureRef>,
+    metallic_roughness: Option<TextureRef>,
+    emissive: Option<TextureRef>,
+    normal: Option<TextureRef>,
+    normal_scale: f32,
+}
+
+/// The dielectric coat: KHR_materials_ior and KHR_materials_specular.
+struct Dielectric {
+    ior: f32,
+    specular: f32,
+    specular_color: Vec3,
+}
+
+/// KHR_materials_transmission and KHR_materials_volume.
+struct Transmission {
+    transmission: f32,
+    thin_walled: bool,
+    attenuation: Vec3,
+}
+
+impl Loader<'_> {
+    pub(super) fn material(&mut self, m: &gltf::Material) -> Result<(), Error> {
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
+        let pbr = m.pbr_metallic_roughness();
+        let c = pbr.base_color_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emission = Vec3::from(m.emissive_factor()) * strength;
+        if !emission.is_finite() {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': the emission {emission} is not finite"),
+            ));
+        }
+        let slots = self.slots(&name, m)?;
+        if m.occlusion_texture().is_some() {
+            self.warn(format!(
+                "material '{name}': occlusionTexture is ignored (a path tracer computes occlusion)"
+            ));
+        }
+        let alpha = c[3].clamp(0.0, 1.0);
+        let alpha_mode = self.alpha_mode(&name, m, alpha, slots.base_color)?;
+        let d = self.dielectric(&name, m)?;
+        let t = self.transmission(&name, m)?;
+        self.scene.materials.push(Material {
+            transmission: t.transmission.clamp(0.0, 1.0),
+            thin_walled: t.thin_walled,
+            attenuation: t.attenuation,
+            name,
+            base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
+            emission: emission.max(Vec3::ZERO),
+            double_sided: m.double_sided(),
+            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+            ior: d.ior,
+            specular: d.specular.clamp(0.0, 1.0),
+            specular_color: d.specular_color.max(Vec3::ZERO),
+            alpha,
+            alpha_mode,
+            base_color_texture: slots.base_color,
+            metallic_roughness_texture: slots.metallic_roughness,
+            normal_texture: slots.normal,
+            normal_scale: if slots.normal_scale.is_finite() {
+                slots.normal_scale
+            } else {
+                1.0
+            },
+            emissive_texture: slots.emissive,
+        });
+        Ok(())
+    }
+
+    fn slots(&mut self, name: &str, m: &gltf::Material) -> Result<Slots, Error> {
+        let pbr = m.pbr_metallic_roughness();
+        let base_color = match pbr.base_color_texture() {
+            Some(info) => self.info_ref(name, "baseColorTexture", &info)?,
+            None => None,
+        };
+        let metallic_roughness = match pbr.metallic_roughness_texture() {
+            Some(info) => self.info_ref(name, "metallicRoughnessTexture", &info)?,
+            None => None,
+        };
+        let emissive = match m.emissive_texture() {
+            Some(info) => self.info_ref(name, "emissiveTexture", &info)?,
+            None => None,
+        };
+        let (normal, normal_scale) = match m.normal_texture() {
+            Some(n) => {
+                let ext = match n.extension_value("KHR_texture_transform") {
+                    Some(v) => Some(texture::transform_from_json(v).ok_or_else(|| {
+                        scene_err(
+                            self.path,
+                            format!("material '{name}': normalTexture's KHR_texture_transform is malformed"),
+                        )
+                    })?),
+                    None => None,
+                };
+                let r = self.texture_ref(name, "normalTexture", &n.texture(), n.tex_coord(), ext)?;
+                (r, n.scale())
+            }
+            None => (None, 1.0),
+        };
+        Ok(Slots {
+            base_color,
+            metallic_roughness,
+            emissive,
+            normal,
+            normal_scale,
+        })
+    }
+
+    fn alpha_mode(
+        &self,
+        name: &str,
+        m: &gltf::Material,
+        alpha: f32,
+        base_color_texture: Option<TextureRef>,
+    ) -> Result<AlphaMode, Error> {
+        // Transparency that cannot happen (alpha 1 and no texture alpha below 1) costs nothing in traversal.
+        let texture_alpha = base_color_texture.is_some_and(|r| {
+            let image = self.scene.textures[r.texture].image;
+            self.scene.images[image].has_alpha()
+        });
+        Ok(match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => {
+                let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+                if !cutoff.is_finite() {
+                    return Err(scene_err(
+                        self.path,
+                        format!("material '{name}': alphaCutoff is not finite"),
+                    ));
+                }
+                if alpha >= cutoff && !texture_alpha {
+                    AlphaMode::Opaque
+                } else {
+                    AlphaMode::Mask(cutoff)
+                }
+            }
+            gltf::material::AlphaMode::Blend if alpha >= 1.0 && !texture_alpha => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        })
+    }
+
+    fn dielectric(&mut self, name: &str, m: &gltf::Material) -> Result<Dielectric, Error> {
+        let pbr = m.pbr_metallic_roughness();
+        let ior = m.ior().unwrap_or(1.5);
+        let (specular, specular_color) = match m.specular() {
+            Some(s) => (s.specular_factor(), Vec3::from(s.specular_color_factor())),
+            None => (1.0, Vec3::ONE),
+        };
+        if let Some(s) = m.specular() {
+            if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
+                self.warn(format!(
+                    "material '{name}': specular textures are ignored (only the factors are read)"
+                ));
+            }
+        }
+        let finite = [pbr.metallic_factor(), pbr.roughness_factor(), ior, specular]
+            .iter()
+            .all(|x| x.is_finite())
+            && specular_color.is_finite();
+        if !finite {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': a factor is not finite"),
+            ));
+        }
+        // IOR 0 means "F0 = 1" in KHR_materials_ior: 1e30 gives exactly that in ((ior - 1) / (ior + 1))^2 without
+        // the NaN infinity would; other values below 1 are outside the extension's range.
+        let ior = if ior == 0.0 { 1e30 } else { ior.max(1.0) };
+        Ok(Dielectric {
+            ior,
+            specular,
+            specular_color,
+        })
+    }
+
+    fn transmission(&mut self, name: &str, m: &gltf::Material) -> Result<Transmission, Error> {
+        let transmission = m.transmission().map(|t| t.transmission_factor()).unwrap_or(0.0);
+        let (thin_walled, attenuation) = match m.volume() {
+            Some(v) if v.thickness_factor() > 0.0 => {
+                let d = v.attenuation_distance();
+                let c = Vec3::from(v.attenuation_color()).clamp(Vec3::splat(1e-6), Vec3::ONE);
+                // An infinite (default) distance means no absorption.
+                let sigma = if d.is_finite() && d > 0.0 {
+                    -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / d
+                } else {
+                    Vec3::ZERO
+                };
+                (false, sigma)
+            }
+            _ => (true, Vec3::ZERO),
+        };
+        if m.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
+            self.warn(format!(
+                "material '{name}': transmissionTexture is ignored (only the factor is read)"
+            ));
+        }
+        if !(transmission.is_finite() && attenuation.is_finite()) {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': a transmission or volume factor is not finite"),
+            ));
+        }
+        Ok(Transmission {
+            transmission,
+            thin_walled,
+            attenuation,
+        })
+    }
+
+    /// A textureInfo slot with its KHR_texture_transform.
+    fn info_ref(
+        &mut self,
+        material: &str,
+        slot: &str,
+        info: &gltf::texture::Info,
+    ) -> Result<Option<TextureRef>, Error> {
+        let ext = info.texture_transform().map(|t| {
+            (
+                texture::transform_matrix(t.offset(), t.rotation(), t.scale()),
+                t.tex_coord(),
+            )
+        });
+        self.texture_ref(material, slot, &info.texture(), info.tex_coord(), ext)
+    }
+
+    /// Resolves one material slot, loading the texture's image on first use. `None`, with a warning, when the slot
+    /// cannot be honoured: no core-glTF image (e.g. a KTX2 or WebP source in an extension) or a TEXCOORD set past 1.
+    fn texture_ref(
+        &mut self,
+        material: &str,
+        slot: &str,
+        tex: &gltf::Texture,
+        tex_coord: u32,
+        ext: Option<([[f32; 3]; 2], Option<u32>)>,
+    ) -> Result<Option<TextureRef>, Error> {
+        let (transform, tc_override) = ext.unwrap_or((texture::IDENTITY_TRANSFORM, None));
+        let tex_coord = tc_override.unwrap_or(tex_coord);
+        if !transform.iter().flatten().all(|x| x.is_finite()) {
+            return Err(scene_err(
+                self.path,
+                format!("material '{material}': {slot}'s KHR_texture_transform is not finite"),
+            ));
+        }
+        if tex_coord > 1 {
+            self.warn(format!(
+                "material '{material}': {slot} reads TEXCOORD_{tex_coord}; only sets 0 and 1 are supported, so it is ignored"
+            ));
+            return Ok(None);
+        }
+        let texture = match self.texture_map.get(&tex.index()) {
+            Some(&t) => t,
+            None => {
+                let t = self.load_texture(tex)?;
+                self.texture_map.insert(tex.index(), t);
+                t
+            }
+        };
+        if texture.is_none() {
+            self.warn(format!(
+                "material '{material}': {slot} uses texture {} whose image is not PNG or JPEG in core glTF; it is ignored",
+                tex.index()
+            ));
+        }
+        Ok(texture.map(|texture| TextureRef {
+            texture,
+            tex_coord,
+            transform,
+        }))
+    }
+
+    fn load_texture(&mut self, tex: &gltf::Texture) -> Result<Option<usize>, Error> {
+        let Some(source) = tex.source() else {
+            return Ok(None);
+        };
+        let image = match self.image_map.get(&source.index()) {
+            Some(&i) => i,
+            None => {
+                let decoded = texture::load_image(&source, self.base, self.buffers).map_err(|e| {
+                    let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
+                    scene_err(self.path, format!("image {}{name}: {e}", source.index()))
+                })?;
+                self.scene.images.push(decoded);
+                let i = self.scene.images.len() - 1;
+                self.image_map.insert(source.index(), i);
+                i
+            }
+        };
+        let sampler = tex.sampler();
+        self.scene.textures.push(Texture {
+            image,
+            wrap_s: texture::wrap_of(sampler.wrap_s()),
+            wrap_t: texture::wrap_of(sampler.wrap_t()),
+            nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+        });
+        Ok(Some(self.scene.textures.len() - 1))
+    }
+}

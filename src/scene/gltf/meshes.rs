@@ -1,0 +1,314 @@
+//! Meshes: each primitive's accessors checked against what the reader assumes, then read into object-space
+//! vertex arrays and triangles.
+use super::{scene_err, Loader};
+use crate::error::Error;
+use crate::scene::{Material, Mesh, Primitive};
+use glam::{Vec2, Vec3, Vec4};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+
+/// What an accessor accepted by `Loader::check_accessor` holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Contents {
+    /// Elements in a bufferView, which gltf's reader can read.
+    Data,
+    /// No bufferView and no sparse: every element is zero, and there is nothing to read.
+    Zeros,
+}
+
+/// The optional attributes of a primitive that are read: present, with data, and (texture coordinates and
+/// tangents) of use to its material.
+#[derive(Default)]
+struct Present {
+    colors: bool,
+    normals: bool,
+    texcoords: [bool; 2],
+    tangents: bool,
+}
+
+impl Loader<'_> {
+    /// Reads every primitive of a mesh; those that cannot render are skipped with a warning.
+    pub(super) fn mesh(&mut self, mesh: &gltf::Mesh, default_material: u32) -> Result<Mesh, Error> {
+        let name = mesh
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("#{}", mesh.index()));
+        let mut primitives = Vec::new();
+        for prim in mesh.primitives() {
+            primitives.extend(self.primitive(&name, &prim, default_material)?);
+        }
+        Ok(Mesh { name, primitives })
+    }
+
+    /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.
+    /// An accessor without bufferView and sparse holds zeros (valid glTF); it must not be given to the reader.
+    fn check_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        what: &str,
+        types: &[DataType],
+        dims: Dimensions,
+        normalized_ints: bool,
+    ) -> Result<Contents, Error> {
+        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
+        if acc.count() == 0 {
+            return Err(err("count is 0".into()));
+        }
+        // Integer texture coordinates must be normalized; nothing else may be.
+        let normalized_ok = acc.normalized() == (normalized_ints && acc.data_type() != DataType::F32);
+        if !types.contains(&acc.data_type()) || acc.dimensions() != dims || !normalized_ok {
+            return Err(err(format!(
+                "expected {dims:?} of {types:?}, found {:?} of {:?}{}",
+                acc.dimensions(),
+                acc.data_type(),
+                if acc.normalized() { " (normalized)" } else { "" }
+            )));
+        }
+        if acc.view().is_none() && acc.sparse().is_none() {
+            return Ok(Contents::Zeros);
+        }
+        if acc.sparse().is_some() {
+            return Err(err("sparse accessors are not supported yet".into()));
+        }
+        let view = acc.view().ok_or_else(|| err("has no bufferView".into()))?;
+        let size = acc.size();
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(err(format!(
+                "byteStride {stride} is smaller than the element size {size}"
+            )));
+        }
+        let buffer_len = self.buffers.get(view.buffer().index()).map(|b| b.len()).unwrap_or(0);
+        let view_end = view.offset().checked_add(view.length());
+        if view_end.is_none_or(|e| e > buffer_len) {
+            return Err(err(format!(
+                "bufferView {} runs past the end of its buffer",
+                view.index()
+            )));
+        }
+        let end = (acc.count() - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(size))
+            .and_then(|x| x.checked_add(acc.offset()));
+        if end.is_none_or(|e| e > view.length()) {
+            return Err(err(format!("runs past the end of bufferView {}", view.index())));
+        }
+        Ok(Contents::Data)
+    }
+
+    fn primitive(
+        &mut self,
+        mesh_name: &str,
+        prim: &gltf::Primitive,
+        default_material: u32,
+    ) -> Result<Option<Primitive>, Error> {
+        let mode = prim.mode();
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            self.warn(format!(
+                "mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"
+            ));
+            return Ok(None);
+        }
+        if prim.morph_targets().next().is_some() {
+            self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
+        }
+        let Some(mut present) = self.check_geometry(mesh_name, prim)? else {
+            return Ok(None);
+        };
+        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let mat = self.scene.materials[material as usize].clone();
+        self.check_shading(mesh_name, prim, &mat, &mut present)?;
+        let (read, indices) = self.read(mesh_name, prim, &present)?;
+        self.check_counts(mesh_name, &read, &indices)?;
+        Ok(Some(Primitive {
+            triangles: unroll(mode, &indices),
+            material,
+            ..read
+        }))
+    }
+
+    /// COLOR_0, POSITION, NORMAL and the indices; `None` when the primitive is skipped (with a warning).
+    fn check_geometry(&mut self, mesh_name: &str, prim: &gltf::Primitive) -> Result<Option<Present>, Error> {
+        let mut present = Present::default();
+        if let Some(acc) = prim.get(&gltf::Semantic::Colors(0)) {
+            let dims = if acc.dimensions() == Dimensions::Vec3 {
+                Dimensions::Vec3
+            } else {
+                Dimensions::Vec4
+            };
+            let types = [DataType::F32, DataType::U8, DataType::U16];
+            present.colors = self.check_accessor(&acc, "COLOR_0", &types, dims, true)? == Contents::Data;
+        }
+        let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+            self.warn(format!("mesh '{mesh_name}': a primitive without POSITION is skipped"));
+            return Ok(None);
+        };
+        // All-zero positions or indices make every triangle degenerate.
+        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
+            self.warn(format!(
+                "mesh '{mesh_name}': POSITION accessor {} has no bufferView (all zeros); the primitive is skipped",
+                pos_acc.index()
+            ));
+            return Ok(None);
+        }
+        if let Some(n) = prim.get(&gltf::Semantic::Normals) {
+            present.normals = true;
+            if self.check_accessor(&n, "NORMAL", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
+                self.warn(format!(
+                    "mesh '{mesh_name}': NORMAL accessor {} has no bufferView (all zeros); face normals are used",
+                    n.index()
+                ));
+                present.normals = false;
+            }
+        }
+        if let Some(i) = prim.indices() {
+            let types = [DataType::U8, DataType::U16, DataType::U32];
+            if self.check_accessor(&i, "indices", &types, Dimensions::Scalar, false)? == Contents::Zeros {
+                self.warn(format!(
+                    "mesh '{mesh_name}': indices accessor {} has no bufferView (all zeros); the primitive is skipped",
+                    i.index()
+                ));
+                return Ok(None);
+            }
+        }
+        Ok(Some(present))
+    }
+
+    /// Texture coordinates and tangents matter only to textured materials; other primitives skip reading them.
+    fn check_shading(
+        &mut self,
+        mesh_name: &str,
+        prim: &gltf::Primitive,
+        mat: &Material,
+        present: &mut Present,
+    ) -> Result<(), Error> {
+        if mat.texture_refs().iter().any(Option::is_some) {
+            for (set, slot) in present.texcoords.iter_mut().enumerate() {
+                if let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) {
+                    let what = format!("TEXCOORD_{set}");
+                    let types = [DataType::F32, DataType::U8, DataType::U16];
+                    *slot = self.check_accessor(&acc, &what, &types, Dimensions::Vec2, true)? == Contents::Data;
+                }
+            }
+            for r in mat.texture_refs().iter().flatten() {
+                if !present.texcoords[r.tex_coord as usize] {
+                    self.warn(format!(
+                        "mesh '{mesh_name}': material '{}' reads TEXCOORD_{}, which the primitive lacks; its texture is \
+                         sampled at uv (0, 0)",
+                        mat.name, r.tex_coord
+                    ));
+                }
+            }
+        }
+        if mat.normal_texture.is_some() {
+            if let Some(acc) = prim.get(&gltf::Semantic::Tangents) {
+                present.tangents =
+                    self.check_accessor(&acc, "TANGENT", &[DataType::F32], Dimensions::Vec4, false)? == Contents::Data;
+            }
+        }
+        Ok(())
+    }
+
+    /// The vertex attributes (in a Primitive without triangles) and the indices, as the file holds them.
+    fn read(&self, mesh_name: &str, prim: &gltf::Primitive, present: &Present) -> Result<(Primitive, Vec<u32>), Error> {
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+        let mut texcoords: [Option<Vec<Vec2>>; 2] = [None, None];
+        for (set, &read) in present.texcoords.iter().enumerate() {
+            if read {
+                let uvs: Vec<Vec2> = reader
+                    .read_tex_coords(set as u32)
+                    .map(|t| t.into_f32().map(Vec2::from).collect())
+                    .unwrap_or_default();
+                if uvs.iter().any(|uv| !uv.is_finite()) {
+                    return Err(scene_err(
+                        self.path,
+                        format!("mesh '{mesh_name}': TEXCOORD_{set} holds a non-finite value"),
+                    ));
+                }
+                texcoords[set] = Some(uvs);
+            }
+        }
+        let colors: Option<Vec<Vec4>> = match present.colors {
+            true => reader.read_colors(0).map(|c| {
+                c.into_rgba_f32()
+                    .map(|c| Vec4::from(c).clamp(Vec4::ZERO, Vec4::ONE))
+                    .collect()
+            }),
+            false => None,
+        };
+        let tangents: Option<Vec<Vec4>> = match present.tangents {
+            true => reader.read_tangents().map(|t| t.map(Vec4::from).collect()),
+            false => None,
+        };
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
+            .map(Vec3::from)
+            .collect();
+        let normals: Option<Vec<Vec3>> = if present.normals {
+            reader.read_normals().map(|n| n.map(Vec3::from).collect())
+        } else {
+            None
+        };
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        let p = Primitive {
+            positions,
+            normals,
+            texcoords,
+            tangents,
+            colors,
+            ..Default::default()
+        };
+        Ok((p, indices))
+    }
+
+    /// Every attribute as long as POSITION, every index in range and every position finite, so that placing the
+    /// primitive cannot fail or panic.
+    fn check_counts(&self, mesh_name: &str, p: &Primitive, indices: &[u32]) -> Result<(), Error> {
+        let err = |m: String| Err(scene_err(self.path, format!("mesh '{mesh_name}': {m}")));
+        let short = |n: usize| n != p.positions.len();
+        if p.colors
+            .as_ref()
+            .is_some_and(|c| short(c.len()) || c.iter().any(|v| !v.is_finite()))
+        {
+            return err("COLOR_0 has a different count from POSITION or a non-finite value".into());
+        }
+        if p.texcoords.iter().flatten().any(|u| short(u.len())) || p.tangents.as_ref().is_some_and(|t| short(t.len())) {
+            return err("TEXCOORD or TANGENT and POSITION have different counts".into());
+        }
+        if p.normals.as_ref().is_some_and(|n| short(n.len())) {
+            return err("NORMAL and POSITION have different counts".into());
+        }
+        if let Some(&bad) = indices.iter().find(|&&i| i as usize >= p.positions.len()) {
+            return err(format!("index {bad} is out of range ({} vertices)", p.positions.len()));
+        }
+        if p.positions.iter().any(|p| !p.is_finite()) {
+            return err("POSITION holds a non-finite value".into());
+        }
+        Ok(())
+    }
+}
+
+/// Triangles of a triangle list, strip or fan.
+fn unroll(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        // Strips alternate winding; swapping odd triangles keeps every front face counter-clockwise.
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [indices[i - 2], indices[i - 1], indices[i]]
+                } else {
+                    [indices[i - 1], indices[i - 2], indices[i]]
+                }
+            })
+            .collect(),
+        _ => (2..indices.len())
+            .map(|i| [indices[0], indices[i - 1], indices[i]])
+            .collect(),
+    }
+}

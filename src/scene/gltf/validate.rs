@@ -1,0 +1,204 @@
+//! Checks a glTF file before the reader takes it in: gltf 1.4's parsing and validation, minus what glTF 2.0 allows,
+//! plus what gltf would otherwise panic on or read forever from.
+use super::{scene_err, SUPPORTED_EXTENSIONS};
+use crate::error::Error;
+use std::path::{Path, PathBuf};
+
+/// Parses a .gltf or .glb into its JSON root and the GLB's binary chunk.
+///
+/// An animation channel whose target has no `node` is valid glTF (the channel is ignored, e.g. under
+/// KHR_animation_pointer), but gltf 1.4's schema requires `node`: such channels are dropped before parsing.
+/// pathwave ignores animations anyway; a dropped channel's sampler index is still checked.
+pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Option<Vec<u8>>), Error> {
+    use gltf::json::deserialize::{from_slice, from_value};
+    let invalid = |e: &dyn std::fmt::Display| scene_err(path, format!("not a valid glTF file: {e}"));
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = gltf::binary::Glb::from_slice(bytes).map_err(|e| invalid(&e))?;
+        (glb.json, glb.bin.map(std::borrow::Cow::into_owned))
+    } else {
+        (std::borrow::Cow::Borrowed(bytes), None)
+    };
+    let mut value: Option<gltf::json::Value> = from_slice(&json).ok();
+    let dropped = match value.as_mut() {
+        Some(v) => drop_untargeted_channels(path, v)?,
+        None => 0,
+    };
+    let root = match value {
+        Some(v) if dropped > 0 => from_value(v),
+        // Unchanged JSON is parsed from its bytes, exactly as gltf does (e.g. duplicate keys are refused).
+        _ => from_slice(&json),
+    }
+    .map_err(|e| invalid(&e))?;
+    Ok((root, blob))
+}
+
+/// Removes the animation channels whose target has no `node` and which are otherwise well-formed; returns how many.
+fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result<usize, Error> {
+    use gltf::json::Value;
+    let untargeted = |channel: &Value| {
+        let Some(target) = channel.get("target").and_then(Value::as_object) else {
+            return false;
+        };
+        if target.contains_key("node") {
+            return false;
+        }
+        // Dropped only if a node is all it lacks, so every other defect is still reported by gltf's parser.
+        let mut with_node = channel.clone();
+        with_node["target"]["node"] = Value::from(0);
+        gltf::json::deserialize::from_value::<gltf::json::animation::Channel>(with_node).is_ok()
+    };
+    let Some(animations) = root.get_mut("animations").and_then(Value::as_array_mut) else {
+        return Ok(0);
+    };
+    let mut dropped = 0;
+    for (a, animation) in animations.iter_mut().enumerate() {
+        let samplers = animation.get("samplers").and_then(Value::as_array).map_or(0, Vec::len);
+        let Some(channels) = animation.get_mut("channels").and_then(Value::as_array_mut) else {
+            continue;
+        };
+        let mut kept = Vec::with_capacity(channels.len());
+        for (c, channel) in std::mem::take(channels).into_iter().enumerate() {
+            if !untargeted(&channel) {
+                kept.push(channel);
+                continue;
+            }
+            let sampler = channel.get("sampler").and_then(Value::as_u64);
+            if sampler.is_none_or(|s| s >= samplers as u64) {
+                return Err(scene_err(
+                    path,
+                    format!("not a valid glTF file: invalid glTF: animations[{a}].channels[{c}].sampler: Index out of bounds"),
+                ));
+            }
+            dropped += 1;
+        }
+        *channels = kept;
+    }
+    Ok(dropped)
+}
+
+/// gltf 1.4's validation, except where it is stricter than glTF 2.0: an accessor without a bufferView (all
+/// zeros; `check_accessor` handles it) and a texture without a source (pathwave never reads texture sources).
+/// Every other finding refuses the file, listed as gltf would.
+pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
+    use gltf::json::validation::Validate;
+    let mut findings = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |p, error| {
+        let p = p();
+        if !spec_valid(p.as_str(), error) {
+            findings.push(format!("{p}: {error}"));
+        }
+    });
+    if findings.is_empty() {
+        return Ok(());
+    }
+    Err(scene_err(
+        path,
+        format!("not a valid glTF file: invalid glTF: {}", findings.join("; ")),
+    ))
+}
+
+/// Whether a finding of gltf 1.4's validator is valid glTF 2.0: exactly `accessors[N].bufferView` or
+/// `textures[N].source` reported missing.
+fn spec_valid(path: &str, error: gltf::json::validation::Error) -> bool {
+    let indexed = |array: &str, field: &str| {
+        path.strip_prefix(array)
+            .and_then(|rest| rest.strip_prefix('['))
+            .and_then(|rest| rest.strip_suffix(field))
+            .and_then(|rest| rest.strip_suffix("]."))
+            .is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()))
+    };
+    error == gltf::json::validation::Error::Missing
+        && (indexed("accessors", "bufferView") || indexed("textures", "source"))
+}
+
+/// What gltf 1.4's own validation assumes instead of checking (it indexes the POSITION accessor unchecked),
+/// plus required extensions, refused here with a clearer message than its "Unsupported extension".
+pub(super) fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
+    for ext in &json.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            return Err(scene_err(
+                path,
+                format!("requires extension {ext}, which pathwave does not support"),
+            ));
+        }
+    }
+    let positions = gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim
+                .attributes
+                .get(&positions)
+                .filter(|i| i.value() >= json.accessors.len())
+            {
+                return Err(scene_err(
+                    path,
+                    format!(
+                        "mesh {m} primitive {p}: POSITION refers to accessor {}, which does not exist",
+                        i.value()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses external buffer URIs gltf 1.4 would panic on (percent-escapes that decode to invalid UTF-8) or
+/// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO), and buffers without a URI
+/// beyond the GLB's one binary chunk (in a .gltf, the validator cannot see that their data is absent).
+pub(super) fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document, has_blob: bool) -> Result<(), Error> {
+    let mut blobs_left = usize::from(has_blob);
+    for buffer in doc.buffers() {
+        let uri = match buffer.source() {
+            gltf::buffer::Source::Uri(uri) => uri,
+            gltf::buffer::Source::Bin if blobs_left > 0 => {
+                blobs_left -= 1;
+                continue;
+            }
+            gltf::buffer::Source::Bin => {
+                return Err(scene_err(
+                    path,
+                    format!(
+                        "buffer {} has no uri and no GLB binary chunk is left for it: its data is not in the file",
+                        buffer.index()
+                    ),
+                ))
+            }
+        };
+        let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
+        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+            PathBuf::from(rest)
+        } else if uri.contains(':') {
+            continue; // data: URIs are decoded in memory; other schemes are refused by gltf
+        } else {
+            let decoded = percent_decode(uri).ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
+            base.join(decoded)
+        };
+        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
+            return Err(err("not a regular file"));
+        }
+    }
+    Ok(())
+}
+
+/// Percent-decodes a relative URI as gltf 1.4 does (malformed escapes stay literal); `None` if not UTF-8.
+pub(in crate::scene) fn percent_decode(uri: &str) -> Option<String> {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = b.get(i + 1..i + 3).filter(|h| h.iter().all(u8::is_ascii_hexdigit));
+        let hex = hex.and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
+        match (b[i], hex) {
+            (b'%', Some(v)) => {
+                out.push(v);
+                i += 3;
+            }
+            (c, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).ok()
+}

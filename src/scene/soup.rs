@@ -1,0 +1,214 @@
+//! The world-space triangle soup the renderer packs, and `Scene::flatten`, which places every instance to make it.
+use super::{tangent, Primitive, Scene};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+
+/// One world-space triangle and its per-vertex shading data: what `TriangleSoup::push` takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldTriangle {
+    /// Front face counter-clockwise.
+    pub positions: [Vec3; 3],
+    pub normals: [Vec3; 3],
+    /// TEXCOORD_0 in xy and TEXCOORD_1 in zw (zero where the mesh has none).
+    pub texcoords: [Vec4; 3],
+    /// The tangent in xyz and the bitangent's sign in w (zero where the material has no normal map).
+    pub tangents: [Vec4; 3],
+    /// COLOR_0 as linear RGBA; `None` where the mesh has none.
+    pub colors: Option<[Vec4; 3]>,
+    pub material: u32,
+}
+
+/// Per-triangle world-space arrays, index for index. `push` is the only way in, so they cannot fall out of step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleSoup {
+    positions: Vec<[Vec3; 3]>,
+    normals: Vec<[Vec3; 3]>,
+    texcoords: Vec<[Vec4; 3]>,
+    tangents: Vec<[Vec4; 3]>,
+    colors: Vec<[Vec4; 3]>,
+    material: Vec<u32>,
+}
+
+impl TriangleSoup {
+    pub fn push(&mut self, t: WorldTriangle) {
+        self.positions.push(t.positions);
+        self.normals.push(t.normals);
+        self.texcoords.push(t.texcoords);
+        self.tangents.push(t.tangents);
+        match t.colors {
+            Some(c) => {
+                // The first coloured triangle gives every earlier one white.
+                self.colors.resize(self.positions.len() - 1, [Vec4::ONE; 3]);
+                self.colors.push(c);
+            }
+            None if !self.colors.is_empty() => self.colors.push([Vec4::ONE; 3]),
+            None => {}
+        }
+        self.material.push(t.material);
+    }
+
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+    pub fn positions(&self) -> &[[Vec3; 3]] {
+        &self.positions
+    }
+    pub fn normals(&self) -> &[[Vec3; 3]] {
+        &self.normals
+    }
+    pub fn texcoords(&self) -> &[[Vec4; 3]] {
+        &self.texcoords
+    }
+    pub fn tangents(&self) -> &[[Vec4; 3]] {
+        &self.tangents
+    }
+    /// Empty when no triangle has COLOR_0; otherwise one per triangle (white where its mesh has none).
+    pub fn colors(&self) -> &[[Vec4; 3]] {
+        &self.colors
+    }
+    pub fn material(&self) -> &[u32] {
+        &self.material
+    }
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        bounds(self.positions.iter().copied())
+    }
+
+    /// MikkTSpace tangents for the triangles from `first` on, from their uv set `set`.
+    fn generate_tangents(&mut self, first: usize, set: usize) {
+        let range = first..self.positions.len();
+        let uvs: Vec<[Vec2; 3]> = self.texcoords[range.clone()]
+            .iter()
+            .map(|t| {
+                t.map(|v| {
+                    if set == 0 {
+                        Vec2::new(v.x, v.y)
+                    } else {
+                        Vec2::new(v.z, v.w)
+                    }
+                })
+            })
+            .collect();
+        let generated = tangent::generate(&self.positions[range.clone()], &self.normals[range.clone()], &uvs);
+        self.tangents[range].copy_from_slice(&generated);
+    }
+}
+
+pub(super) fn bounds(triangles: impl Iterator<Item = [Vec3; 3]>) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for t in triangles {
+        for v in t {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    }
+    (lo, hi)
+}
+
+/// What an instance's transform does to its mesh: to points, to normals, and to the winding.
+#[derive(Clone, Copy)]
+struct Placement {
+    world: Mat4,
+    normal_matrix: Mat3,
+    /// A mirroring transform turns counter-clockwise into clockwise; two vertices are swapped to keep the front face.
+    flip: bool,
+}
+
+impl Placement {
+    fn new(world: Mat4) -> Placement {
+        Placement {
+            world,
+            normal_matrix: Mat3::from_mat4(world).inverse().transpose(),
+            flip: Mat3::from_mat4(world).determinant() < 0.0,
+        }
+    }
+
+    /// The triangle's vertex indices in front-face order, its world-space vertices and its face normal, or `None`
+    /// when it is degenerate in world space (no area: it can be neither hit nor emit).
+    fn triangle(&self, positions: &[Vec3], [a, b, c]: [u32; 3]) -> Option<([u32; 3], [Vec3; 3], Vec3)> {
+        let abc = if self.flip { [a, c, b] } else { [a, b, c] };
+        let v = abc.map(|i| self.world.transform_point3(positions[i as usize]));
+        let face = (v[1] - v[0]).cross(v[2] - v[0]);
+        if face.length_squared() == 0.0 || !face.is_finite() {
+            return None;
+        }
+        Some((abc, v, face.normalize()))
+    }
+
+    fn push_primitive(&self, p: &Primitive, soup: &mut TriangleSoup) {
+        for &tri in &p.triangles {
+            let Some((abc, positions, face_n)) = self.triangle(&p.positions, tri) else {
+                continue;
+            };
+            let normals = match &p.normals {
+                Some(ns) => abc.map(|i| {
+                    let n = self.normal_matrix * ns[i as usize];
+                    if n.is_finite() && n.length_squared() > 0.0 {
+                        n.normalize()
+                    } else {
+                        face_n
+                    }
+                }),
+                None => [face_n; 3],
+            };
+            let uv = |set: usize, i: u32| p.texcoords[set].as_ref().map_or(Vec2::ZERO, |u| u[i as usize]);
+            let texcoords = abc.map(|i| {
+                let (t0, t1) = (uv(0, i), uv(1, i));
+                Vec4::new(t0.x, t0.y, t1.x, t1.y)
+            });
+            let tangents = match &p.tangents {
+                // A mirroring transform flips the bitangent relative to cross(normal, tangent).
+                Some(ts) => abc.map(|i| {
+                    let t = ts[i as usize];
+                    let tw = (Mat3::from_mat4(self.world) * t.truncate()).normalize_or_zero();
+                    let sign = if (t.w < 0.0) != self.flip { -1.0 } else { 1.0 };
+                    tw.extend(sign)
+                }),
+                None => [Vec4::ZERO; 3],
+            };
+            soup.push(WorldTriangle {
+                positions,
+                normals,
+                texcoords,
+                tangents,
+                colors: p.colors.as_ref().map(|c| abc.map(|i| c[i as usize])),
+                material: p.material,
+            });
+        }
+    }
+}
+
+impl Scene {
+    /// Every instance's triangles in world space, instances in order, then primitives, then triangles, dropping those
+    /// without area. The arithmetic is the loader's before meshes were shared, so images stay byte for byte the same.
+    pub fn flatten(&self) -> TriangleSoup {
+        let mut soup = TriangleSoup::default();
+        for instance in &self.instances {
+            let placement = Placement::new(instance.world_from_object);
+            for p in &self.meshes[instance.mesh].primitives {
+                let first = soup.len();
+                placement.push_primitive(p, &mut soup);
+                // Generated per instance on world-space triangles, as the loader did before meshes were shared: the
+                // same tangents to the last bit. The two-level BVH moves this to object space, once per mesh.
+                if let (Some(r), None) = (self.materials[p.material as usize].normal_texture, &p.tangents) {
+                    soup.generate_tangents(first, r.tex_coord as usize);
+                }
+            }
+        }
+        soup
+    }
+
+    /// The material and world-space vertices of every triangle `flatten` emits, in its order, without the shading data.
+    pub(super) fn world_triangles(&self) -> impl Iterator<Item = (u32, [Vec3; 3])> + '_ {
+        self.instances.iter().flat_map(move |instance| {
+            let placement = Placement::new(instance.world_from_object);
+            self.meshes[instance.mesh].primitives.iter().flat_map(move |p| {
+                p.triangles
+                    .iter()
+                    .filter_map(move |&t| placement.triangle(&p.positions, t).map(|(_, v, _)| (p.material, v)))
+            })
+        })
+    }
+}
