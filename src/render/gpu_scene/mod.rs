@@ -1,0 +1,251 @@
+//! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
+mod pack;
+
+pub use pack::{emitted_power, mean_emission, pack, PackedScene};
+
+use crate::constants::*;
+use crate::error::Error;
+use crate::vk::{Buffer, Context, TexelViews};
+use ash::vk;
+
+/// How traversal reads the BVH nodes and triangle vertices (the same bytes either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhReads {
+    /// Storage-buffer loads: works everywhere.
+    Storage,
+    /// Uniform texel buffers (RGBA32UI): on lavapipe several times faster; used when the device's
+    /// maxTexelBufferElements holds the scene. PATHWAVE_BVH_READS=storage forces the other path.
+    Texel,
+}
+
+/// How the stages read one scene buffer, which decides its usage, its texel view and when it is refused.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Reads {
+    /// Storage-buffer loads alone: it must fit the storage range.
+    Storage,
+    /// BVH and per-triangle data: also an RGBA32UI view when the device holds the scene that way, which lifts the
+    /// storage range off it.
+    Viewed,
+    /// Read through an RGBA32UI view by the texel stages and from the storage buffer by the others (probe_bsdf, the
+    /// storage variants), so it must fit the storage range either way.
+    Both,
+    /// The textures' RGBA8 texels, one u32 each, through an R32UI view.
+    ImageTexels,
+}
+
+/// One scene buffer: its name in messages, its storage binding, its texel binding, how it is read.
+struct SceneBinding(&'static str, u32, Option<u32>, Reads);
+
+/// Every scene buffer, in upload order: the one list binding, upload, views and limits come from.
+const SCENE_BINDINGS: [SceneBinding; 12] = [
+    SceneBinding("bvh nodes", BINDING_NODES, Some(BINDING_NODE_TEXELS), Reads::Viewed),
+    SceneBinding(
+        "triangle vertices",
+        BINDING_TRI_VERTS,
+        Some(BINDING_TRI_TEXELS),
+        Reads::Viewed,
+    ),
+    SceneBinding(
+        "triangle shading",
+        BINDING_TRI_SHADING,
+        Some(BINDING_TRI_SHADING_TEXELS),
+        Reads::Viewed,
+    ),
+    SceneBinding(
+        "texture coordinates",
+        BINDING_TRI_TEXCOORDS,
+        Some(BINDING_TRI_TEXCOORD_TEXELS),
+        Reads::Viewed,
+    ),
+    SceneBinding(
+        "tangents",
+        BINDING_TRI_TANGENTS,
+        Some(BINDING_TRI_TANGENT_TEXELS),
+        Reads::Viewed,
+    ),
+    SceneBinding(
+        "vertex colours",
+        BINDING_TRI_COLORS,
+        Some(BINDING_TRI_COLOR_TEXELS),
+        Reads::Viewed,
+    ),
+    SceneBinding(
+        "materials",
+        BINDING_MATERIALS,
+        Some(BINDING_MATERIAL_TEXELS),
+        Reads::Both,
+    ),
+    SceneBinding("lights", BINDING_LIGHTS, Some(BINDING_LIGHT_TEXELS), Reads::Both),
+    SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
+    SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
+    SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
+    SceneBinding(
+        "texture texels",
+        BINDING_TEXELS,
+        Some(BINDING_IMAGE_TEXELS),
+        Reads::ImageTexels,
+    ),
+];
+
+impl PackedScene {
+    /// The bytes uploaded to a scene binding.
+    fn bytes(&self, binding: u32) -> &[u8] {
+        use bytemuck::cast_slice as bytes;
+        match binding {
+            BINDING_NODES => bytes(&self.bvh.nodes),
+            BINDING_TRI_VERTS => bytes(&self.tri_verts),
+            BINDING_TRI_SHADING => bytes(&self.tri_shading),
+            BINDING_TRI_TEXCOORDS => bytes(&self.tri_texcoords),
+            BINDING_TRI_TANGENTS => bytes(&self.tri_tangents),
+            BINDING_TRI_COLORS => bytes(&self.tri_colors),
+            BINDING_MATERIALS => bytes(&self.materials),
+            BINDING_LIGHTS => bytes(&self.lights),
+            BINDING_ENV => bytes(&self.env_data),
+            BINDING_PUNCTUAL => bytes(&self.punctual),
+            BINDING_TEXTURES => bytes(&self.textures),
+            BINDING_TEXELS => bytes(&self.texels),
+            _ => unreachable!("binding {binding} is no scene buffer"),
+        }
+    }
+}
+
+/// Bytes for a message: MiB when large, bytes when not.
+pub(super) fn size_text(bytes: u64) -> String {
+    if bytes >= 1 << 20 {
+        format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+/// A scene on the device: its buffers at their bindings, their texel views, and what its passes need to know of it.
+pub struct GpuScene {
+    /// Dropped before the buffers they view.
+    views: Option<TexelViews>,
+    buffers: Vec<(u32, Buffer)>,
+    /// Every BVH and per-triangle buffer fits the storage-buffer range (BvhReads::Storage can read the scene).
+    pub storage_ok: bool,
+    pub light_count: u32,
+    pub env_prob: f32,
+    /// The FEATURE_* bits of what the scene's materials and lights use.
+    pub features: u32,
+    /// Some triangle's material is alpha-tested: traversal runs the *_alpha variants.
+    pub alpha_tested: bool,
+    /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
+    pub textured: bool,
+    pub vertex_colors: bool,
+    /// How long building the BVH took.
+    pub bvh_build: std::time::Duration,
+}
+
+impl GpuScene {
+    /// Uploads `packed`, refusing it by buffer name when one outgrows every way this device can read it.
+    pub fn upload(ctx: &Context, packed: &PackedScene) -> Result<Self, Error> {
+        let range = ctx.properties.limits.max_storage_buffer_range as u64;
+        let max_texels = ctx.properties.limits.max_texel_buffer_elements as u64;
+        let format_ok = |f| {
+            let p = unsafe { ctx.instance.get_physical_device_format_properties(ctx.physical, f) };
+            p.buffer_features.contains(vk::FormatFeatureFlags::UNIFORM_TEXEL_BUFFER)
+        };
+        let texel_format = format_ok(vk::Format::R32G32B32A32_UINT) && format_ok(vk::Format::R32_UINT);
+        let len = |b: &SceneBinding| packed.bytes(b.1).len() as u64;
+        // Every buffer read through an RGBA32UI view (all viewed but the image texels).
+        let viewed = || {
+            SCENE_BINDINGS
+                .iter()
+                .filter(|b| matches!(b.3, Reads::Viewed | Reads::Both))
+        };
+        let image_texels = packed.texels.len() as u64;
+        let texel_ok = texel_format && viewed().all(|b| len(b) <= 16 * max_texels) && image_texels <= max_texels;
+        let mut buffers = Vec::with_capacity(SCENE_BINDINGS.len());
+        for b in &SCENE_BINDINGS {
+            let data = packed.bytes(b.1);
+            let bytes = data.len() as u64;
+            // The bytes per texel of the view the buffer is also read through, if any.
+            let element = match b.3 {
+                Reads::Storage => None,
+                Reads::Viewed => Some(16),
+                Reads::Both => (bytes <= range).then_some(16),
+                Reads::ImageTexels => Some(4),
+            };
+            let viewed = element.is_some() && texel_ok;
+            if bytes > range && !viewed {
+                let limit = match element {
+                    Some(e) if texel_format => format!(" and its texel-buffer limit of {}", size_text(e * max_texels)),
+                    _ => String::new(),
+                };
+                return Err(Error::Settings(format!(
+                    "the scene's {} take {}, more than this device's storage-buffer range of {}{limit}",
+                    b.0,
+                    size_text(bytes),
+                    size_text(range),
+                )));
+            }
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+                | if viewed {
+                    vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+                } else {
+                    vk::BufferUsageFlags::empty()
+                };
+            buffers.push((b.1, Buffer::with_data_usage(ctx, b.0, data, usage)?));
+        }
+        let views = if texel_ok {
+            let list: Vec<(u32, &Buffer, vk::Format)> = SCENE_BINDINGS
+                .iter()
+                .zip(&buffers)
+                .filter_map(|(b, (_, buffer))| {
+                    let format = match b.3 {
+                        Reads::ImageTexels => vk::Format::R32_UINT,
+                        _ => vk::Format::R32G32B32A32_UINT,
+                    };
+                    b.2.map(|view| (view, buffer, format))
+                })
+                .collect();
+            Some(TexelViews::new(ctx, &list)?)
+        } else {
+            None
+        };
+        // Storage reads need every viewed buffer and the image texels within the storage range.
+        let storage_ok = viewed().all(|b| len(b) <= range) && (4 * image_texels).max(16) <= range;
+        let alpha_tested = packed.tri_verts.iter().any(|t| t.e1[3] != 0.0);
+        Ok(GpuScene {
+            views,
+            buffers,
+            storage_ok,
+            light_count: packed.lights.len() as u32,
+            env_prob: packed.env_prob,
+            features: packed.features(),
+            alpha_tested,
+            textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
+            vertex_colors: !packed.tri_colors.is_empty(),
+            bvh_build: packed.bvh_build,
+        })
+    }
+
+    /// Every scene buffer at its binding.
+    pub fn bindings(&self) -> impl Iterator<Item = (u32, &Buffer)> {
+        self.buffers.iter().map(|(b, buffer)| (*b, buffer))
+    }
+
+    /// The texel views by binding, when the device holds the scene that way.
+    pub fn texel_views(&self) -> Option<&[(u32, vk::BufferView)]> {
+        self.views.as_ref().map(|v| &v.views[..])
+    }
+
+    fn buffer(&self, binding: u32) -> &Buffer {
+        &self
+            .buffers
+            .iter()
+            .find(|(b, _)| *b == binding)
+            .expect("every scene binding is uploaded")
+            .1
+    }
+
+    /// Device bytes of what traversal and shading read per triangle: BVH nodes, vertices and shading normals.
+    pub fn traversal_bytes(&self) -> u64 {
+        [BINDING_NODES, BINDING_TRI_VERTS, BINDING_TRI_SHADING]
+            .map(|b| self.buffer(b).size)
+            .iter()
+            .sum()
+    }
+}

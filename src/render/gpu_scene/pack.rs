@@ -1,0 +1,360 @@
+//! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
+use crate::bvh::{self, Bvh};
+use crate::constants::*;
+use crate::layout::{
+    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriColors, TriShading, TriTangents, TriTexcoords,
+    TriVerts,
+};
+use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap};
+
+/// Everything the device needs from a scene, in upload order.
+pub struct PackedScene {
+    pub bvh: Bvh,
+    /// Wall time of the BVH build alone (the rest of packing is copying).
+    pub bvh_build: std::time::Duration,
+    pub tri_verts: Vec<TriVerts>,
+    pub tri_shading: Vec<TriShading>,
+    pub materials: Vec<GpuMaterial>,
+    pub lights: Vec<GpuLight>,
+    /// Sum of the lights' estimated power (W), what light selection is proportional to.
+    pub total_light_power: f64,
+    /// Probability that light selection picks the environment (0 without one).
+    pub env_prob: f32,
+    /// The environment's device buffer (see layout.glsl), empty without one.
+    pub env_data: Vec<f32>,
+    pub punctual: Vec<GpuPunctual>,
+    pub textures: Vec<GpuTexture>,
+    /// RGBA8 texels of every image, one u32 each (red in the low byte), as `TextureInfo.offset` indexes them.
+    pub texels: Vec<u32>,
+    /// Empty when no material has a texture (the shaders then never read them).
+    pub tri_texcoords: Vec<TriTexcoords>,
+    /// Empty when no material has a normal map.
+    pub tri_tangents: Vec<TriTangents>,
+    /// Empty when no mesh has COLOR_0.
+    pub tri_colors: Vec<TriColors>,
+}
+
+impl PackedScene {
+    /// The FEATURE_* bits of what the scene's materials and lights use, for SCENE_FEATURES: a cleared bit promises
+    /// that the value it guards is zero for every material (or that no such light exists).
+    pub fn features(&self) -> u32 {
+        // Only materials some triangle uses (the loader always adds a default one).
+        let mut used = vec![false; self.materials.len()];
+        for t in &self.tri_verts {
+            if let Some(u) = used.get_mut(t.v0[3].to_bits() as usize) {
+                *u = true;
+            }
+        }
+        let any = |f: fn(&GpuMaterial) -> bool| self.materials.iter().zip(&used).any(|(m, &u)| u && f(m));
+        let mut bits = 0;
+        if any(|m| m.params[3] != 0.0) {
+            bits |= FEATURE_COAT;
+        }
+        if any(|m| m.params[0] != 0.0) {
+            bits |= FEATURE_METAL;
+        }
+        if any(|m| m.transmission[0] != 0.0) {
+            bits |= FEATURE_TRANSMISSION;
+        }
+        if !self.punctual.is_empty() {
+            bits |= FEATURE_PUNCTUAL;
+        }
+        if !self.env_data.is_empty() {
+            bits |= FEATURE_ENV;
+        }
+        if self.bvh.stats.max_waiting > REGISTER_STACK {
+            bits |= FEATURE_DEEP_STACK;
+        }
+        bits
+    }
+}
+
+fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
+    [v.x, v.y, v.z, w]
+}
+
+/// Mean emitted radiance of a material: the factor times its emissive texture's average (decoded from sRGB).
+pub fn mean_emission(scene: &Scene, m: &Material) -> glam::Vec3 {
+    match m.emissive_texture {
+        Some(r) => {
+            m.emission
+                * scene.images[scene.textures[r.texture].image]
+                    .average_linear()
+                    .truncate()
+        }
+        None => m.emission,
+    }
+}
+
+/// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
+pub fn emitted_power(scene: &Scene, soup: &TriangleSoup, tri: usize) -> f64 {
+    let m = &scene.materials[soup.material()[tri] as usize];
+    let e = mean_emission(scene, m);
+    let [a, b, c] = soup.positions()[tri];
+    let area = 0.5 * (b - a).cross(c - a).length() as f64;
+    let sides = if m.double_sided { 2.0 } else { 1.0 };
+    (e.x + e.y + e.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
+}
+
+fn slot(r: Option<TextureRef>) -> TextureSlot {
+    match r {
+        Some(r) => TextureSlot {
+            u: [
+                r.transform[0][0],
+                r.transform[0][1],
+                r.transform[0][2],
+                f32::from_bits(r.texture as u32),
+            ],
+            v: [
+                r.transform[1][0],
+                r.transform[1][1],
+                r.transform[1][2],
+                f32::from_bits(r.tex_coord),
+            ],
+        },
+        None => TextureSlot {
+            u: [1.0, 0.0, 0.0, f32::from_bits(TEXTURE_NONE)],
+            v: [0.0, 1.0, 0.0, f32::from_bits(0)],
+        },
+    }
+}
+
+fn gpu_material(m: &Material) -> GpuMaterial {
+    let (mode, cutoff) = match m.alpha_mode {
+        AlphaMode::Opaque => (ALPHA_OPAQUE, 0.0),
+        AlphaMode::Mask(c) => (ALPHA_MASK, c),
+        AlphaMode::Blend => (ALPHA_BLEND, 0.0),
+    };
+    GpuMaterial {
+        base_color: v4(m.base_color, m.alpha),
+        emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
+        params: [m.metallic, m.roughness, m.ior, m.specular],
+        specular_color: v4(m.specular_color, 0.0),
+        transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
+        attenuation: v4(m.attenuation, 0.0),
+        alpha: [f32::from_bits(mode), cutoff, m.normal_scale, 0.0],
+        textures: m.texture_refs().map(slot),
+    }
+}
+
+/// The texture table and every image's texels, each image once however many textures share it.
+fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
+    let mut offsets = Vec::with_capacity(scene.images.len());
+    let mut texels = Vec::new();
+    for image in &scene.images {
+        offsets.push(texels.len() as u32);
+        texels.extend(image.texels.iter().map(|t| u32::from_le_bytes(*t)));
+    }
+    let wrap = |w: Wrap| match w {
+        Wrap::Repeat => WRAP_REPEAT,
+        Wrap::ClampToEdge => WRAP_CLAMP,
+        Wrap::MirroredRepeat => WRAP_MIRROR,
+    };
+    let textures = scene
+        .textures
+        .iter()
+        .map(|t| {
+            let image = &scene.images[t.image];
+            GpuTexture {
+                offset: offsets[t.image],
+                width: image.width,
+                height: image.height,
+                flags: wrap(t.wrap_s)
+                    | wrap(t.wrap_t) << TEXTURE_WRAP_T_SHIFT
+                    | if t.nearest { TEXTURE_NEAREST } else { 0 },
+            }
+        })
+        .collect();
+    (textures, texels)
+}
+
+/// A light's entry before the table is made: (light id, power in W, area for a triangle).
+type Emitter = (u32, f64, f32);
+
+pub fn pack(scene: &Scene) -> PackedScene {
+    let soup = scene.flatten();
+    let start = std::time::Instant::now();
+    let bvh = bvh::build(soup.positions());
+    let bvh_build = start.elapsed();
+    let mut t = pack_triangles(scene, &soup, &bvh.order);
+    let (lo, hi) = soup.bounds();
+    let radius = if soup.is_empty() {
+        1.0
+    } else {
+        ((hi - lo).length() * 0.5).max(1e-3)
+    };
+    let mut emitters = std::mem::take(&mut t.emitters);
+    let punctual = pack_punctual(scene, radius, &mut emitters);
+    // The environment competes with the emitters by the power it sends into the scene's bounding sphere.
+    if let Some(env) = &scene.environment {
+        let p = env.power(radius);
+        if p > 0.0 {
+            emitters.push((LIGHT_KIND_ENV << LIGHT_KIND_SHIFT, p, 0.0));
+        }
+    }
+    let (lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading);
+    let (textures, texels) = pack_textures(scene);
+    PackedScene {
+        bvh_build,
+        bvh,
+        tri_verts: t.tri_verts,
+        tri_shading: t.tri_shading,
+        materials: scene.materials.iter().map(gpu_material).collect(),
+        lights,
+        total_light_power,
+        env_prob,
+        env_data: scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default(),
+        punctual,
+        textures,
+        texels,
+        tri_texcoords: t.tri_texcoords,
+        tri_tangents: t.tri_tangents,
+        tri_colors: t.tri_colors,
+    }
+}
+
+/// The per-triangle buffers in BVH order, and the emissive triangles.
+struct PackedTriangles {
+    tri_verts: Vec<TriVerts>,
+    tri_shading: Vec<TriShading>,
+    tri_texcoords: Vec<TriTexcoords>,
+    tri_tangents: Vec<TriTangents>,
+    tri_colors: Vec<TriColors>,
+    emitters: Vec<Emitter>,
+}
+
+/// The soup's triangles in `order` (the BVH's): texture coordinates only when some material has a texture,
+/// tangents only when some has a normal map, colours only when some mesh has COLOR_0.
+fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> PackedTriangles {
+    let n = soup.len();
+    let textured = scene
+        .materials
+        .iter()
+        .any(|m| m.texture_refs().iter().any(Option::is_some));
+    let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
+    let mut t = PackedTriangles {
+        tri_verts: Vec::with_capacity(n),
+        tri_shading: Vec::with_capacity(n),
+        tri_texcoords: Vec::with_capacity(if textured { n } else { 0 }),
+        tri_tangents: Vec::with_capacity(if normal_mapped { n } else { 0 }),
+        tri_colors: Vec::with_capacity(soup.colors().len()),
+        emitters: Vec::new(),
+    };
+    for (slot, &orig) in order.iter().enumerate() {
+        let orig = orig as usize;
+        let [a, b, c] = soup.positions()[orig];
+        let [na, nb, nc] = soup.normals()[orig];
+        let material = soup.material()[orig];
+        let alpha_tested = scene.materials[material as usize].alpha_tested();
+        t.tri_verts.push(TriVerts {
+            v0: v4(a, f32::from_bits(material)),
+            e1: v4(b - a, if alpha_tested { 1.0 } else { 0.0 }),
+            e2: v4(c - a, 0.0),
+        });
+        if textured {
+            let [t0, t1, t2] = soup.texcoords()[orig].map(|t| t.to_array());
+            t.tri_texcoords.push(TriTexcoords { t0, t1, t2 });
+        }
+        if normal_mapped {
+            let [t0, t1, t2] = soup.tangents()[orig].map(|t| t.to_array());
+            t.tri_tangents.push(TriTangents { t0, t1, t2 });
+        }
+        if let Some(c) = soup.colors().get(orig) {
+            let [c0, c1, c2] = c.map(|v| v.to_array());
+            t.tri_colors.push(TriColors { c0, c1, c2 });
+        }
+        let area = 0.5 * (b - a).cross(c - a).length();
+        t.tri_shading.push(TriShading {
+            n0: v4(na, 0.0),
+            n1: v4(nb, area),
+            n2: v4(nc, 0.0),
+        });
+        let p = emitted_power(scene, soup, orig);
+        if p > 0.0 {
+            t.emitters.push((slot as u32, p, area));
+        }
+    }
+    t
+}
+
+/// Punctual lights for the device, and each as an emitter by its emitted power; a directional one by what crosses
+/// the disk of the scene's bounding sphere (`radius`).
+fn pack_punctual(scene: &Scene, radius: f32, emitters: &mut Vec<Emitter>) -> Vec<GpuPunctual> {
+    let mut punctual = Vec::with_capacity(scene.punctual.len());
+    for (i, l) in scene.punctual.iter().enumerate() {
+        let mean = (l.intensity.x + l.intensity.y + l.intensity.z) as f64 / 3.0;
+        let pi = std::f64::consts::PI;
+        let (kind, cos_outer, cos_inner, p) = match l.kind {
+            PunctualKind::Point => (PUNCTUAL_POINT, -1.0, -1.0, 4.0 * pi * mean),
+            PunctualKind::Spot { inner, outer } => {
+                let (ci, co) = (inner.cos(), outer.cos());
+                (PUNCTUAL_SPOT, co, ci, 2.0 * pi * (1.0 - 0.5 * (ci + co) as f64) * mean)
+            }
+            PunctualKind::Directional => (PUNCTUAL_DIRECTIONAL, 1.0, 1.0, pi * (radius as f64).powi(2) * mean),
+        };
+        punctual.push(GpuPunctual {
+            position: v4(l.position, f32::from_bits(kind)),
+            direction: v4(l.direction, cos_outer),
+            intensity: v4(l.intensity, cos_inner),
+        });
+        if p > 0.0 {
+            emitters.push((LIGHT_KIND_PUNCTUAL << LIGHT_KIND_SHIFT | i as u32, p, 0.0));
+        }
+    }
+    punctual
+}
+
+/// The light table light selection picks from in proportion to power, the environment's probability in it, and
+/// the total power; each emissive triangle's NEE pdf per unit area goes into its shading record (for MIS).
+fn light_table(emitters: &[Emitter], tri_shading: &mut [TriShading]) -> (Vec<GpuLight>, f32, f64) {
+    let total: f64 = emitters.iter().map(|p| p.1).sum();
+    let mut lights = Vec::with_capacity(emitters.len());
+    let mut acc = 0.0f64;
+    let mut env_prob = 0.0;
+    let mut previous_cdf = 0.0f32;
+    for (i, &(id, p, area)) in emitters.iter().enumerate() {
+        acc += p;
+        // The last cdf is exactly 1 so every u in [0, 1) finds a light.
+        let cdf = if i + 1 == emitters.len() {
+            1.0
+        } else {
+            (acc / total) as f32
+        };
+        // The probability the device actually picks with is the gap between stored f32 cdfs, not p / total: for tiny
+        // lights late in the table they differ.
+        let prob = cdf - previous_cdf;
+        previous_cdf = cdf;
+        lights.push(GpuLight { id, cdf, prob, area });
+        match id >> LIGHT_KIND_SHIFT {
+            LIGHT_KIND_ENV => env_prob = prob,
+            LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = if prob > 0.0 { prob / area } else { 0.0 },
+            _ => {} // punctual lights are never hit, so MIS never asks for their probability
+        }
+    }
+    (lights, env_prob, total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn features_of(name: &str) -> u32 {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        pack(&crate::scene::load(&path, None).unwrap()).features()
+    }
+
+    // A bit cleared by mistake folds a lobe or light away while the scene uses it; one set by mistake only costs time.
+    #[test]
+    fn scene_features_name_what_materials_and_lights_use() {
+        assert_eq!(features_of("cornell-box.gltf"), 0);
+        assert_eq!(
+            features_of("glass.gltf"),
+            FEATURE_COAT | FEATURE_TRANSMISSION | FEATURE_DEEP_STACK
+        );
+        assert_eq!(features_of("punctual-lights.gltf") & FEATURE_PUNCTUAL, FEATURE_PUNCTUAL);
+        let grid = features_of("material-grid.gltf");
+        assert_eq!(grid & (FEATURE_COAT | FEATURE_METAL), FEATURE_COAT | FEATURE_METAL);
+    }
+}
