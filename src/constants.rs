@@ -223,5 +223,10 @@ pub const PATH_SHADOW_DIR: u32 = 6;
 pub const PATH_SHADOW_RADIANCE: u32 = 7;
 pub const PATH_FIELDS: u32 = 8;
 
+/// The largest radiance per channel one sample may add to the film; film_add (layout.glsl) drops a sample beyond
+/// it, or not finite, and counts it (Counters::nonfinite). Its square is 1e30, so even 2^24 samples (the spp limit)
+/// at the limit sum to 1.7e37 and the film's sum of squares stays finite in f32.
+pub const SAMPLE_RADIANCE_MAX: f32 = 1.0e15;
+
 /// Triangle index meaning "no hit".
 pub const NO_HIT: u32 = 0xFFFFFFFF;

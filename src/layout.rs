@@ -190,8 +190,8 @@ pub struct GpuPunctual {
     pub intensity: [f32; 4],
 }
 
-/// 48 bytes: queue counters, the indirect dispatch of the current bounce, ray tallies, and whether a follow dispatch was
-/// cut short (its pass is then run again by the wavefront).
+/// 48 bytes: queue counters, the indirect dispatch of the current bounce, ray tallies, whether a follow dispatch was
+/// cut short (its pass is then run again by the wavefront), and the samples film_add dropped as not finite.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Counters {
@@ -200,7 +200,7 @@ pub struct Counters {
     pub extension_rays: u32,
     pub shadow_rays: u32,
     pub follow_cut: u32,
-    pub pad0: u32,
+    pub nonfinite: u32,
 }
 
 /// 128 bytes: the push constants of every stage.

@@ -57,7 +57,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriColors => "TriColors", [c0, c1, c2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
-        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, pad0]),
+        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite]),
         mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, t, tri, uv]),
         mirror!(BsdfRecord => "BsdfRecord", [wo, material, x, front, wi, pdf, weight, flags, eval, pdf_wi, eval_reverse, pad0]),
         mirror!(EnvRecord => "EnvRecord", [x, pdf, dir, pdf_dir, radiance, pad0]),

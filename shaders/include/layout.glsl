@@ -104,14 +104,15 @@ struct PunctualLight {
 
 // 48 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
 // dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages. follow_cut: nonzero when a follow
-// dispatch's loops were cut short (follow.comp), and accumulate then leaves the film alone.
+// dispatch's loops were cut short (follow.comp), and accumulate then leaves the film alone. nonfinite: samples
+// film_add dropped this pass (not finite, or beyond SAMPLE_RADIANCE_MAX).
 struct Counters {
     uint queue_count[4];
     uint dispatch[4];
     uint extension_rays;
     uint shadow_rays;
     uint follow_cut;
-    uint pad0;
+    uint nonfinite;
 };
 
 // 128 bytes, the guaranteed push-constant budget. The camera basis vectors are in world space.
@@ -163,7 +164,15 @@ layout(std430, set = 0, binding = BINDING_COUNTERS) buffer CountersBuf { Counter
 layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
 // Adds sample radiance l to a pixel's running film sums (rgb sum and sample count in w; sum of squares). accumulate
 // and follow both add through here, in sample order, which is what makes their film bytes the same.
+// A sample that is not finite, or so large its square could overflow the sums, would spoil the pixel for good: it
+// is counted and added as a sample of zero. Zero, not skipped, so the count in w stays the spp every pixel is
+// divided by, and both schedules (which both add here) agree on it. The test is on the bits (|l| above the limit,
+// which Inf and NaN are too), so no float arithmetic changes and finite samples give the same bytes as before.
 void film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
+    if (any(greaterThan(floatBitsToUint(l) & 0x7fffffffu, uvec3(floatBitsToUint(SAMPLE_RADIANCE_MAX))))) {
+        atomicAdd(counters.nonfinite, 1u);
+        l = vec3(0.0);
+    }
     sum += vec4(l, 1.0);
     sum_sq += vec4(l * l, 0.0);
 }

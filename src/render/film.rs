@@ -46,6 +46,8 @@ pub struct RenderStats {
     pub samples: u64,
     pub extension_rays: u64,
     pub shadow_rays: u64,
+    /// Samples the film took as zero because their radiance was not finite (or beyond SAMPLE_RADIANCE_MAX).
+    pub nonfinite: u64,
     /// GPU time per stage in milliseconds, over all passes but the first (or the first, when it is the only one).
     pub stage_ms: Vec<(&'static str, f64)>,
     pub(super) first_pass_stage_ms: Vec<(&'static str, f64)>,
@@ -81,8 +83,12 @@ impl RenderStats {
     /// The one-line summary every render ends with.
     pub fn summary(&self) -> String {
         let stages: Vec<String> = self.stage_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        let dropped = match self.nonfinite {
+            0 => String::new(),
+            n => format!(", {n} non-finite samples dropped (counted as zero)"),
+        };
         format!(
-            "{:.2} s (first pass {:.2} s), {:.0} samples/s, {:.2} Mrays/s ({} extension + {} shadow rays), GPU ms: {}",
+            "{:.2} s (first pass {:.2} s), {:.0} samples/s, {:.2} Mrays/s ({} extension + {} shadow rays), GPU ms: {}{}",
             self.wall.as_secs_f64(),
             self.first_pass.as_secs_f64(),
             self.samples_per_sec(),
@@ -93,7 +99,8 @@ impl RenderStats {
                 "n/a".to_string()
             } else {
                 stages.join(", ")
-            }
+            },
+            dropped
         )
     }
 }

@@ -133,6 +133,7 @@ impl Renderer {
         }
         stats.extension_rays += tally.extension_rays as u64;
         stats.shadow_rays += tally.shadow_rays as u64;
+        stats.nonfinite += tally.nonfinite as u64;
         stats.samples += frame.path_count as u64;
         // Without timestamps (some devices), the pass's wall time, which also holds the tally's download.
         let gpu_ns: f64 = times.iter().map(|(_, ns)| ns).sum();
@@ -190,6 +191,7 @@ impl Renderer {
             // The device's tallies are u32 and wrap; so do these.
             total.extension_rays = total.extension_rays.wrapping_add(t.extension_rays);
             total.shadow_rays = total.shadow_rays.wrapping_add(t.shadow_rays);
+            total.nonfinite = total.nonfinite.wrapping_add(t.nonfinite);
         }
         Ok(total)
     }
