@@ -48,6 +48,18 @@ impl Environment {
         if texels.iter().any(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(env_err(path, "the environment map holds non-finite values"));
         }
+        if let Some(i) = (texels.iter()).position(|t| t.iter().any(|c| *c > crate::scene::RADIANCE_MAX)) {
+            return Err(env_err(
+                path,
+                format!(
+                    "texel ({}, {}) holds radiance {:?} (after --env-intensity), above the limit of {:e} per channel",
+                    i as u32 % width,
+                    i as u32 / width,
+                    texels[i],
+                    crate::scene::RADIANCE_MAX
+                ),
+            ));
+        }
         Ok(Environment {
             width,
             height,

@@ -10,8 +10,14 @@ pub use environment::Environment;
 pub use soup::{TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};
 
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use std::path::PathBuf;
+
+/// The largest radiance (or punctual intensity) per channel a scene, a map or an option may hold. Above the sun's
+/// luminance (1.6e9 cd/m^2), so every physical scene fits, and 1e5 below SAMPLE_RADIANCE_MAX, which leaves that
+/// much room for the factors the integrator multiplies in (MIS weights, 1/pdf, Russian roulette's 1/p) before a
+/// sample is dropped as one that could overflow the film.
+pub const RADIANCE_MAX: f32 = 1e10;
 
 /// A glTF metallic-roughness material with emission (radiance in linear RGB, W sr^-1 m^-2).
 #[derive(Clone, Debug, PartialEq)]
@@ -113,6 +119,19 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// Why `world_from_camera` cannot place a camera (not finite, or a basis of scale 0 or otherwise singular), if
+    /// it cannot: the view direction and image plane would be NaN and the image black.
+    pub fn check_transform(world_from_camera: &Mat4) -> Result<(), String> {
+        if !world_from_camera.is_finite() {
+            return Err("is not finite".into());
+        }
+        // A normal determinant (not 0, not subnormal) keeps every basis vector long enough to normalise.
+        if !Mat3::from_mat4(*world_from_camera).determinant().is_normal() {
+            return Err("has scale 0 or is otherwise not invertible".into());
+        }
+        Ok(())
+    }
+
     pub fn origin(&self) -> Vec3 {
         self.world_from_camera.transform_point3(Vec3::ZERO)
     }

@@ -44,6 +44,16 @@ impl Loader<'_> {
                 format!("material '{name}': the emission {emission} is not finite"),
             ));
         }
+        if emission.max_element() > crate::scene::RADIANCE_MAX {
+            return Err(scene_err(
+                self.path,
+                format!(
+                    "material '{name}': the emission {emission} (emissiveFactor times emissiveStrength) is above \
+                     the radiance limit of {:e} per channel",
+                    crate::scene::RADIANCE_MAX
+                ),
+            ));
+        }
         let slots = self.slots(&name, m)?;
         if m.occlusion_texture().is_some() {
             self.warn(format!(

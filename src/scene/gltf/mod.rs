@@ -177,7 +177,7 @@ impl Loader<'_> {
             self.punctual(&light, world)?;
         }
         if let Some(cam) = node.camera() {
-            self.camera(&cam, world);
+            self.camera(&cam, world)?;
         }
         if let Some(mesh) = node.mesh() {
             if node.skin().is_some() {
@@ -201,10 +201,19 @@ impl Loader<'_> {
         Ok(world)
     }
 
-    fn camera(&mut self, cam: &gltf::Camera, world: Mat4) {
+    fn camera(&mut self, cam: &gltf::Camera, world: Mat4) -> Result<(), Error> {
         match cam.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
+                if let Err(why) = Camera::check_transform(&world) {
+                    return Err(scene_err(
+                        self.path,
+                        format!(
+                            "camera {}: its node's world transform {why}, so it has no view",
+                            cam.index()
+                        ),
+                    ));
+                }
                 if yfov > 0.0 && yfov < std::f32::consts::PI {
                     self.cameras.push(Camera {
                         world_from_camera: world,
@@ -222,6 +231,7 @@ impl Loader<'_> {
                 cam.index()
             )),
         }
+        Ok(())
     }
 
     fn punctual(&mut self, light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<(), Error> {
@@ -235,6 +245,16 @@ impl Loader<'_> {
             return Err(scene_err(
                 self.path,
                 format!("light '{name}': its intensity is not finite"),
+            ));
+        }
+        if intensity.max_element() > crate::scene::RADIANCE_MAX {
+            return Err(scene_err(
+                self.path,
+                format!(
+                    "light '{name}': its intensity {intensity} (color times intensity) is above the limit of {:e} \
+                     per channel",
+                    crate::scene::RADIANCE_MAX
+                ),
             ));
         }
         if light.range().is_some() {
