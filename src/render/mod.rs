@@ -111,7 +111,7 @@ pub fn builtin_stage_names() -> impl Iterator<Item = &'static str> {
 
 impl Renderer {
     pub fn new(scene: &Scene, device: &DeviceChoice) -> Result<Self, Error> {
-        Self::with_validation(scene, device, Validation::from_env())
+        Self::with_validation(scene, device, Validation::from_env()?)
     }
 
     pub fn with_validation(scene: &Scene, device: &DeviceChoice, validation: Validation) -> Result<Self, Error> {

@@ -77,7 +77,8 @@ pub struct RendererOptions {
 }
 
 impl RendererOptions {
-    /// PATHWAVE_SCHEDULE=wavefront|fused fixes the schedule; PATHWAVE_BVH_READS=storage forces storage reads.
+    /// PATHWAVE_SCHEDULE=wavefront|fused fixes the schedule; PATHWAVE_BVH_READS=storage forces storage reads
+    /// (texel: the default choice). Any other word is refused, naming the variable.
     pub fn from_env() -> Result<Self, Error> {
         let schedule = match std::env::var("PATHWAVE_SCHEDULE").as_deref() {
             Ok("wavefront") => Some(Schedule::Wavefront),
@@ -87,9 +88,19 @@ impl RendererOptions {
                     "PATHWAVE_SCHEDULE={other}: expected wavefront or fused"
                 )))
             }
-            Err(_) => None,
+            Err(std::env::VarError::NotPresent) => None,
+            Err(_) => return Err(Error::Settings("PATHWAVE_SCHEDULE is not valid Unicode".into())),
         };
-        let storage_reads = std::env::var("PATHWAVE_BVH_READS").as_deref() == Ok("storage");
+        let storage_reads = match std::env::var("PATHWAVE_BVH_READS").as_deref() {
+            Ok("storage") => true,
+            Ok("texel") | Err(std::env::VarError::NotPresent) => false,
+            Ok(other) => {
+                return Err(Error::Settings(format!(
+                    "PATHWAVE_BVH_READS={other}: expected storage or texel"
+                )))
+            }
+            Err(_) => return Err(Error::Settings("PATHWAVE_BVH_READS is not valid Unicode".into())),
+        };
         Ok(RendererOptions {
             schedule,
             storage_reads,

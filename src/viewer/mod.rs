@@ -276,7 +276,7 @@ impl State {
             display: window.display_handle().map_err(handle_err)?.as_raw(),
             window: window.window_handle().map_err(handle_err)?.as_raw(),
         };
-        let ctx = Context::for_window(&options.device, Validation::from_env(), handles)?;
+        let ctx = Context::for_window(&options.device, Validation::from_env()?, handles)?;
         let mut renderer = Renderer::with_context(scene, ctx)?;
         for w in &renderer.warnings {
             eprintln!("warning: {}: {w}", scene.path.display());

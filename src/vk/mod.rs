@@ -30,12 +30,33 @@ pub enum Validation {
 }
 
 impl Validation {
-    pub fn from_env() -> Self {
+    /// Unset or empty, 0, off or false: off; 1, on or true: on; sync: on with synchronization validation. Any
+    /// other word is refused rather than silently read as off.
+    pub fn from_env() -> Result<Self, Error> {
         match std::env::var("PATHWAVE_VALIDATION").as_deref() {
-            Ok("1") | Ok("on") | Ok("true") => Validation::On,
-            Ok("sync") => Validation::Sync,
-            _ => Validation::Off,
+            Err(std::env::VarError::NotPresent) | Ok("") | Ok("0") | Ok("off") | Ok("false") => Ok(Validation::Off),
+            Ok("1") | Ok("on") | Ok("true") => Ok(Validation::On),
+            Ok("sync") => Ok(Validation::Sync),
+            Ok(other) => Err(Error::Settings(format!(
+                "PATHWAVE_VALIDATION={other}: expected 0, off, 1, on or sync"
+            ))),
+            Err(_) => Err(Error::Settings("PATHWAVE_VALIDATION is not valid Unicode".into())),
         }
+    }
+}
+
+/// The longest wait for one submission: PATHWAVE_GPU_TIMEOUT_SECS, whole seconds from 1 to a week (300 unset).
+pub fn gpu_timeout_from_env() -> Result<Duration, Error> {
+    const WEEK: u64 = 7 * 24 * 3600;
+    match std::env::var("PATHWAVE_GPU_TIMEOUT_SECS") {
+        Err(std::env::VarError::NotPresent) => Ok(Duration::from_secs(300)),
+        Ok(s) => match s.trim().parse::<u64>() {
+            Ok(n) if (1..=WEEK).contains(&n) => Ok(Duration::from_secs(n)),
+            _ => Err(Error::Settings(format!(
+                "PATHWAVE_GPU_TIMEOUT_SECS={s}: expected whole seconds from 1 to {WEEK}"
+            ))),
+        },
+        Err(_) => Err(Error::Settings("PATHWAVE_GPU_TIMEOUT_SECS is not valid Unicode".into())),
     }
 }
 
@@ -304,12 +325,7 @@ impl Context {
         let debug_device = debug
             .as_ref()
             .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
-        let fence_timeout = Duration::from_secs(
-            std::env::var("PATHWAVE_GPU_TIMEOUT_SECS")
-                .ok()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(300),
-        );
+        let fence_timeout = gpu_timeout_from_env()?;
         Ok(Context {
             instance,
             physical,
