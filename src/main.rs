@@ -5,6 +5,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use pathwave::vk::DeviceChoice;
 use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
 use std::path::PathBuf;
+
+mod cli_values;
+mod interrupt;
+use cli_values::*;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -50,11 +54,11 @@ struct EnvArgs {
     /// A uniform environment colour instead of a map: linear RGB radiance, e.g. 1,1,1.
     #[arg(long, value_parser = parse_rgb)]
     env_color: Option<[f32; 3]>,
-    /// Multiplies the environment's radiance.
-    #[arg(long, default_value = "1", allow_hyphen_values = true)]
+    /// Multiplies the environment's radiance (0 to 1e10).
+    #[arg(long, default_value = "1", value_parser = parse_intensity, allow_hyphen_values = true)]
     env_intensity: f32,
-    /// Turns the environment about the up axis (+y), in degrees.
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    /// Turns the environment about the up axis (+y), in degrees (-360 to 360).
+    #[arg(long, default_value = "0", value_parser = parse_rotation, allow_hyphen_values = true)]
     env_rotation: f32,
     /// Keeps the environment out of camera rays; it still lights the scene.
     #[arg(long)]
@@ -63,12 +67,19 @@ struct EnvArgs {
 
 impl EnvArgs {
     fn environment(&self) -> Result<Option<scene::Environment>> {
-        if !(self.env_intensity.is_finite() && self.env_intensity >= 0.0) {
-            bail!("--env-intensity must be a non-negative number");
-        }
         let mut environment = match (&self.env, self.env_color) {
             (Some(path), _) => Some(scene::Environment::load(path, self.env_intensity)?),
-            (None, Some(rgb)) => Some(scene::Environment::constant(rgb.map(|c| c * self.env_intensity))),
+            (None, Some(rgb)) => {
+                let radiance = rgb.map(|c| c * self.env_intensity);
+                if radiance.iter().any(|c| *c > scene::RADIANCE_MAX) {
+                    bail!(
+                        "--env-color times --env-intensity is {radiance:?}, above the radiance limit of {:e} per \
+                         channel",
+                        scene::RADIANCE_MAX
+                    );
+                }
+                Some(scene::Environment::constant(radiance))
+            }
             (None, None) => None,
         };
         if let Some(env) = &mut environment {
@@ -84,23 +95,23 @@ struct SceneArgs {
     /// The glTF (.gltf or .glb) scene.
     scene: PathBuf,
     /// Which camera of the file to use (to start from, in the viewer), counting from 0.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     camera: Option<usize>,
     /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
     #[arg(long)]
     device: Option<DeviceChoice>,
-    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
-    #[arg(long, value_parser = clap::value_parser!(u32))]
+    /// Longest path in bounces, at most 1024 (default: unbounded, ended by Russian roulette).
+    #[arg(long, value_parser = parse_max_depth, allow_hyphen_values = true)]
     max_depth: Option<u32>,
     /// Seed of the random sequences; the same seed gives the same bytes.
-    #[arg(long, default_value = "0")]
+    #[arg(long, default_value = "0", allow_hyphen_values = true)]
     seed: u32,
     /// Thin-lens aperture radius in scene units (metres for glTF); 0, the default, is a pinhole. In the viewer, F
     /// toggles depth of field and a right click focuses.
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    #[arg(long, default_value = "0", value_parser = parse_aperture, allow_hyphen_values = true)]
     aperture: f32,
     /// Distance to the plane in focus along the view direction (default: the camera's distance to the scene's centre).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, value_parser = parse_focus_distance, allow_hyphen_values = true)]
     focus_distance: Option<f32>,
     #[command(flatten)]
     env: EnvArgs,
@@ -134,8 +145,8 @@ struct ViewArgs {
     size: (u32, u32),
     #[command(flatten)]
     common: SceneArgs,
-    /// Exposure in stops (+ and - change it in the window).
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    /// Exposure in stops (+ and - change it in the window), -64 to 64.
+    #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
     /// Tone curve (T cycles through them in the window).
     #[arg(long, value_enum, default_value = "aces")]
@@ -159,16 +170,16 @@ struct RenderArgs {
     /// Output image; the extension picks the format (.exr or .png). Repeat to write several from one render.
     #[arg(short, long, required = true)]
     output: Vec<PathBuf>,
-    /// Samples per pixel.
-    #[arg(long, default_value = "64", value_parser = positive, allow_hyphen_values = true)]
+    /// Samples per pixel, at most 2^24.
+    #[arg(long, default_value = "64", value_parser = parse_spp, allow_hyphen_values = true)]
     spp: u32,
     /// Image size as WIDTHxHEIGHT.
     #[arg(long, default_value = "512x512", value_parser = parse_size, allow_hyphen_values = true)]
     size: (u32, u32),
     #[command(flatten)]
     common: SceneArgs,
-    /// Exposure in stops applied to PNG output.
-    #[arg(long, default_value = "0", allow_hyphen_values = true)]
+    /// Exposure in stops applied to PNG output, -64 to 64.
+    #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
@@ -183,32 +194,6 @@ struct RenderArgs {
     /// include changes. A stage that fails to compile is reported and the last image is kept. Stop with Ctrl-C.
     #[arg(long, requires = "shader_dir")]
     watch: bool,
-}
-
-fn positive(s: &str) -> Result<u32, String> {
-    match s.parse::<i64>() {
-        Ok(n) if n >= 1 && n <= u32::MAX as i64 => Ok(n as u32),
-        Ok(n) => Err(format!("{n} is not a positive number")),
-        Err(_) => Err(format!("'{s}' is not a number")),
-    }
-}
-
-fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    let values: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse::<f32>().ok()).collect();
-    match values[..] {
-        [r, g, b] if parts.len() == 3 && values.iter().all(|v| v.is_finite() && *v >= 0.0) => Ok([r, g, b]),
-        _ => Err(format!("'{s}' is not three non-negative numbers R,G,B (e.g. 1,1,1)")),
-    }
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("'{s}' is not WIDTHxHEIGHT (e.g. 640x480)"))?;
-    let w = positive(w).map_err(|e| format!("width: {e}"))?;
-    let h = positive(h).map_err(|e| format!("height: {e}"))?;
-    Ok((w, h))
 }
 
 fn main() {
@@ -229,8 +214,9 @@ fn main() {
 fn render(args: RenderArgs) -> Result<()> {
     // Refuse a bad output path before spending time on the render.
     for out in &args.output {
-        output::format_of(out)?;
+        output::check_writable(out)?;
     }
+    interrupt::install()?;
     let start = Instant::now();
     let scene = args.common.load()?;
     let mut renderer = Renderer::new(&scene, &args.common.device.clone().unwrap_or_default())?;
@@ -276,8 +262,10 @@ fn render(args: RenderArgs) -> Result<()> {
         match renderer.load_shaders(&dir, Some(&stale)) {
             Ok(rebuilt) => {
                 eprintln!("rebuilt {}", rebuilt.join(", "));
-                if let Err(e) = render_and_write(&mut renderer, &settings, &args, Instant::now()) {
-                    eprintln!("error: {e:#}");
+                match render_and_write(&mut renderer, &settings, &args, Instant::now()) {
+                    Err(e) if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) => return Err(e),
+                    Err(e) => eprintln!("error: {e:#}"),
+                    Ok(()) => {}
                 }
             }
             Err(e) => eprintln!("error: {e}\nkeeping the previous pipelines; watching for the next change"),
@@ -298,16 +286,16 @@ fn render_and_write(
     );
     let device = renderer.context().device_name();
     let warned = renderer.warnings.len();
-    let (film, stats) = renderer.render(settings, &mut |done| bar.set_position(done as u64))?;
+    // Until the files are in place, a signal stops the render after its pass rather than the process.
+    let _busy = interrupt::Busy::begin();
+    let (film, stats) = renderer.render_until(settings, &mut |done| bar.set_position(done as u64), &interrupt::STOP)?;
     bar.finish_and_clear();
     // What the renderer learned while rendering (e.g. falling back to the wavefront schedule).
     for w in &renderer.warnings[warned..] {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
     let pixels = film.mean();
-    for out in &args.output {
-        output::write_image(out, film.width, film.height, &pixels, args.exposure)?;
-    }
+    output::write_images(&args.output, film.width, film.height, &pixels, args.exposure)?;
     let names: Vec<String> = args.output.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
@@ -318,12 +306,20 @@ fn render_and_write(
         start.elapsed().as_secs_f64(),
         stats.summary()
     );
+    if film.spp < settings.spp {
+        bail!(
+            "interrupted: wrote {} with {} of {} samples per pixel",
+            names.join(", "),
+            film.spp,
+            settings.spp
+        );
+    }
     Ok(())
 }
 
 fn view(args: ViewArgs) -> Result<()> {
     if let Some(out) = &args.screenshot {
-        output::format_of(out)?;
+        output::check_writable(out)?;
     }
     let scene = args.common.load()?;
     let options = pathwave::viewer::ViewOptions {

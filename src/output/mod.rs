@@ -34,20 +34,29 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
-pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
-    let format = format_of(path)?;
-    assert_eq!(rgb.len(), width as usize * height as usize);
-    let err = |message: String| Error::Output {
+fn output_err(path: &Path, message: String) -> Error {
+    Error::Output {
         path: path.to_path_buf(),
         message,
-    };
-    let dir = match path.parent() {
+    }
+}
+
+/// The folder an output goes into ("." for a bare file name).
+fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
-    };
+    }
+}
+
+/// A temporary file beside `path`, which persisting renames onto it.
+fn temporary_beside(path: &Path, format: Format) -> Result<tempfile::NamedTempFile, Error> {
+    let dir = folder_of(path);
     if !dir.is_dir() {
-        return Err(err(format!("directory {} does not exist", dir.display())));
+        return Err(output_err(path, format!("directory {} does not exist", dir.display())));
+    }
+    if path.is_dir() {
+        return Err(output_err(path, "is a directory".into()));
     }
     let suffix = if format == Format::Exr { ".exr" } else { ".png" };
     let mut builder = tempfile::Builder::new();
@@ -55,11 +64,71 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
     // (0666 less the umask), as if written in place.
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let tmp = builder
+    builder
         .prefix(".pathwave-")
         .suffix(suffix)
         .tempfile_in(dir)
-        .map_err(|e| err(format!("cannot create a file here: {e}")))?;
+        .map_err(|e| output_err(path, format!("cannot create a file in {}: {e}", dir.display())))
+}
+
+/// Refuses an output before any rendering: an unknown extension, a missing folder, or one this process cannot
+/// create a file in (tried with a temporary file, removed at once), or a path that is a directory.
+pub fn check_writable(path: &Path) -> Result<(), Error> {
+    let format = format_of(path)?;
+    drop(temporary_beside(path, format)?);
+    Ok(())
+}
+
+/// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
+pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
+    write_images(&[path], width, height, rgb, exposure)
+}
+
+/// Writes the same pixels to several files, all or nothing: each is encoded to a temporary file beside it first,
+/// and only when every one is complete are they renamed into place. A failure before that removes the temporaries
+/// and leaves every path as it was; a rename failing removes the files already moved into place.
+pub fn write_images<P: AsRef<Path>>(
+    paths: &[P],
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<(), Error> {
+    assert_eq!(rgb.len(), width as usize * height as usize);
+    let mut encoded = Vec::with_capacity(paths.len());
+    for path in paths {
+        let path = path.as_ref();
+        let format = format_of(path)?;
+        let tmp = temporary_beside(path, format)?;
+        encode(&tmp, path, format, width, height, rgb, exposure)?;
+        encoded.push((path, tmp));
+    }
+    let mut placed: Vec<&Path> = Vec::with_capacity(encoded.len());
+    for (path, tmp) in encoded {
+        if let Err(e) = tmp.persist(path) {
+            for done in placed {
+                let _ = std::fs::remove_file(done);
+            }
+            return Err(output_err(
+                path,
+                format!("cannot move the finished file into place: {}", e.error),
+            ));
+        }
+        placed.push(path);
+    }
+    Ok(())
+}
+
+fn encode(
+    tmp: &tempfile::NamedTempFile,
+    path: &Path,
+    format: Format,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+) -> Result<(), Error> {
+    let err = |message: String| output_err(path, message);
     match format {
         Format::Exr => {
             use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
@@ -94,8 +163,6 @@ pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], expos
             w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
         }
     }
-    tmp.persist(path)
-        .map_err(|e| err(format!("cannot move the finished file into place: {}", e.error)))?;
     Ok(())
 }
 

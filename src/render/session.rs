@@ -7,6 +7,7 @@ use crate::layout::{Counters, Frame, FrameCamera};
 use crate::vk::{Buffer, TexelViews};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// A progressive render: the film and path state stay on the device between `Renderer::advance` calls, so a
@@ -62,8 +63,19 @@ impl Renderer {
         settings: &RenderSettings,
         progress: &mut dyn FnMut(u32),
     ) -> Result<(Film, RenderStats), Error> {
+        self.render_until(settings, progress, &AtomicBool::new(false))
+    }
+
+    /// `render`, ending early (between passes, so within a pass's time) once `stop` is set: the film then holds the
+    /// `film.spp` samples per pixel done so far, a valid image of fewer samples.
+    pub fn render_until(
+        &mut self,
+        settings: &RenderSettings,
+        progress: &mut dyn FnMut(u32),
+        stop: &AtomicBool,
+    ) -> Result<(Film, RenderStats), Error> {
         let mut session = self.begin(settings)?;
-        while session.done < settings.spp {
+        while session.done < settings.spp && !stop.load(Ordering::Relaxed) {
             let remaining = settings.spp - session.done;
             self.advance(&mut session, remaining)?;
             progress(session.done);

@@ -1,0 +1,440 @@
+//! Values and outputs as a careless user or a hostile file gives them: every bad number and environment word refused
+//! naming the option or variable, radiance that could overflow refused, degenerate cameras refused, outputs checked
+//! before rendering and written all or nothing, non-finite samples kept out of the film, and an interrupted render
+//! saved.
+mod common;
+
+use common::gltf_builder::GltfBuilder;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn command(args: &[&str], env: &[(&str, &str)]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    c.args(args);
+    if common::validation() == pathwave::vk::Validation::On {
+        c.env("PATHWAVE_VALIDATION", "1");
+    }
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c
+}
+
+fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
+    command(args, env).output().expect("the pathwave binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn cornell() -> String {
+    common::scenes_dir().join("cornell-box.gltf").display().to_string()
+}
+
+/// A run that must fail: non-zero exit, no panic, `needle` in the message, nothing left in `dir`.
+fn assert_refused(args: &[&str], env: &[(&str, &str)], dir: &Path, needle: &str) {
+    let before: Vec<PathBuf> = listing(dir);
+    let o = run(args, env);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{args:?} {env:?} succeeded; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?} {env:?} panicked: {err}");
+    assert!(err.contains(needle), "{args:?} {env:?}: expected {needle:?} in: {err}");
+    assert_eq!(listing(dir), before, "{args:?} {env:?} left files behind");
+}
+
+fn listing(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn every_bad_number_is_refused_naming_its_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let o = out.to_str().unwrap();
+    let cases: &[(&str, &str)] = &[
+        ("--env-rotation", "NaN"),
+        ("--env-rotation", "inf"),
+        ("--env-rotation", "1000"),
+        ("--exposure", "NaN"),
+        ("--exposure", "100"),
+        ("--env-intensity", "NaN"),
+        ("--env-intensity", "1e38"),
+        ("--env-intensity", "-1"),
+        ("--aperture", "NaN"),
+        ("--aperture", "-1"),
+        ("--aperture", "1e30"),
+        ("--focus-distance", "0"),
+        ("--focus-distance", "-inf"),
+        ("--max-depth", "4294967295"),
+        ("--max-depth", "1025"),
+        ("--max-depth", "-1"),
+        ("--spp", "0"),
+        ("--spp", "99999999"),
+        ("--size", "100000x1"),
+        ("--size", "10000x10000"),
+        ("--camera", "-1"),
+        ("--seed", "-1"),
+        ("--seed", "4294967296"),
+        ("--env-color", "3e38,1,1"),
+        ("--env-color", "NaN,1,1"),
+    ];
+    for (option, value) in cases {
+        assert_refused(&["render", &cornell(), "-o", o, option, value], &[], dir.path(), option);
+    }
+    // In range alone, out of range together.
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        o,
+        "--env-color",
+        "1e9,1,1",
+        "--env-intensity",
+        "100",
+    ];
+    assert_refused(&args, &[], dir.path(), "--env-color times --env-intensity");
+    let args = ["render", &cornell(), "-o", o, "--camera", "3"];
+    assert_refused(&args, &[], dir.path(), "--camera 3");
+}
+
+#[test]
+fn every_bad_environment_word_is_refused_naming_its_variable() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "8x8",
+        "--spp",
+        "1",
+    ];
+    for (var, value) in [
+        ("PATHWAVE_VALIDATION", "yes"),
+        ("PATHWAVE_VALIDATION", "2"),
+        ("PATHWAVE_GPU_TIMEOUT_SECS", "0"),
+        ("PATHWAVE_GPU_TIMEOUT_SECS", "-5"),
+        ("PATHWAVE_GPU_TIMEOUT_SECS", "ten"),
+        ("PATHWAVE_GPU_TIMEOUT_SECS", "1e9"),
+        ("PATHWAVE_SCHEDULE", "quick"),
+        ("PATHWAVE_BVH_READS", "texture"),
+    ] {
+        assert_refused(&args, &[(var, value)], dir.path(), &format!("{var}={value}"));
+    }
+    // The allowed words still render.
+    let env = [("PATHWAVE_BVH_READS", "texel"), ("PATHWAVE_GPU_TIMEOUT_SECS", "60")];
+    let o = run(&args, &env);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A one-quad scene lit by `light`, with a camera.
+fn lit_quad(light: impl FnOnce(&mut GltfBuilder)) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.8; 3], [0.0; 3], false);
+    b.quad(
+        "floor",
+        [[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    light(&mut b);
+    b.camera([0.0, 1.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 40.0);
+    b
+}
+
+/// An uncompressed Radiance .hdr of 4x2 texels, every one (r, g, b, e) in RGBE.
+fn write_hdr(path: &Path, rgbe: [u8; 4]) {
+    let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n".to_vec();
+    for _ in 0..8 {
+        bytes.extend_from_slice(&rgbe);
+    }
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn radiance_that_could_overflow_is_refused_naming_the_item() {
+    let emissive = lit_quad(|b| {
+        let hot = b.material("sun", [0.0; 3], [3e38, 3e38, 3e38], false);
+        b.quad(
+            "lamp",
+            [[-0.2, 2.0, -0.2], [0.2, 2.0, -0.2], [0.2, 2.0, 0.2], [-0.2, 2.0, 0.2]],
+            hot,
+            Some([0.0, -1.0, 0.0]),
+        );
+    });
+    let (dir, scene) = common::write_temp(&emissive, "hot.gltf");
+    let out = dir.path().join("out.exr");
+    let o = out.to_str().unwrap();
+    assert_refused(
+        &["render", scene.to_str().unwrap(), "-o", o],
+        &[],
+        dir.path(),
+        "material 'sun'",
+    );
+
+    let punctual = lit_quad(|b| {
+        b.punctual(
+            json!({"type": "point"}),
+            [1.0; 3],
+            3e38,
+            [0.0, 2.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        )
+    });
+    let (dir, scene) = common::write_temp(&punctual, "hot-point.gltf");
+    let out = dir.path().join("out.exr");
+    let o = out.to_str().unwrap();
+    assert_refused(
+        &["render", scene.to_str().unwrap(), "-o", o],
+        &[],
+        dir.path(),
+        "light '#0'",
+    );
+
+    // The largest RGBE exponent: finite (about 1.7e38), and Inf in the image before.
+    let sky = dir.path().join("sky.hdr");
+    write_hdr(&sky, [255, 255, 255, 255]);
+    let args = ["render", &cornell(), "-o", o, "--env", sky.to_str().unwrap()];
+    assert_refused(&args, &[], dir.path(), "sky.hdr: texel (0, 0)");
+    // A bright but physical map still renders, finite.
+    write_hdr(&sky, [128, 128, 128, 140]);
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        o,
+        "--env",
+        sky.to_str().unwrap(),
+        "--size",
+        "8x8",
+        "--spp",
+        "2",
+    ];
+    let run = run(&args, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let (_, _, px) = pathwave::output::read_exr(&out).unwrap();
+    assert!(px.iter().flatten().all(|c| c.is_finite()));
+}
+
+#[test]
+fn a_camera_of_scale_zero_is_refused() {
+    for (name, transform) in [
+        ("flat.gltf", json!({ "scale": [0.0, 0.0, 0.0] })),
+        ("squashed.gltf", json!({ "scale": [1.0, 0.0, 1.0] })),
+    ] {
+        let mut b = lit_quad(|b| {
+            let lamp = b.material("lamp", [0.0; 3], [5.0; 3], false);
+            b.quad(
+                "lamp",
+                [[-0.2, 2.0, -0.2], [0.2, 2.0, -0.2], [0.2, 2.0, 0.2], [-0.2, 2.0, 0.2]],
+                lamp,
+                Some([0.0, -1.0, 0.0]),
+            );
+        });
+        b.transform_last_node(transform);
+        let (dir, scene) = common::write_temp(&b, name);
+        let out = dir.path().join("out.exr");
+        let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
+        assert_refused(
+            &args,
+            &[],
+            dir.path(),
+            &format!("{name}: camera 0: its node's world transform has scale 0"),
+        );
+    }
+}
+
+#[test]
+fn outputs_are_checked_before_rendering_and_written_all_or_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = dir.path().join("first.exr");
+    let f = first.to_str().unwrap();
+    // --spp 16777216 would take hours: refusing in well under that shows nothing was rendered.
+    let slow = ["--spp", "16777216"];
+    let start = Instant::now();
+    let missing = dir.path().join("no/such/dir/second.png");
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        f,
+        "-o",
+        missing.to_str().unwrap(),
+        slow[0],
+        slow[1],
+    ];
+    assert_refused(&args, &[], dir.path(), "second.png: directory");
+    let a_dir = dir.path().join("folder.png");
+    std::fs::create_dir(&a_dir).unwrap();
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        f,
+        "-o",
+        a_dir.to_str().unwrap(),
+        slow[0],
+        slow[1],
+    ];
+    assert_refused(&args, &[], dir.path(), "folder.png: is a directory");
+    let args = ["render", &cornell(), "-o", f, "-o", "second.jpg", slow[0], slow[1]];
+    assert_refused(&args, &[], dir.path(), "second.jpg: unknown output format");
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "the outputs were not checked first"
+    );
+
+    // A failure at writing time (here a folder that vanished) removes what was already encoded.
+    let gone = dir.path().join("gone");
+    std::fs::create_dir(&gone).unwrap();
+    let second = gone.join("second.png");
+    std::fs::remove_dir(&gone).unwrap();
+    let err = pathwave::output::write_images(&[first.as_path(), second.as_path()], 2, 1, &[[0.5; 3]; 2], 0.0);
+    assert!(err.unwrap_err().to_string().contains("second.png"));
+    assert_eq!(
+        listing(dir.path()),
+        vec![a_dir.clone()],
+        "the first output was left behind"
+    );
+    pathwave::output::write_images(
+        &[first.as_path(), a_dir.with_extension("exr").as_path()],
+        2,
+        1,
+        &[[0.5; 3]; 2],
+        0.0,
+    )
+    .unwrap();
+    assert!(first.exists());
+}
+
+/// A render that took every sample non-finite for even pixels (an edited path.glsl) keeps them out of the film:
+/// dropped, counted in the summary, the same bytes from both schedules, and the image finite.
+#[test]
+fn non_finite_samples_are_dropped_counted_and_the_schedules_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let exported = dir.path().join("exported");
+    let o = run(&["export-shaders", exported.to_str().unwrap()], &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let path_glsl = std::fs::read_to_string(exported.join("include/path.glsl")).unwrap();
+    let anchor = "    shadow.radiance = vec3(0.0);\n";
+    assert!(path_glsl.contains(anchor), "path.glsl changed; update this test's edit");
+    let poisoned = path_glsl.replacen(
+        anchor,
+        &format!("{anchor}    if ((pixel & 1u) == 0u) {{ v.radiance = vec3(uintBitsToFloat(0x7f800000u)); return false; }}\n"),
+        1,
+    );
+    let mut images = Vec::new();
+    for stage in ["shade", "follow"] {
+        let folder = dir.path().join(stage);
+        std::fs::create_dir_all(folder.join("include")).unwrap();
+        std::fs::write(folder.join("include/path.glsl"), &poisoned).unwrap();
+        std::fs::copy(
+            exported.join(format!("{stage}.comp")),
+            folder.join(format!("{stage}.comp")),
+        )
+        .unwrap();
+        let out = dir.path().join(format!("{stage}.exr"));
+        let args = [
+            "render",
+            &cornell(),
+            "-o",
+            out.to_str().unwrap(),
+            "--size",
+            "16x8",
+            "--spp",
+            "4",
+        ];
+        let o = run(&[&args[..], &["--shader-dir", folder.to_str().unwrap()]].concat(), &[]);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        // Half of 128 pixels, 4 samples each.
+        assert!(err.contains("256 non-finite samples dropped"), "{stage}: {err}");
+        let (_, _, px) = pathwave::output::read_exr(&out).unwrap();
+        assert!(
+            px.iter().flatten().all(|c| c.is_finite()),
+            "{stage}: the film holds non-finite values"
+        );
+        assert!(
+            px.iter().step_by(2).all(|p| *p == [0.0; 3]),
+            "{stage}: a dropped sample is not a zero"
+        );
+        images.push(std::fs::read(&out).unwrap());
+    }
+    assert!(images[0] == images[1], "the two schedules differ");
+}
+
+/// No project scene yields a single non-finite sample, with either schedule.
+#[test]
+fn project_scenes_have_no_non_finite_samples() {
+    let mut scenes: Vec<PathBuf> = listing(&common::scenes_dir())
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "gltf"))
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 8);
+    let settings = common::settings(24, 16, 4, 1);
+    for path in scenes {
+        let mut r = common::renderer(&path);
+        let (_, stats) = r.render(&settings, &mut |_| {}).unwrap();
+        assert_eq!(stats.nonfinite, 0, "{}: {}", path.display(), stats.summary());
+    }
+}
+
+/// SIGTERM during a long render: the samples done so far are written as a valid EXR, with a message saying how many,
+/// and the exit is non-zero.
+#[test]
+fn sigterm_writes_the_samples_done_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("partial.exr");
+    let args = [
+        "render",
+        &cornell(),
+        "-o",
+        out.to_str().unwrap(),
+        "--size",
+        "32x32",
+        "--spp",
+        "1000000",
+    ];
+    // A signal before the render begins (loading, compiling) ends the process without an image, as it should; so
+    // wait longer on a slow machine rather than fail.
+    for wait in [3u64, 8, 20] {
+        let mut child = command(&args, &[]).stderr(Stdio::piped()).spawn().unwrap();
+        std::thread::sleep(Duration::from_secs(wait));
+        let kill = Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "the render did not stop after SIGTERM"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let o = child.wait_with_output().unwrap();
+        let err = stderr(&o);
+        assert!(!o.status.success(), "an interrupted render exited 0: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        if !out.exists() {
+            assert!(err.contains("interrupted"), "{err}");
+            continue;
+        }
+        assert!(err.contains("of 1000000 samples per pixel"), "{err}");
+        let (w, h, px) = pathwave::output::read_exr(&out).unwrap();
+        assert_eq!((w, h), (32, 32));
+        assert!(px.iter().flatten().all(|c| c.is_finite()));
+        assert!(px.iter().flatten().any(|c| *c > 0.0), "the partial image is black");
+        return;
+    }
+    panic!("the render never got past loading within 20 s");
+}
