@@ -294,6 +294,9 @@ fn render_and_write(
     for w in &renderer.warnings[warned..] {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
+    if film.spp == 0 {
+        bail!("interrupted before the first pass ended: no samples, nothing written");
+    }
     let pixels = film.mean();
     output::write_images(&args.output, film.width, film.height, &pixels, args.exposure)?;
     let names: Vec<String> = args.output.iter().map(|p| p.display().to_string()).collect();

@@ -438,3 +438,22 @@ fn sigterm_writes_the_samples_done_so_far() {
     }
     panic!("the render never got past loading within 20 s");
 }
+
+/// The library refuses what the CLI would: an environment built by a caller with a NaN rotation or radiance past
+/// the limit.
+#[test]
+fn the_renderer_refuses_an_environment_it_cannot_render() {
+    let mut scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let mut nan_rotation = pathwave::scene::Environment::constant([1.0; 3]);
+    nan_rotation.rotation = f32::NAN;
+    for (env, needle) in [
+        (nan_rotation, "rotation NaN"),
+        (pathwave::scene::Environment::constant([3e38, 1.0, 1.0]), "radiance"),
+        (pathwave::scene::Environment::constant([f32::INFINITY; 3]), "radiance"),
+    ] {
+        scene.environment = Some(env);
+        let r = pathwave::Renderer::with_validation(&scene, &pathwave::vk::DeviceChoice::Best, common::validation());
+        let err = r.err().expect("the renderer took the environment").to_string();
+        assert!(err.contains("the environment: ") && err.contains(needle), "{err}");
+    }
+}

@@ -125,6 +125,10 @@ impl Renderer {
     }
 
     pub fn with_options(scene: &Scene, ctx: Context, options: RendererOptions) -> Result<Self, Error> {
+        if let Some(env) = &scene.environment {
+            env.check()
+                .map_err(|why| Error::Settings(format!("the environment: {why}")))?;
+        }
         let packed = gpu_scene::pack(scene);
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {

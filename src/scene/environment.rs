@@ -68,6 +68,30 @@ impl Environment {
         })
     }
 
+    /// Why the renderer cannot use this environment (built by a caller rather than `load`), if it cannot: a rotation
+    /// that is not finite, or radiance that is not finite or above RADIANCE_MAX.
+    pub fn check(&self) -> Result<(), String> {
+        if !self.rotation.is_finite() {
+            return Err(format!("its rotation {} is not finite", self.rotation));
+        }
+        if self.texels.len() != self.width as usize * self.height as usize {
+            return Err(format!(
+                "it has {} texels for {}x{}",
+                self.texels.len(),
+                self.width,
+                self.height
+            ));
+        }
+        let bad = |c: &f32| !(c.is_finite() && (0.0..=crate::scene::RADIANCE_MAX).contains(c));
+        if let Some(t) = self.texels.iter().find(|t| t.iter().any(bad)) {
+            return Err(format!(
+                "its radiance {t:?} is not finite or not within 0 to {:e} per channel",
+                crate::scene::RADIANCE_MAX
+            ));
+        }
+        Ok(())
+    }
+
     /// Sampling weight of each texel: its mean radiance times sin theta at its centre (the equirectangular Jacobian).
     fn weights(&self) -> Vec<f64> {
         let (w, h) = (self.width as usize, self.height as usize);
