@@ -18,9 +18,11 @@ void main() {
     }
     vec4 sum = film[pixel];
     vec4 sum_sq = film[pixels + pixel];
+    uint dropped = 0u;
     for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-        film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
+        dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
     }
     film[pixel] = sum;
     film[pixels + pixel] = sum_sq;
+    if (dropped != 0u) atomicAdd(counters.nonfinite, dropped);
 }

@@ -16,6 +16,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     uint rays = 0u;
     uint shadow_rays = 0u;
+    uint dropped = 0u;
     uint rows = frame.path_count / frame.pass_pixels;
     uint end = rows * frame.pass_pixels;
     uint path = i + follow_first_row() * frame.pass_pixels;
@@ -50,7 +51,7 @@ void main() {
             }
             bounce++;
             if (!alive) {
-                film_add(sum, sum_sq, v.radiance);
+                dropped += film_add(sum, sum_sq, v.radiance);
                 path += frame.pass_pixels;
                 s++;
                 bounce = 0u;
@@ -72,8 +73,10 @@ void main() {
     // The wavefront's tallies, one atomic per subgroup.
     uint sum_rays = subgroupAdd(rays);
     uint sum_shadow = subgroupAdd(shadow_rays);
+    uint sum_dropped = subgroupAdd(dropped);
     if (gl_SubgroupInvocationID == 0u) {
         atomicAdd(counters.extension_rays, sum_rays);
         atomicAdd(counters.shadow_rays, sum_shadow);
+        if (sum_dropped != 0u) atomicAdd(counters.nonfinite, sum_dropped);
     }
 }

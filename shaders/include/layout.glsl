@@ -168,13 +168,17 @@ layout(std430, set = 0, binding = BINDING_FILM) buffer Film { vec4 film[]; };
 // is counted and added as a sample of zero. Zero, not skipped, so the count in w stays the spp every pixel is
 // divided by, and both schedules (which both add here) agree on it. The test is on the bits (|l| above the limit,
 // which Inf and NaN are too), so no float arithmetic changes and finite samples give the same bytes as before.
-void film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
+// Returns 1 for a dropped sample, which the caller tallies into counters.nonfinite once per invocation: an atomic
+// per sample, under lavapipe's mask, would run in follow's innermost loop.
+uint film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
+    uint dropped = 0u;
     if (any(greaterThan(floatBitsToUint(l) & 0x7fffffffu, uvec3(floatBitsToUint(SAMPLE_RADIANCE_MAX))))) {
-        atomicAdd(counters.nonfinite, 1u);
+        dropped = 1u;
         l = vec3(0.0);
     }
     sum += vec4(l, 1.0);
     sum_sq += vec4(l * l, 0.0);
+    return dropped;
 }
 // The probe kernels' records (one per invocation, inputs then outputs) live at BINDING_PROBE, each kernel declaring
 // the buffer with its own record type; the records are here so tests/layout.rs checks them against src/layout.rs.
