@@ -311,5 +311,18 @@ fn images_past_the_pixel_limit_are_refused_from_their_header() {
         hdr.to_str().unwrap(),
     ];
     assert_refused(&args, &["big.hdr: ", figure]);
+    // An .exr map too, and the option reaches it.
+    let exr = l.folder().join("sky.exr");
+    pathwave::output::write_image(&exr, 80, 60, &vec![[1.0; 3]; 80 * 60], 0.0).unwrap();
+    let mut args = args.to_vec();
+    args[5] = exr.to_str().unwrap();
+    args.extend(["--max-texture-pixels", "4799"]);
+    assert_refused(
+        &args,
+        &[
+            "sky.exr: ",
+            "80x60 = 4800 pixels, more than the 4799 --max-texture-pixels allows",
+        ],
+    );
     assert!(!out.exists());
 }
