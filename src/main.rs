@@ -35,6 +35,8 @@ enum Command {
         /// List the Vulkan devices instead (their index is what --device takes).
         #[arg(long)]
         devices: bool,
+        #[command(flatten)]
+        limits: LoadArgs,
     },
     /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
     Bench(BenchArgs),
@@ -43,6 +45,28 @@ enum Command {
         /// The folder to write into (created if missing).
         dir: PathBuf,
     },
+}
+
+/// How far a scene's files may reach, and how large its images may be: `render`, `view` and `info` share them.
+#[derive(clap::Args)]
+struct LoadArgs {
+    /// Let buffer and image URIs name files outside the scene's folder (absolute paths, `..`, `file:`, symlinks
+    /// leading out). Only for scenes you trust.
+    #[arg(long)]
+    allow_outside_paths: bool,
+    /// Largest image (texture or environment map) in pixels, checked from its header before it is decoded.
+    #[arg(long, default_value_t = scene::DEFAULT_MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
+    max_texture_pixels: u64,
+}
+
+impl LoadArgs {
+    fn options(&self, camera: Option<usize>) -> scene::LoadOptions {
+        scene::LoadOptions {
+            camera,
+            allow_outside_paths: self.allow_outside_paths,
+            max_texture_pixels: self.max_texture_pixels,
+        }
+    }
 }
 
 /// The environment options `render` and `view` share.
@@ -66,9 +90,9 @@ struct EnvArgs {
 }
 
 impl EnvArgs {
-    fn environment(&self) -> Result<Option<scene::Environment>> {
+    fn environment(&self, max_pixels: u64) -> Result<Option<scene::Environment>> {
         let mut environment = match (&self.env, self.env_color) {
-            (Some(path), _) => Some(scene::Environment::load(path, self.env_intensity)?),
+            (Some(path), _) => Some(scene::Environment::load_limited(path, self.env_intensity, max_pixels)?),
             (None, Some(rgb)) => {
                 let radiance = rgb.map(|c| c * self.env_intensity);
                 if radiance.iter().any(|c| *c > scene::RADIANCE_MAX) {
@@ -115,13 +139,15 @@ struct SceneArgs {
     focus_distance: Option<f32>,
     #[command(flatten)]
     env: EnvArgs,
+    #[command(flatten)]
+    limits: LoadArgs,
 }
 
 impl SceneArgs {
     /// The scene with the environment the options ask for.
     fn load(&self) -> Result<scene::Scene> {
-        let mut scene = scene::load(&self.scene, self.camera)?;
-        scene.environment = self.env.environment()?;
+        let mut scene = scene::load_with(&self.scene, &self.limits.options(self.camera))?;
+        scene.environment = self.env.environment(self.limits.max_texture_pixels)?;
         Ok(scene)
     }
 
@@ -201,7 +227,7 @@ fn main() {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::View(args) => view(args),
-        Command::Info { scene, devices } => info(scene, devices),
+        Command::Info { scene, devices, limits } => info(scene, devices, &limits),
         Command::ExportShaders { dir } => export_shaders(dir),
         Command::Bench(args) => bench(args),
     };
@@ -418,7 +444,7 @@ fn export_shaders(dir: PathBuf) -> Result<()> {
     Ok(())
 }
 
-fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
+fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     if devices {
         for d in pathwave::vk::list_devices()? {
             println!(
@@ -435,7 +461,7 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
     let Some(path) = path else {
         bail!("name a scene, or pass --devices")
     };
-    let scene = scene::load(&path, None).with_context(|| "cannot describe the scene")?;
+    let scene = scene::load_with(&path, &limits.options(None)).with_context(|| "cannot describe the scene")?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }

@@ -183,7 +183,7 @@ fn bad_inputs_are_refused_cleanly() {
     assert_refused(
         &["render", no_bin.to_str().unwrap(), "-o", o],
         &out,
-        "no-bin.gltf: cannot load buffer data",
+        "no-bin.gltf: buffer 0 (missing.bin): cannot load buffer data",
     );
 
     let no_tris = d.join("no-triangles.gltf");

@@ -32,13 +32,41 @@ impl Environment {
         }
     }
 
-    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`.
+    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`, with the default size limit.
     pub fn load(path: &Path, intensity: f32) -> Result<Self, Error> {
+        Self::load_limited(path, intensity, super::gltf::DEFAULT_MAX_TEXTURE_PIXELS)
+    }
+
+    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`. The path must be a regular file (checked
+    /// before it is opened: a FIFO would block), and the map at most `max_pixels`, read from its header before
+    /// anything is decoded.
+    pub fn load_limited(path: &Path, intensity: f32, max_pixels: u64) -> Result<Self, Error> {
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         if !matches!(ext.as_deref(), Some("hdr") | Some("exr")) {
             return Err(env_err(path, "environment maps must be .hdr or .exr"));
         }
-        let img = image::open(path).map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
+        let len = super::gltf::regular_len(path)
+            .map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
+        if len > super::gltf::MAX_FILE_BYTES {
+            return Err(env_err(
+                path,
+                format!(
+                    "it holds {len} bytes, more than the {} bytes a map may hold",
+                    super::gltf::MAX_FILE_BYTES
+                ),
+            ));
+        }
+        let cannot = |e: &dyn std::fmt::Display| env_err(path, format!("cannot read the environment map: {e}"));
+        let reader = || image::ImageReader::open(path).map_err(|e| cannot(&e));
+        let (width, height) = reader()?.into_dimensions().map_err(|e| cannot(&e))?;
+        super::texture::check_size(width, height, max_pixels, "--max-texture-pixels")
+            .map_err(|e| env_err(path, format!("the environment map: {e}")))?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(width);
+        limits.max_image_height = Some(height);
+        let mut reader = reader()?;
+        reader.limits(limits);
+        let img = reader.decode().map_err(|e| cannot(&e))?;
         let rgb = img.into_rgb32f();
         let (width, height) = rgb.dimensions();
         if width == 0 || height == 0 {

@@ -1,6 +1,5 @@
 //! glTF images, samplers and texture references: decoding to RGBA8 and reading KHR_texture_transform.
 use glam::Vec4;
-use std::path::{Path, PathBuf};
 
 /// Largest side of an image pathwave decodes; bigger ones are refused rather than allocated blindly.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -89,75 +88,56 @@ impl Image {
     }
 }
 
-/// Reads and decodes one glTF image. Errors are sentences for the scene's error message.
-pub fn load_image(image: &gltf::Image, base: &Path, buffers: &[gltf::buffer::Data]) -> Result<Image, String> {
-    let bytes: Vec<u8> = match image.source() {
-        gltf::image::Source::View { view, .. } => {
-            let data = buffers.get(view.buffer().index()).map(|d| &d[..]).unwrap_or(&[]);
-            let end = view.offset().checked_add(view.length());
-            match end.and_then(|e| data.get(view.offset()..e)) {
-                Some(b) => b.to_vec(),
-                None => return Err(format!("bufferView {} runs past the end of its buffer", view.index())),
-            }
-        }
-        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base)?,
-    };
-    decode(&bytes)
-}
-
-fn read_uri(uri: &str, base: &Path) -> Result<Vec<u8>, String> {
-    use base64::Engine;
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let (header, payload) = rest
-            .split_once(',')
-            .ok_or_else(|| "its data URI has no ',' before the data".to_string())?;
-        if !header.ends_with(";base64") {
-            return Err("its data URI is not base64-encoded".into());
-        }
-        return base64::engine::general_purpose::STANDARD
-            .decode(payload.trim())
-            .map_err(|e| format!("its data URI is not valid base64: {e}"));
-    }
-    let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
-        PathBuf::from(rest)
-    } else if uri.contains(':') {
-        return Err(format!("the URI '{uri}' is neither a relative path nor a data URI"));
-    } else {
-        let decoded = super::gltf::percent_decode(uri)
-            .ok_or_else(|| format!("the URI '{uri}' has percent-escapes that do not decode to UTF-8"))?;
-        base.join(decoded)
-    };
-    match std::fs::metadata(&file) {
-        Ok(m) if m.is_file() => {}
-        Ok(_) => return Err(format!("{} is not a regular file", file.display())),
-        Err(e) => return Err(format!("cannot read {}: {e}", file.display())),
-    }
-    std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
-}
-
 /// Decodes PNG or JPEG (by content, whatever the mimeType says) into RGBA8; 16-bit images are rounded to 8 bits.
-fn decode(bytes: &[u8]) -> Result<Image, String> {
-    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| format!("cannot read the image: {e}"))?;
-    match reader.format() {
+/// The size is read from the header and checked against `max_pixels` (and `MAX_IMAGE_SIDE`) before any texel is
+/// decoded, so a small file cannot make the reader allocate gigabytes. Errors are sentences for the caller.
+pub fn decode(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read the image: {e}"))
+    };
+    match reader()?.format() {
         Some(image::ImageFormat::Png | image::ImageFormat::Jpeg) => {}
         Some(f) => return Err(format!("{f:?} images are not glTF textures (PNG or JPEG)")),
         None => return Err("the image is neither PNG nor JPEG".into()),
     }
+    let (width, height) = reader()?
+        .into_dimensions()
+        .map_err(|e| format!("cannot read the image's header: {e}"))?;
+    check_size(width, height, max_pixels, "--max-texture-pixels")?;
     let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIDE);
-    limits.max_image_height = Some(MAX_IMAGE_SIDE);
-    limits.max_alloc = Some(4 * MAX_IMAGE_SIDE as u64 * MAX_IMAGE_SIDE as u64 * 2);
+    limits.max_image_width = Some(width);
+    limits.max_image_height = Some(height);
+    // Room for 16-bit RGBA, the widest layout a PNG or JPEG decodes to.
+    limits.max_alloc = Some(8 * width as u64 * height as u64 + (1 << 20));
+    let mut reader = reader()?;
     reader.limits(limits);
     let decoded = reader.decode().map_err(|e| format!("cannot decode the image: {e}"))?;
-    let rgba = decoded.to_rgba8();
+    let rgba = decoded.into_rgba8();
     let (width, height) = rgba.dimensions();
-    if width == 0 || height == 0 {
-        return Err("the image is empty".into());
-    }
     let texels = rgba.pixels().map(|p| p.0).collect();
     Ok(Image { width, height, texels })
+}
+
+/// Refuses an empty image, one with a side past `MAX_IMAGE_SIDE`, or one of more than `max_pixels` pixels
+/// (the limit named by `option`).
+pub fn check_size(width: u32, height: u32, max_pixels: u64, option: &str) -> Result<(), String> {
+    let pixels = width as u64 * height as u64;
+    if pixels == 0 {
+        return Err("the image is empty".into());
+    }
+    if pixels > max_pixels {
+        return Err(format!(
+            "the image is {width}x{height} = {pixels} pixels, more than the {max_pixels} {option} allows"
+        ));
+    }
+    if width.max(height) > MAX_IMAGE_SIDE {
+        return Err(format!(
+            "the image is {width}x{height}; a side may be at most {MAX_IMAGE_SIDE} pixels"
+        ));
+    }
+    Ok(())
 }
 
 pub fn wrap_of(mode: gltf::texture::WrappingMode) -> Wrap {

@@ -1,5 +1,5 @@
 //! Materials: the metallic-roughness factors, the extensions pathwave renders, and their textures and images.
-use super::{scene_err, Loader};
+use super::{scene_err, uri, Loader};
 use crate::error::Error;
 use crate::scene::texture::{self, Texture, TextureRef};
 use crate::scene::{AlphaMode, Material};
@@ -300,10 +300,16 @@ impl Loader<'_> {
         let image = match self.image_map.get(&source.index()) {
             Some(&i) => i,
             None => {
-                let decoded = texture::load_image(&source, self.base, self.buffers).map_err(|e| {
-                    let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
-                    scene_err(self.path, format!("image {}{name}: {e}", source.index()))
-                })?;
+                let decoded = (self.image_bytes(&source))
+                    .and_then(|bytes| texture::decode(&bytes, self.max_texture_pixels))
+                    .map_err(|e| {
+                        let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
+                        let from = match source.source() {
+                            gltf::image::Source::View { view, .. } => format!("bufferView {}", view.index()),
+                            gltf::image::Source::Uri { uri, .. } => uri::describe(uri),
+                        };
+                        scene_err(self.path, format!("image {}{name} ({from}): {e}", source.index()))
+                    })?;
                 self.scene.images.push(decoded);
                 let i = self.scene.images.len() - 1;
                 self.image_map.insert(source.index(), i);
@@ -318,5 +324,20 @@ impl Loader<'_> {
             nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
         });
         Ok(Some(self.scene.textures.len() - 1))
+    }
+
+    /// An image's encoded bytes, from its bufferView or its URI.
+    fn image_bytes(&self, image: &gltf::Image) -> Result<Vec<u8>, String> {
+        match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let data = self.buffers.get(view.buffer().index()).map(|d| &d[..]).unwrap_or(&[]);
+                let end = view.offset().checked_add(view.length());
+                match end.and_then(|e| data.get(view.offset()..e)) {
+                    Some(b) => Ok(b.to_vec()),
+                    None => Err(format!("bufferView {} runs past the end of its buffer", view.index())),
+                }
+            }
+            gltf::image::Source::Uri { uri, .. } => uri::image_bytes(self.uris, uri),
+        }
     }
 }

@@ -1,6 +1,7 @@
 //! The glTF reader: refuses malformed files with a clear error, then takes in nodes, meshes, materials and lights.
 mod materials;
 mod meshes;
+mod uri;
 mod validate;
 
 use super::{Camera, Instance, Material, PunctualKind, PunctualLight, Scene};
@@ -8,8 +9,10 @@ use crate::error::Error;
 use glam::{Mat4, Vec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
-pub(super) use validate::percent_decode;
-use validate::{check_buffer_uris, parse, pre_validate, validate};
+pub(super) use uri::regular_len;
+pub use uri::MAX_FILE_BYTES;
+use uri::{import_buffers, UriPolicy};
+use validate::{parse, pre_validate, validate};
 
 /// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
@@ -29,12 +32,44 @@ fn scene_err(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
-/// Loads a .gltf or .glb. `camera` picks the Nth camera in node order (default: the first).
-pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
-    if !path.exists() {
-        return Err(scene_err(path, "file not found"));
+/// Largest image, in pixels, the reader decodes by default (8192²); `--max-texture-pixels` changes it.
+pub const DEFAULT_MAX_TEXTURE_PIXELS: u64 = 8192 * 8192;
+
+/// How a scene is read: which camera, and how far its file may reach.
+#[derive(Clone, Debug)]
+pub struct LoadOptions {
+    /// The Nth perspective camera in node order (default: the first).
+    pub camera: Option<usize>,
+    /// Lets buffer and image URIs name files outside the scene's folder (absolute paths, `..`, `file:`).
+    pub allow_outside_paths: bool,
+    /// Images with more pixels are refused from their header, before they are decoded.
+    pub max_texture_pixels: u64,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions {
+            camera: None,
+            allow_outside_paths: false,
+            max_texture_pixels: DEFAULT_MAX_TEXTURE_PIXELS,
+        }
     }
-    let bytes = std::fs::read(path).map_err(|e| scene_err(path, format!("cannot read the file: {e}")))?;
+}
+
+/// Loads a .gltf or .glb with the default options. `camera` picks the Nth camera in node order (default: the first).
+pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
+    load_with(
+        path,
+        &LoadOptions {
+            camera,
+            ..Default::default()
+        },
+    )
+}
+
+/// Loads a .gltf or .glb. The file must be a regular one of at most `MAX_FILE_BYTES`, checked before it is opened.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
+    let bytes = uri::read_regular(path, MAX_FILE_BYTES, "a scene file may hold").map_err(|e| scene_err(path, e))?;
     // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
     if bytes.starts_with(b"glTF")
         && bytes
@@ -47,20 +82,20 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
         ));
     }
     let (json, blob) = parse(path, &bytes)?;
+    drop(bytes);
     pre_validate(path, &json)?;
     validate(path, &json)?;
     let document = gltf::Document::from_json_without_validation(json);
-    let base = path.parent().unwrap_or(Path::new("."));
-    check_buffer_uris(path, base, &document, blob.is_some())?;
-    let buffers = gltf::import_buffers(&document, Some(base), blob)
-        .map_err(|e| scene_err(path, format!("cannot load buffer data: {e}")))?;
+    let uris = UriPolicy::new(path.parent().unwrap_or(Path::new(".")), options.allow_outside_paths);
+    let buffers = import_buffers(path, &uris, &document, blob)?;
     let mut scene = Scene {
         path: path.to_path_buf(),
         ..Default::default()
     };
     Loader {
         path,
-        base,
+        uris: &uris,
+        max_texture_pixels: options.max_texture_pixels,
         buffers: &buffers,
         scene: &mut scene,
         cameras: Vec::new(),
@@ -68,14 +103,15 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
         image_map: Default::default(),
         mesh_map: Default::default(),
     }
-    .run(&document, camera)?;
+    .run(&document, options.camera)?;
     Ok(scene)
 }
 
 struct Loader<'a> {
     path: &'a Path,
-    /// The folder relative URIs resolve against.
-    base: &'a Path,
+    /// Resolves image URIs inside the scene's folder.
+    uris: &'a UriPolicy,
+    max_texture_pixels: u64,
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
     cameras: Vec<Camera>,

@@ -2,7 +2,7 @@
 //! plus what gltf would otherwise panic on or read forever from.
 use super::{scene_err, SUPPORTED_EXTENSIONS};
 use crate::error::Error;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// Parses a .gltf or .glb into its JSON root and the GLB's binary chunk.
 ///
@@ -141,64 +141,4 @@ pub(super) fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), E
         }
     }
     Ok(())
-}
-
-/// Refuses external buffer URIs gltf 1.4 would panic on (percent-escapes that decode to invalid UTF-8) or
-/// could read forever from (anything but a regular file, e.g. /dev/zero or a FIFO), and buffers without a URI
-/// beyond the GLB's one binary chunk (in a .gltf, the validator cannot see that their data is absent).
-pub(super) fn check_buffer_uris(path: &Path, base: &Path, doc: &gltf::Document, has_blob: bool) -> Result<(), Error> {
-    let mut blobs_left = usize::from(has_blob);
-    for buffer in doc.buffers() {
-        let uri = match buffer.source() {
-            gltf::buffer::Source::Uri(uri) => uri,
-            gltf::buffer::Source::Bin if blobs_left > 0 => {
-                blobs_left -= 1;
-                continue;
-            }
-            gltf::buffer::Source::Bin => {
-                return Err(scene_err(
-                    path,
-                    format!(
-                        "buffer {} has no uri and no GLB binary chunk is left for it: its data is not in the file",
-                        buffer.index()
-                    ),
-                ))
-            }
-        };
-        let err = |m: &str| scene_err(path, format!("buffer {} ({uri}): {m}", buffer.index()));
-        let file = if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
-            PathBuf::from(rest)
-        } else if uri.contains(':') {
-            continue; // data: URIs are decoded in memory; other schemes are refused by gltf
-        } else {
-            let decoded = percent_decode(uri).ok_or_else(|| err("the URI's percent-escapes do not decode to UTF-8"))?;
-            base.join(decoded)
-        };
-        if std::fs::metadata(&file).is_ok_and(|m| !m.is_file()) {
-            return Err(err("not a regular file"));
-        }
-    }
-    Ok(())
-}
-
-/// Percent-decodes a relative URI as gltf 1.4 does (malformed escapes stay literal); `None` if not UTF-8.
-pub(in crate::scene) fn percent_decode(uri: &str) -> Option<String> {
-    let b = uri.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let hex = b.get(i + 1..i + 3).filter(|h| h.iter().all(u8::is_ascii_hexdigit));
-        let hex = hex.and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
-        match (b[i], hex) {
-            (b'%', Some(v)) => {
-                out.push(v);
-                i += 3;
-            }
-            (c, _) => {
-                out.push(c);
-                i += 1;
-            }
-        }
-    }
-    String::from_utf8(out).ok()
 }
