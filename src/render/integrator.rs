@@ -112,10 +112,14 @@ impl Renderer {
             Schedule::Wavefront => {
                 let k = kernels.wavefront(ctx, variant)?;
                 let mut bounces = 0..=frame.max_depth;
-                let mut begins = true;
+                let (mut begins, mut paths_left) = (true, true);
                 loop {
-                    let batch: Vec<u32> = bounces.by_ref().take(BOUNCES_PER_SUBMISSION).collect();
-                    let ends = bounces.is_empty();
+                    // With no path queued, every bounce left would dispatch nothing: only the end of the pass remains.
+                    let batch: Vec<u32> = match paths_left {
+                        true => bounces.by_ref().take(BOUNCES_PER_SUBMISSION).collect(),
+                        false => Vec::new(),
+                    };
+                    let ends = !paths_left || bounces.is_empty();
                     record(ctx, kernels, timestamps, counters, begins, |rec| {
                         if begins {
                             rec.generate(&k, frame);
@@ -133,10 +137,7 @@ impl Renderer {
                         return Ok(());
                     }
                     begins = false;
-                    // With no path queued, every bounce left would dispatch nothing: only the end of the pass remains.
-                    if queued_rays(ctx, counters, *bounces.start())? == 0 {
-                        bounces = 1..=0;
-                    }
+                    paths_left = queued_rays(ctx, counters, *bounces.start())? > 0;
                 }
             }
             Schedule::Fused => {
