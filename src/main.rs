@@ -31,6 +31,8 @@ enum Command {
         /// List the Vulkan devices instead (their index is what --device takes).
         #[arg(long)]
         devices: bool,
+        #[command(flatten)]
+        memory: MemoryArgs,
     },
     /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
     Bench(BenchArgs),
@@ -104,12 +106,30 @@ struct SceneArgs {
     focus_distance: Option<f32>,
     #[command(flatten)]
     env: EnvArgs,
+    #[command(flatten)]
+    memory: MemoryArgs,
+}
+
+#[derive(clap::Args)]
+struct MemoryArgs {
+    /// Host memory the scene may take once placed and packed, in bytes or with a suffix (512M, 8G); a scene that
+    /// would need more is refused before it is built. Default: half of the available memory, at most 8 GiB.
+    #[arg(long, value_parser = pathwave::memory::parse_size)]
+    max_memory: Option<u64>,
+}
+
+impl MemoryArgs {
+    fn check(&self, scene: &scene::Scene) -> Result<()> {
+        let limit = self.max_memory.unwrap_or_else(pathwave::memory::default_max_memory);
+        Ok(scene.check_host_memory(limit)?)
+    }
 }
 
 impl SceneArgs {
-    /// The scene with the environment the options ask for.
+    /// The scene with the environment the options ask for, refused if it would not fit the host budget.
     fn load(&self) -> Result<scene::Scene> {
         let mut scene = scene::load(&self.scene, self.camera)?;
+        self.memory.check(&scene)?;
         scene.environment = self.env.environment()?;
         Ok(scene)
     }
@@ -216,7 +236,7 @@ fn main() {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::View(args) => view(args),
-        Command::Info { scene, devices } => info(scene, devices),
+        Command::Info { scene, devices, memory } => info(scene, devices, memory),
         Command::ExportShaders { dir } => export_shaders(dir),
         Command::Bench(args) => bench(args),
     };
@@ -419,7 +439,7 @@ fn export_shaders(dir: PathBuf) -> Result<()> {
     Ok(())
 }
 
-fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
+fn info(path: Option<PathBuf>, devices: bool, memory: MemoryArgs) -> Result<()> {
     if devices {
         for d in pathwave::vk::list_devices()? {
             println!(
@@ -437,6 +457,7 @@ fn info(path: Option<PathBuf>, devices: bool) -> Result<()> {
         bail!("name a scene, or pass --devices")
     };
     let scene = scene::load(&path, None).with_context(|| "cannot describe the scene")?;
+    memory.check(&scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }

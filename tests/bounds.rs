@@ -167,3 +167,51 @@ fn a_stage_that_runs_long_ends_at_the_gpu_timeout() {
     assert!(took < Duration::from_secs(20), "took {took:?}: {log}");
     assert!(!out.exists(), "a timed-out render wrote an image");
 }
+
+/// 25,600 nodes sharing one 79,202-triangle mesh flatten to 2 billion triangles (hundreds of GiB): refused from
+/// the instance count before anything is placed, where it used to run for a minute and die out of memory.
+#[test]
+fn a_scene_whose_flattening_exceeds_the_budget_is_refused_fast() {
+    let n = 200u32;
+    let positions: Vec<[f32; 3]> = (0..n * n)
+        .map(|i| [(i % n) as f32 / n as f32, (i / n) as f32 / n as f32, 0.0])
+        .collect();
+    let mut indices = Vec::new();
+    for y in 0..n - 1 {
+        for x in 0..n - 1 {
+            let a = y * n + x;
+            indices.extend([a, a + 1, a + n, a + 1, a + n + 1, a + n]);
+        }
+    }
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let light = b.material("light", [0.0; 3], [1.0; 3], true);
+    b.mesh("grid", &positions, &indices, light);
+    for i in 1..25_600 {
+        b.place_last_mesh("copy", serde_json::json!({ "translation": [i as f32 * 1.5, 0.0, 0.0] }));
+    }
+    let (dir, path) = common::write_temp(&b, "many.gltf");
+    let out = dir.path().join("never.exr");
+    for (args, limit) in [(&[][..], "GiB"), (&["--max-memory", "512M"][..], "512.0 MiB")] {
+        let (o, took) = run_within(
+            pathwave()
+                .arg("render")
+                .arg(&path)
+                .arg("-o")
+                .arg(&out)
+                .args(["--size", "8x8", "--spp", "1"])
+                .args(args),
+            Duration::from_secs(30),
+        );
+        let log = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && !log.contains("panicked"), "{log}");
+        assert!(
+            log.contains("many.gltf")
+                && log.contains("2027571200 triangles")
+                && log.contains(limit)
+                && log.contains("--max-memory"),
+            "{log}"
+        );
+        assert!(took < Duration::from_secs(10), "took {took:?}");
+        assert!(!out.exists());
+    }
+}
