@@ -462,7 +462,7 @@ fn info(path: Option<PathBuf>, devices: bool, memory: MemoryArgs) -> Result<()> 
         eprintln!("warning: {}: {w}", path.display());
     }
     let start = Instant::now();
-    let packed = pathwave::render::gpu_scene::pack(&scene);
+    let packed = pathwave::render::gpu_scene::try_pack(&scene)?;
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());

@@ -125,7 +125,7 @@ impl Renderer {
     }
 
     pub fn with_options(scene: &Scene, ctx: Context, options: RendererOptions) -> Result<Self, Error> {
-        let packed = gpu_scene::pack(scene);
+        let packed = gpu_scene::try_pack(scene)?;
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
             warnings.push(
