@@ -119,17 +119,22 @@ struct MemoryArgs {
 }
 
 impl MemoryArgs {
-    fn check(&self, scene: &scene::Scene) -> Result<()> {
-        let limit = self.max_memory.unwrap_or_else(pathwave::memory::default_max_memory);
-        Ok(scene.check_host_memory(limit)?)
+    fn limit(&self) -> u64 {
+        self.max_memory.unwrap_or_else(pathwave::memory::default_max_memory)
+    }
+
+    /// The scene, refused if reading it or placing its instances would not fit the budget.
+    fn load(&self, path: &std::path::Path, camera: Option<usize>) -> Result<scene::Scene> {
+        let scene = scene::load_within(path, camera, self.limit())?;
+        scene.check_host_memory(self.limit())?;
+        Ok(scene)
     }
 }
 
 impl SceneArgs {
     /// The scene with the environment the options ask for, refused if it would not fit the host budget.
     fn load(&self) -> Result<scene::Scene> {
-        let mut scene = scene::load(&self.scene, self.camera)?;
-        self.memory.check(&scene)?;
+        let mut scene = self.memory.load(&self.scene, self.camera)?;
         scene.environment = self.env.environment()?;
         Ok(scene)
     }
@@ -456,8 +461,7 @@ fn info(path: Option<PathBuf>, devices: bool, memory: MemoryArgs) -> Result<()> 
     let Some(path) = path else {
         bail!("name a scene, or pass --devices")
     };
-    let scene = scene::load(&path, None).with_context(|| "cannot describe the scene")?;
-    memory.check(&scene)?;
+    let scene = memory.load(&path, None).with_context(|| "cannot describe the scene")?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }

@@ -1,4 +1,5 @@
-//! The host memory budget: its default, `--max-memory`'s sizes (8G, 512M), and refusing a scene that would not fit.
+//! The host memory budget: its default, `--max-memory`'s sizes (8G, 512M), and refusing a file or scene that would
+//! not fit, before it is read or placed.
 use crate::error::Error;
 use crate::scene::Scene;
 
@@ -50,6 +51,22 @@ pub fn human(bytes: u64) -> String {
         unit += 1;
     }
     format!("{v:.1} {}", UNITS[unit])
+}
+
+/// Host bytes reading a glTF document takes, from its JSON alone: its buffers as declared, and every primitive's
+/// accessors decoded (at most 16 bytes an element, a vec4 of f32; indices twice, as read and as triangles).
+pub fn load_estimate(doc: &gltf::Document) -> u64 {
+    let buffers: u64 = doc.buffers().map(|b| b.length() as u64).fold(0, u64::saturating_add);
+    let decoded = doc
+        .meshes()
+        .flat_map(|m| m.primitives())
+        .flat_map(|p| {
+            let attributes = p.attributes().map(|(_, a)| a.count() as u64 * 16).collect::<Vec<_>>();
+            let indices = p.indices().map(|i| i.count() as u64 * 8);
+            attributes.into_iter().chain(indices)
+        })
+        .fold(0, u64::saturating_add);
+    buffers.saturating_add(decoded)
 }
 
 impl Scene {

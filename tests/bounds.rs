@@ -248,3 +248,24 @@ fn running_out_of_host_memory_is_an_error_not_an_abort() {
         "{log}"
     );
 }
+
+/// Reading a file is held to the budget too, from its JSON before its buffers are read: a 79k-triangle grid's 3.8
+/// MiB of buffers and decoded accessors do not fit in 1 MiB.
+#[test]
+fn a_file_too_big_to_read_within_the_budget_is_refused_before_reading() {
+    let (_dir, path) = common::write_temp(&shared_grid(1), "grid.gltf");
+    let (o, _) = run_within(
+        pathwave().arg("info").arg(&path).args(["--max-memory", "1M"]),
+        Duration::from_secs(30),
+    );
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && log.contains("grid.gltf: reading it would need about") && log.contains("1.0 MiB"),
+        "{log}"
+    );
+    let (o, _) = run_within(
+        pathwave().arg("info").arg(&path).args(["--max-memory", "64M"]),
+        Duration::from_secs(30),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

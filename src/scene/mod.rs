@@ -5,7 +5,7 @@ mod soup;
 mod tangent;
 pub mod texture;
 
-pub use self::gltf::{load, SUPPORTED_EXTENSIONS};
+pub use self::gltf::{load, load_within, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
 pub use soup::{TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};

@@ -29,8 +29,15 @@ fn scene_err(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
-/// Loads a .gltf or .glb. `camera` picks the Nth camera in node order (default: the first).
+/// Loads a .gltf or .glb. `camera` picks the Nth camera in node order (default: the first). The host memory reading
+/// it takes is held to the default budget (`memory::default_max_memory`).
 pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
+    load_within(path, camera, crate::memory::default_max_memory())
+}
+
+/// `load`, refusing a file whose buffers and decoded mesh data would take more than `max_memory` bytes of host
+/// memory, before they are read.
+pub fn load_within(path: &Path, camera: Option<usize>, max_memory: u64) -> Result<Scene, Error> {
     if !path.exists() {
         return Err(scene_err(path, "file not found"));
     }
@@ -50,6 +57,18 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
     pre_validate(path, &json)?;
     validate(path, &json)?;
     let document = gltf::Document::from_json_without_validation(json);
+    let need = crate::memory::load_estimate(&document);
+    if need > max_memory {
+        return Err(scene_err(
+            path,
+            format!(
+                "reading it would need about {} of host memory (its buffers and decoded meshes), over the limit \
+                 of {} (--max-memory)",
+                crate::memory::human(need),
+                crate::memory::human(max_memory)
+            ),
+        ));
+    }
     let base = path.parent().unwrap_or(Path::new("."));
     check_buffer_uris(path, base, &document, blob.is_some())?;
     let buffers = gltf::import_buffers(&document, Some(base), blob)
