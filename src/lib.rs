@@ -4,6 +4,7 @@ pub mod bvh;
 pub mod constants;
 pub mod error;
 pub mod layout;
+pub mod memory;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -57,6 +57,10 @@ struct LoadArgs {
     /// Largest image (texture or environment map) in pixels, checked from its header before it is decoded.
     #[arg(long, default_value_t = scene::DEFAULT_MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
     max_texture_pixels: u64,
+    /// Host memory the scene may take once read, placed and packed, in bytes or with a suffix (512M, 8G); a scene
+    /// that would need more is refused before it is built. Default: half of the available memory, at most 8 GiB.
+    #[arg(long, value_parser = pathwave::memory::parse_size)]
+    max_memory: Option<u64>,
 }
 
 impl LoadArgs {
@@ -65,7 +69,19 @@ impl LoadArgs {
             camera,
             allow_outside_paths: self.allow_outside_paths,
             max_texture_pixels: self.max_texture_pixels,
+            max_memory: self.max_memory(),
         }
+    }
+
+    fn max_memory(&self) -> u64 {
+        self.max_memory.unwrap_or_else(pathwave::memory::default_max_memory)
+    }
+
+    /// The scene, refused if reading it or placing its instances would not fit the host memory budget.
+    fn load(&self, path: &std::path::Path, camera: Option<usize>) -> Result<scene::Scene> {
+        let scene = scene::load_with(path, &self.options(camera))?;
+        scene.check_host_memory(self.max_memory())?;
+        Ok(scene)
     }
 }
 
@@ -124,7 +140,7 @@ struct SceneArgs {
     /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
     #[arg(long)]
     device: Option<DeviceChoice>,
-    /// Longest path in bounces, at most 1024 (default: unbounded, ended by Russian roulette).
+    /// Longest path in bounces (default: unbounded, ended by Russian roulette).
     #[arg(long, value_parser = parse_max_depth, allow_hyphen_values = true)]
     max_depth: Option<u32>,
     /// Seed of the random sequences; the same seed gives the same bytes.
@@ -144,9 +160,9 @@ struct SceneArgs {
 }
 
 impl SceneArgs {
-    /// The scene with the environment the options ask for.
+    /// The scene with the environment the options ask for, refused if it would not fit the host budget.
     fn load(&self) -> Result<scene::Scene> {
-        let mut scene = scene::load_with(&self.scene, &self.limits.options(self.camera))?;
+        let mut scene = self.limits.load(&self.scene, self.camera)?;
         scene.environment = self.env.environment(self.limits.max_texture_pixels)?;
         Ok(scene)
     }
@@ -461,12 +477,12 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     let Some(path) = path else {
         bail!("name a scene, or pass --devices")
     };
-    let scene = scene::load_with(&path, &limits.options(None)).with_context(|| "cannot describe the scene")?;
+    let scene = limits.load(&path, None).with_context(|| "cannot describe the scene")?;
     for w in &scene.warnings {
         eprintln!("warning: {}: {w}", path.display());
     }
     let start = Instant::now();
-    let packed = pathwave::render::gpu_scene::pack(&scene);
+    let packed = pathwave::render::gpu_scene::try_pack(&scene)?;
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());

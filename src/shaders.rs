@@ -1,10 +1,17 @@
 //! Run-time shader compilation for user stages and hot reload: glslang on a shader folder, include tracking, watching.
 use crate::error::Error;
 use std::collections::BTreeSet;
+use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output, Stdio};
 use std::sync::mpsc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
+
+/// glslang compiles any stage in well under a second; one still running after this is stuck, and is killed.
+const COMPILE_TIME_LIMIT: Duration = Duration::from_secs(60);
+/// The address space glslang may use: a stage needs tens of MiB, and a runaway preprocessor is stopped here rather
+/// than by the machine running out of memory.
+const COMPILE_MEMORY_LIMIT: u64 = 4 << 30;
 
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
@@ -116,10 +123,19 @@ impl ShaderDir {
     }
 
     /// Compiles one stage to SPIR-V. The error is glslang's own report, whose lines read
-    /// `ERROR: /path/stage.comp:LINE: message`.
+    /// `ERROR: /path/stage.comp:LINE: message`. A stage whose includes form a cycle is refused before glslang runs
+    /// (glslang would expand it until memory runs out), and glslang itself runs under a time and memory limit.
     pub fn compile(&self, stage: &str) -> Result<Vec<u8>, Error> {
         let (base, define) = source_of(stage);
         let src = self.root.join(format!("{base}.comp"));
+        if let Some(cycle) = self.include_cycle(stage) {
+            let names: Vec<String> = cycle.iter().map(|p| p.display().to_string()).collect();
+            return Err(Error::Shader(format!(
+                "{}: #include cycle: {}",
+                src.display(),
+                names.join(" -> ")
+            )));
+        }
         let out = self.generated.path().join(format!("{stage}.spv"));
         let mut cmd = Command::new(glslang());
         // Vulkan 1.1 / SPIR-V 1.3 like build.rs: the same compiler flags as the built-in stages.
@@ -130,56 +146,92 @@ impl ShaderDir {
         for dir in self.include_dirs() {
             cmd.arg(format!("-I{}", dir.display()));
         }
-        let output = cmd
-            .arg("-o")
-            .arg(&out)
-            .arg(&src)
-            .output()
-            .map_err(|e| Error::Shader(format!("cannot run {}: {e} (install glslang-tools)", glslang())))?;
+        cmd.arg("-o").arg(&out).arg(&src);
+        let output = run_limited(cmd)?;
         if !output.status.success() {
-            let text: Vec<String> = String::from_utf8_lossy(&output.stdout)
+            let mut text: Vec<String> = String::from_utf8_lossy(&output.stdout)
                 .lines()
                 .chain(String::from_utf8_lossy(&output.stderr).lines())
                 .map(str::trim)
                 .filter(|l| !l.is_empty() && *l != src.display().to_string())
                 .map(str::to_string)
                 .collect();
+            if let Some(signal) = std::os::unix::process::ExitStatusExt::signal(&output.status) {
+                text.push(format!(
+                    "{}: {} was killed by signal {signal} (it may use at most {} GiB of address space)",
+                    src.display(),
+                    glslang(),
+                    COMPILE_MEMORY_LIMIT >> 30
+                ));
+            }
             return Err(Error::Shader(text.join("\n")));
         }
         std::fs::read(&out).map_err(|e| Error::Shader(format!("{stage}: cannot read glslang's output: {e}")))
     }
 
-    /// The files a stage reads: its `.comp` and everything it includes, transitively, as canonical paths.
-    pub fn dependencies(&self, stage: &str) -> BTreeSet<PathBuf> {
-        let mut seen = BTreeSet::new();
-        let mut todo = vec![self.root.join(format!("{}.comp", source_of(stage).0))];
-        while let Some(file) = todo.pop() {
-            let file = file.canonicalize().unwrap_or(file);
-            if !seen.insert(file.clone()) {
-                continue;
-            }
-            let Ok(text) = std::fs::read_to_string(&file) else {
-                continue;
-            };
-            for line in text.lines() {
-                let Some(rest) = line.trim_start().strip_prefix("#include") else {
-                    continue;
-                };
-                let Some(name) = rest.trim().strip_prefix('"').and_then(|r| r.split('"').next()) else {
-                    continue;
-                };
-                // glslang looks beside the including file first, then in the -I folders.
+    /// The files `file` includes that exist, as canonical paths. glslang looks beside the including file first,
+    /// then in the -I folders.
+    fn includes(&self, file: &Path) -> Vec<PathBuf> {
+        let Ok(text) = std::fs::read_to_string(file) else {
+            return Vec::new();
+        };
+        let dirs = self.include_dirs();
+        text.lines()
+            .filter_map(|line| line.trim_start().strip_prefix("#include"))
+            .filter_map(|rest| rest.trim().strip_prefix('"').and_then(|r| r.split('"').next()))
+            .filter_map(|name| {
                 let here = file.parent().map(|d| d.join(name));
                 let found = here
                     .into_iter()
-                    .chain(self.include_dirs().iter().map(|d| d.join(name)))
+                    .chain(dirs.iter().map(|d| d.join(name)))
                     .find(|p| p.is_file());
-                if let Some(p) = found {
-                    todo.push(p);
-                }
+                found.map(|p| p.canonicalize().unwrap_or(p))
+            })
+            .collect()
+    }
+
+    /// The files a stage reads: its `.comp` and everything it includes, transitively, as canonical paths.
+    pub fn dependencies(&self, stage: &str) -> BTreeSet<PathBuf> {
+        let mut seen = BTreeSet::new();
+        let mut todo = vec![self.stage_file(stage)];
+        while let Some(file) = todo.pop() {
+            if seen.insert(file.clone()) {
+                todo.extend(self.includes(&file));
             }
         }
         seen
+    }
+
+    fn stage_file(&self, stage: &str) -> PathBuf {
+        let file = self.root.join(format!("{}.comp", source_of(stage).0));
+        file.canonicalize().unwrap_or(file)
+    }
+
+    /// A chain of includes from a stage that comes back to a file already on it (first and last the same file), if
+    /// any. Every cycle is refused, even one include guards would stop: they cannot be checked without
+    /// preprocessing, and the built-in includes have none.
+    pub fn include_cycle(&self, stage: &str) -> Option<Vec<PathBuf>> {
+        // Depth-first, with the chain from the stage to the current file; `done` holds files fully explored.
+        let mut done = BTreeSet::new();
+        let mut chain: Vec<(PathBuf, Vec<PathBuf>)> = Vec::new();
+        let root = self.stage_file(stage);
+        chain.push((root.clone(), self.includes(&root)));
+        while let Some((_, pending)) = chain.last_mut() {
+            let Some(next) = pending.pop() else {
+                done.insert(chain.pop().map(|(f, _)| f)?);
+                continue;
+            };
+            if let Some(at) = chain.iter().position(|(f, _)| *f == next) {
+                let mut cycle: Vec<PathBuf> = chain[at..].iter().map(|(f, _)| f.clone()).collect();
+                cycle.push(next);
+                return Some(cycle);
+            }
+            if !done.contains(&next) {
+                let inc = self.includes(&next);
+                chain.push((next, inc));
+            }
+        }
+        None
     }
 
     /// The stages (of `stages()`) that read any of `changed`, which may be paths of files since deleted or renamed.
@@ -197,6 +249,64 @@ impl ShaderDir {
         });
         stages
     }
+}
+
+/// Runs `cmd` to completion with its output captured, its address space limited to COMPILE_MEMORY_LIMIT and its
+/// run killed after COMPILE_TIME_LIMIT.
+fn run_limited(mut cmd: Command) -> Result<Output, Error> {
+    use std::os::unix::process::CommandExt;
+    let cannot = |e: std::io::Error| Error::Shader(format!("cannot run {}: {e} (install glslang-tools)", glslang()));
+    // SAFETY: between fork and exec the hook calls only setrlimit, which is async-signal-safe.
+    unsafe {
+        cmd.pre_exec(|| {
+            let limit = libc::rlimit {
+                rlim_cur: COMPILE_MEMORY_LIMIT as libc::rlim_t,
+                rlim_max: COMPILE_MEMORY_LIMIT as libc::rlim_t,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(cannot)?;
+    // Read both pipes while waiting, so a chatty compiler never blocks on a full pipe.
+    fn drain(pipe: Option<impl Read + Send + 'static>) -> std::thread::JoinHandle<Vec<u8>> {
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_end(&mut bytes);
+            }
+            bytes
+        })
+    }
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().map_err(cannot)? {
+            break status;
+        }
+        if start.elapsed() > COMPILE_TIME_LIMIT {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(Error::Shader(format!(
+                "{} did not finish within {} s and was stopped",
+                glslang(),
+                COMPILE_TIME_LIMIT.as_secs()
+            )));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    Ok(Output {
+        status,
+        stdout: stdout.join().unwrap_or_default(),
+        stderr: stderr.join().unwrap_or_default(),
+    })
 }
 
 /// The source file (without `.comp`) a stage is compiled from, and the define of its variant, if it is one.

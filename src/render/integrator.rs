@@ -1,12 +1,17 @@
 //! One pass of the integrator on the device: generate, then extend / shade / connect per bounce, then accumulate
 //! (the wavefront), or follow then accumulate (fused). Each stage is a method; `pass` reads like the algorithm.
+//! The wavefront's bounces go to the device in batches, so a deep `--max-depth` costs no host memory.
 use super::kernels::{Built, FusedKernels, Kernels, WavefrontKernels};
 use super::{Renderer, Schedule};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{Frame, COUNTERS_DISPATCH_OFFSET};
+use crate::layout::{Counters, Frame, COUNTERS_DISPATCH_OFFSET};
 use crate::vk::{Buffer, Context, Timestamps};
 use ash::vk;
+
+/// Bounces recorded into one submission. A command buffer's host memory grows with what it holds, so a pass records
+/// its bounces in batches of this many and, between batches, reads whether any path is left (a tiny download).
+pub const BOUNCES_PER_SUBMISSION: usize = 16;
 
 /// Records one pass's dispatches into a command buffer, each timed under its stage's name and followed by a barrier.
 struct Recorder<'a> {
@@ -69,6 +74,14 @@ impl Recorder<'_> {
         self.run_queued(k.connect, frame);
     }
 
+    /// One bounce of every queued path: `frame` is `at_bounce` the bounce.
+    fn bounce(&mut self, k: &WavefrontKernels, frame: &Frame) {
+        self.queue_args(k, frame);
+        self.extend(k, frame);
+        self.shade(k, frame);
+        self.connect(k, frame);
+    }
+
     /// `rows` sample rows from `first_row`, each invocation one pixel's samples from camera to end.
     fn follow(&mut self, k: &FusedKernels, frame: &Frame, first_row: u32, rows: u32) {
         let f = frame.follow_rows(first_row, first_row + rows);
@@ -82,7 +95,8 @@ impl Recorder<'_> {
 }
 
 impl Renderer {
-    /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce, in one submission.
+    /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce: the fused schedule in one
+    /// submission, the wavefront in batches of bounces that end once no path is left.
     pub(super) fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
         let lens = if frame.aperture() > 0.0 { FEATURE_LENS } else { 0 };
         self.kernels.set_features(self.scene.features | lens);
@@ -97,23 +111,38 @@ impl Renderer {
         match schedule {
             Schedule::Wavefront => {
                 let k = kernels.wavefront(ctx, variant)?;
-                record(ctx, kernels, timestamps, counters, |rec| {
-                    rec.generate(&k, frame);
-                    for bounce in 0..=frame.max_depth {
-                        let f = frame.at_bounce(bounce);
-                        rec.queue_args(&k, &f);
-                        rec.extend(&k, &f);
-                        rec.shade(&k, &f);
-                        rec.connect(&k, &f);
+                let mut bounces = 0..=frame.max_depth;
+                let (mut begins, mut paths_left) = (true, true);
+                loop {
+                    // With no path queued, every bounce left would dispatch nothing: only the end of the pass remains.
+                    let batch: Vec<u32> = match paths_left {
+                        true => bounces.by_ref().take(BOUNCES_PER_SUBMISSION).collect(),
+                        false => Vec::new(),
+                    };
+                    let ends = !paths_left || bounces.is_empty();
+                    record(ctx, kernels, timestamps, counters, begins, |rec| {
+                        if begins {
+                            rec.generate(&k, frame);
+                        }
+                        for &bounce in &batch {
+                            rec.bounce(&k, &frame.at_bounce(bounce));
+                        }
+                        if ends {
+                            // After the last bounce only the shadow-ray tally remains (queue_args.comp).
+                            rec.queue_args(&k, &frame.after_last_bounce());
+                            rec.accumulate(k.accumulate, frame);
+                        }
+                    })?;
+                    if ends {
+                        return Ok(());
                     }
-                    // After the last bounce only the shadow-ray tally remains (queue_args.comp).
-                    rec.queue_args(&k, &frame.after_last_bounce());
-                    rec.accumulate(k.accumulate, frame);
-                })
+                    begins = false;
+                    paths_left = queued_rays(ctx, counters, *bounces.start())? > 0;
+                }
             }
             Schedule::Fused => {
                 let k = kernels.fused(ctx, variant)?;
-                record(ctx, kernels, timestamps, counters, |rec| {
+                record(ctx, kernels, timestamps, counters, true, |rec| {
                     // Each invocation keeps its pixel's running film sums itself (FLAG_FUSED_SUMS).
                     let f = frame.with_fused_sums();
                     let rows = frame.path_count / frame.pass_pixels;
@@ -127,16 +156,20 @@ impl Renderer {
     }
 }
 
-/// Records a pass into one submission with cleared counters and the timestamps reset, and waits for it.
+/// Records (part of) a pass into one submission and waits for it. The submission that `begins` the pass clears the
+/// counters and resets the timestamps; later ones keep both, so the pass's tallies and stage times add up.
 fn record(
     ctx: &Context,
     kernels: &Kernels,
     ts: &mut Timestamps,
     counters: &Buffer,
+    begins: bool,
     body: impl FnOnce(&mut Recorder),
 ) -> Result<(), Error> {
     ctx.submit_and_wait(|cmd| {
-        ts.reset(cmd);
+        if begins {
+            ts.reset(cmd);
+        }
         let mut rec = Recorder {
             ctx,
             kernels,
@@ -144,7 +177,15 @@ fn record(
             counters,
             cmd,
         };
-        rec.clear_counters();
+        if begins {
+            rec.clear_counters();
+        }
         body(&mut rec);
     })
+}
+
+/// Rays queued for `bounce`: the paths still alive when it begins.
+fn queued_rays(ctx: &Context, counters: &Buffer, bounce: u32) -> Result<u32, Error> {
+    let c: Counters = counters.download(ctx)?[0];
+    Ok(c.queue_count[(bounce & 1) as usize])
 }

@@ -348,6 +348,9 @@ impl Kernels {
 
 impl Drop for Kernels {
     fn drop(&mut self) {
+        if crate::vk::device_lost() {
+            return;
+        }
         for (_, p) in self.built.drain() {
             self.pipelines.destroy(p);
         }

@@ -129,7 +129,7 @@ impl Renderer {
             env.check()
                 .map_err(|why| Error::Settings(format!("the environment: {why}")))?;
         }
-        let packed = gpu_scene::pack(scene);
+        let packed = gpu_scene::try_pack(scene)?;
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
             warnings.push(

@@ -1,5 +1,6 @@
 //! The world-space triangle soup the renderer packs, and `Scene::flatten`, which places every instance to make it.
 use super::{tangent, Primitive, Scene};
+use crate::error::Error;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 /// One world-space triangle and its per-vertex shading data: what `TriangleSoup::push` takes.
@@ -29,6 +30,17 @@ pub struct TriangleSoup {
 }
 
 impl TriangleSoup {
+    /// Room for `n` triangles (COLOR_0 aside, which few scenes have), or the allocator's refusal.
+    fn try_with_capacity(n: usize) -> Result<Self, std::collections::TryReserveError> {
+        let mut soup = TriangleSoup::default();
+        soup.positions.try_reserve_exact(n)?;
+        soup.normals.try_reserve_exact(n)?;
+        soup.texcoords.try_reserve_exact(n)?;
+        soup.tangents.try_reserve_exact(n)?;
+        soup.material.try_reserve_exact(n)?;
+        Ok(soup)
+    }
+
     pub fn push(&mut self, t: WorldTriangle) {
         self.positions.push(t.positions);
         self.normals.push(t.normals);
@@ -185,11 +197,30 @@ impl Scene {
     /// without area. The arithmetic is the loader's before meshes were shared, so images stay byte for byte the same.
     pub fn flatten(&self) -> TriangleSoup {
         let mut soup = TriangleSoup::default();
+        self.flatten_into(&mut soup);
+        soup
+    }
+
+    /// `flatten`, with the soup's memory reserved first, so a host out of memory is an error rather than an abort.
+    pub fn try_flatten(&self) -> Result<TriangleSoup, Error> {
+        let n = self.flattened_triangle_bound();
+        let mut soup = usize::try_from(n)
+            .ok()
+            .and_then(|n| TriangleSoup::try_with_capacity(n).ok())
+            .ok_or_else(|| Error::Scene {
+                path: self.path.clone(),
+                message: format!("out of host memory placing its {n} triangles"),
+            })?;
+        self.flatten_into(&mut soup);
+        Ok(soup)
+    }
+
+    fn flatten_into(&self, soup: &mut TriangleSoup) {
         for instance in &self.instances {
             let placement = Placement::new(instance.world_from_object);
             for p in &self.meshes[instance.mesh].primitives {
                 let first = soup.len();
-                placement.push_primitive(p, &mut soup);
+                placement.push_primitive(p, soup);
                 // Generated per instance on world-space triangles, as the loader did before meshes were shared: the
                 // same tangents to the last bit. The two-level BVH moves this to object space, once per mesh.
                 if let (Some(r), None) = (self.materials[p.material as usize].normal_texture, &p.tangents) {
@@ -197,7 +228,6 @@ impl Scene {
                 }
             }
         }
-        soup
     }
 
     /// The material and world-space vertices of every triangle `flatten` emits, in its order, without the shading data.

@@ -254,6 +254,9 @@ unsafe fn transition(
 
 impl Drop for Swapchain {
     fn drop(&mut self) {
+        if crate::vk::device_lost() {
+            return;
+        }
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.free_command_buffers(self.pool, &[self.cmd]);

@@ -127,6 +127,9 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if super::device_lost() {
+            return;
+        }
         if let Some(a) = self.allocation.take() {
             if let Ok(mut alloc) = self.allocator.lock() {
                 let _ = alloc.free(a);
@@ -165,6 +168,9 @@ impl TexelViews {
 
 impl Drop for TexelViews {
     fn drop(&mut self) {
+        if super::device_lost() {
+            return;
+        }
         for (_, view) in &self.views {
             unsafe { self.device.destroy_buffer_view(*view, None) };
         }

@@ -10,10 +10,22 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 use std::ffi::{c_void, CStr};
 use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Set when a submission outlived PATHWAVE_GPU_TIMEOUT_SECS. The device may then run (or hang) for ever, so from then
+/// on nothing waits for it and nothing it may still use is destroyed: every Drop of a Vulkan object in this crate
+/// leaks instead, and the process's exit reclaims the memory. Process-wide because one hung device is reason enough
+/// to stop touching Vulkan at all.
+static DEVICE_LOST: AtomicBool = AtomicBool::new(false);
+
+/// Whether a submission timed out (see DEVICE_LOST): if so, Vulkan objects are leaked rather than destroyed.
+pub fn device_lost() -> bool {
+    DEVICE_LOST.load(Ordering::Relaxed)
+}
 
 impl From<vk::Result> for Error {
     fn from(r: vk::Result) -> Self {
@@ -408,21 +420,24 @@ impl Context {
                 d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cmds)], fence)?;
                 match d.wait_for_fences(&[fence], true, self.fence_timeout.as_nanos() as u64) {
                     Ok(()) => Ok(()),
-                    Err(vk::Result::TIMEOUT) => Err(Error::Vulkan(format!(
-                        "the device did not finish within {} s (PATHWAVE_GPU_TIMEOUT_SECS); it may be hung",
-                        self.fence_timeout.as_secs()
-                    ))),
+                    Err(vk::Result::TIMEOUT) => {
+                        DEVICE_LOST.store(true, Ordering::Relaxed);
+                        Err(Error::Vulkan(format!(
+                            "the device did not finish within {} s (PATHWAVE_GPU_TIMEOUT_SECS); it may be hung",
+                            self.fence_timeout.as_secs()
+                        )))
+                    }
                     Err(e) => Err(e.into()),
                 }
             }
         })();
-        unsafe {
-            if result.is_ok() {
-                d.free_command_buffers(self.pool, &[cmd]);
-                d.destroy_fence(fence, None);
-            } else {
-                // After a timeout the device may still use them; waiting for idle before freeing keeps that legal.
-                let _ = d.device_wait_idle();
+        // A timed-out submission may still be running: its command buffer and fence are leaked, not freed.
+        if !device_lost() {
+            unsafe {
+                if result.is_err() {
+                    // A submission that failed some other way may have reached the queue: let it finish first.
+                    let _ = d.device_wait_idle();
+                }
                 d.free_command_buffers(self.pool, &[cmd]);
                 d.destroy_fence(fence, None);
             }
@@ -459,6 +474,9 @@ impl Context {
 
 impl Drop for Context {
     fn drop(&mut self) {
+        if device_lost() {
+            return;
+        }
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.pool, None);

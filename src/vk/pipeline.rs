@@ -198,6 +198,9 @@ impl Pipelines {
 
 impl Drop for Pipelines {
     fn drop(&mut self) {
+        if super::device_lost() {
+            return;
+        }
         unsafe {
             self.device.destroy_descriptor_pool(self.pool, None);
             self.device.destroy_pipeline_layout(self.layout, None);
@@ -295,6 +298,9 @@ pub fn add_labelled(sums: &mut Vec<(&'static str, f64)>, label: &'static str, va
 
 impl Drop for Timestamps {
     fn drop(&mut self) {
+        if super::device_lost() {
+            return;
+        }
         unsafe { self.device.destroy_query_pool(self.pool, None) };
     }
 }

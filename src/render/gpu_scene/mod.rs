@@ -1,7 +1,7 @@
 //! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
 mod pack;
 
-pub use pack::{emitted_power, mean_emission, pack, PackedScene};
+pub use pack::{emitted_power, mean_emission, pack, try_pack, PackedScene};
 
 use crate::constants::*;
 use crate::error::Error;

@@ -1,6 +1,7 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
+use crate::error::Error;
 use crate::layout::{
     GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriColors, TriShading, TriTangents, TriTexcoords,
     TriVerts,
@@ -171,12 +172,37 @@ fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
 /// A light's entry before the table is made: (light id, power in W, area for a triangle).
 type Emitter = (u32, f64, f32);
 
+/// The BVH build's peak host memory per triangle: boxes, centroids and order (40), the binary nodes (up to two of 32
+/// per triangle), the wide nodes and the final order.
+const BVH_BUILD_BYTES_PER_TRIANGLE: usize = 160;
+
+/// `try_pack` for scenes known to fit (tests, the benchmark): out of host memory, it panics.
 pub fn pack(scene: &Scene) -> PackedScene {
-    let soup = scene.flatten();
+    try_pack(scene).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The scene packed for the device. The big arrays (the soup, the packed triangles) are reserved fallibly, so a
+/// host out of memory is an error naming the scene rather than an abort.
+pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
+    let soup = scene.try_flatten()?;
+    // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
+    // give it an error here; memory that runs out during the build (taken by another process) still aborts.
+    if Vec::<u8>::new()
+        .try_reserve_exact(soup.len().saturating_mul(BVH_BUILD_BYTES_PER_TRIANGLE))
+        .is_err()
+    {
+        return Err(Error::Scene {
+            path: scene.path.clone(),
+            message: format!("out of host memory building the BVH of its {} triangles", soup.len()),
+        });
+    }
     let start = std::time::Instant::now();
     let bvh = bvh::build(soup.positions());
     let bvh_build = start.elapsed();
-    let mut t = pack_triangles(scene, &soup, &bvh.order);
+    let mut t = pack_triangles(scene, &soup, &bvh.order).ok_or_else(|| Error::Scene {
+        path: scene.path.clone(),
+        message: format!("out of host memory packing its {} triangles", soup.len()),
+    })?;
     let (lo, hi) = soup.bounds();
     let radius = if soup.is_empty() {
         1.0
@@ -194,7 +220,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
     }
     let (lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading);
     let (textures, texels) = pack_textures(scene);
-    PackedScene {
+    Ok(PackedScene {
         bvh_build,
         bvh,
         tri_verts: t.tri_verts,
@@ -210,7 +236,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
         tri_texcoords: t.tri_texcoords,
         tri_tangents: t.tri_tangents,
         tri_colors: t.tri_colors,
-    }
+    })
 }
 
 /// The per-triangle buffers in BVH order, and the emissive triangles.
@@ -223,9 +249,16 @@ struct PackedTriangles {
     emitters: Vec<Emitter>,
 }
 
+/// An empty vector with room for `n`, or None when the host cannot give it.
+fn try_vec<T>(n: usize) -> Option<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).ok()?;
+    Some(v)
+}
+
 /// The soup's triangles in `order` (the BVH's): texture coordinates only when some material has a texture,
 /// tangents only when some has a normal map, colours only when some mesh has COLOR_0.
-fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> PackedTriangles {
+fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> Option<PackedTriangles> {
     let n = soup.len();
     let textured = scene
         .materials
@@ -233,11 +266,11 @@ fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> PackedTr
         .any(|m| m.texture_refs().iter().any(Option::is_some));
     let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
     let mut t = PackedTriangles {
-        tri_verts: Vec::with_capacity(n),
-        tri_shading: Vec::with_capacity(n),
-        tri_texcoords: Vec::with_capacity(if textured { n } else { 0 }),
-        tri_tangents: Vec::with_capacity(if normal_mapped { n } else { 0 }),
-        tri_colors: Vec::with_capacity(soup.colors().len()),
+        tri_verts: try_vec(n)?,
+        tri_shading: try_vec(n)?,
+        tri_texcoords: try_vec(if textured { n } else { 0 })?,
+        tri_tangents: try_vec(if normal_mapped { n } else { 0 })?,
+        tri_colors: try_vec(soup.colors().len())?,
         emitters: Vec::new(),
     };
     for (slot, &orig) in order.iter().enumerate() {
@@ -274,7 +307,7 @@ fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> PackedTr
             t.emitters.push((slot as u32, p, area));
         }
     }
-    t
+    Some(t)
 }
 
 /// Punctual lights for the device, and each as an emitter by its emitted power; a directional one by what crosses

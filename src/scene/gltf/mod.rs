@@ -44,6 +44,9 @@ pub struct LoadOptions {
     pub allow_outside_paths: bool,
     /// Images with more pixels are refused from their header, before they are decoded.
     pub max_texture_pixels: u64,
+    /// Host memory the buffers and decoded meshes may take; a file that would need more is refused before they are
+    /// read (`--max-memory`).
+    pub max_memory: u64,
 }
 
 impl Default for LoadOptions {
@@ -52,6 +55,7 @@ impl Default for LoadOptions {
             camera: None,
             allow_outside_paths: false,
             max_texture_pixels: DEFAULT_MAX_TEXTURE_PIXELS,
+            max_memory: crate::memory::default_max_memory(),
         }
     }
 }
@@ -86,6 +90,18 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     pre_validate(path, &json)?;
     validate(path, &json)?;
     let document = gltf::Document::from_json_without_validation(json);
+    let need = crate::memory::load_estimate(&document);
+    if need > options.max_memory {
+        return Err(scene_err(
+            path,
+            format!(
+                "reading it would need about {} of host memory (its buffers and decoded meshes), over the limit \
+                 of {} (--max-memory)",
+                crate::memory::human(need),
+                crate::memory::human(options.max_memory)
+            ),
+        ));
+    }
     let uris = UriPolicy::new(path.parent().unwrap_or(Path::new(".")), options.allow_outside_paths);
     let buffers = import_buffers(path, &uris, &document, blob)?;
     let mut scene = Scene {
