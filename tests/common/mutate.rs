@@ -57,6 +57,11 @@ pub fn mutate(bytes: &[u8], rng: &mut Rng) -> (Vec<u8>, String) {
 }
 
 fn mutate_once(bytes: &[u8], rng: &mut Rng) -> (Vec<u8>, String) {
+    if below(rng, 4) == 0 {
+        if let Some(done) = resize_image_header(bytes, rng) {
+            return done;
+        }
+    }
     let json_aware = bytes.starts_with(b"glTF") || serde_json::from_slice::<Value>(bytes).is_ok();
     // Mostly JSON-aware: byte damage to JSON text rarely gets past the parser.
     if json_aware && below(rng, 5) != 0 {
@@ -257,4 +262,29 @@ fn mutate_value(root: &mut Value, rng: &mut Rng) -> Option<String> {
             Some(format!("{p} = {new}"))
         }
     }
+}
+
+/// Sizes an image header declares where a reader may allocate before it reads a pixel.
+const HOSTILE_SIZES: &[i32] = &[0, 1, 65_535, 60_000, 1 << 20, i32::MAX];
+
+/// A Radiance .hdr's resolution line or an EXR's dataWindow rewritten to a hostile size; `None` for other files.
+fn resize_image_header(bytes: &[u8], rng: &mut Rng) -> Option<(Vec<u8>, String)> {
+    let (w, h) = (*pick(rng, HOSTILE_SIZES), *pick(rng, HOSTILE_SIZES));
+    if bytes.starts_with(b"#?") {
+        let at = bytes.windows(4).position(|x| x == b"\n-Y ")? + 1;
+        let end = at + bytes[at..].iter().position(|&c| c == b'\n')?;
+        let mut out = bytes[..at].to_vec();
+        out.extend_from_slice(format!("-Y {h} +X {w}").as_bytes());
+        out.extend_from_slice(&bytes[end..]);
+        return Some((out, format!("hdr resolution {w}x{h}")));
+    }
+    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        let key = b"dataWindow\0box2i\0";
+        let at = bytes.windows(key.len()).position(|x| x == key)? + key.len() + 4;
+        let mut out = bytes.to_vec();
+        out.get_mut(at + 8..at + 16)?
+            .copy_from_slice(&[(w - 1).to_le_bytes(), (h - 1).to_le_bytes()].concat());
+        return Some((out, format!("exr dataWindow {w}x{h}")));
+    }
+    None
 }
