@@ -112,7 +112,11 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(format!("cannot read EXR: {e}")))?;
     for header in &meta.headers {
         let size = header.layer_size;
-        if size.width().checked_mul(size.height()).is_none_or(|n| n > MAX_READ_PIXELS) {
+        if size
+            .width()
+            .checked_mul(size.height())
+            .is_none_or(|n| n > MAX_READ_PIXELS)
+        {
             return Err(err(format!(
                 "the EXR declares {}x{} pixels, more than the {MAX_READ_PIXELS} pathwave reads",
                 size.width(),

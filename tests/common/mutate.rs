@@ -128,7 +128,7 @@ fn split_glb(bytes: &[u8]) -> Option<(Vec<u8>, Vec<u8>)> {
 /// A GLB with `json` as its first chunk (padded with spaces) and `rest` after it, the header's length updated.
 fn join_glb(json: &[u8], rest: &[u8], version: u32) -> Vec<u8> {
     let mut json = json.to_vec();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let total = 12 + 8 + json.len() + rest.len();
@@ -181,7 +181,8 @@ fn pointers(v: &Value, at: &str, out: &mut Vec<String>) {
 }
 
 fn hostile_number(rng: &mut Rng) -> Value {
-    serde_json::from_str(*pick(rng, HOSTILE_NUMBERS)).expect("a JSON number")
+    let text = *pick::<&str>(rng, HOSTILE_NUMBERS);
+    serde_json::from_str(text).expect("a JSON number")
 }
 
 /// One edit of the glTF JSON; `None` if nothing fit the chosen kind of edit.
