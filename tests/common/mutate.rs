@@ -196,7 +196,7 @@ fn mutate_value(root: &mut Value, rng: &mut Rng) -> Option<String> {
             .cloned()
             .collect()
     };
-    match below(rng, 6) {
+    match below(rng, 7) {
         0 => {
             let numbers = of(&|v, _| v.is_number(), root);
             let p = numbers.get(below(rng, numbers.len().max(1)))?.clone();
@@ -250,6 +250,21 @@ fn mutate_value(root: &mut Value, rng: &mut Rng) -> Option<String> {
             let uri = *pick(rng, HOSTILE_URIS);
             *root.pointer_mut(&p)? = uri.into();
             Some(format!("{p} = {uri:?}"))
+        }
+        5 => {
+            // Damage inside a data URI's bytes (geometry, an embedded PNG or JPEG), the URI itself left valid.
+            use base64::Engine;
+            let data = of(
+                &|v, k| k == "uri" && v.as_str().is_some_and(|u| u.starts_with("data:")),
+                root,
+            );
+            let p = data.get(below(rng, data.len().max(1)))?.clone();
+            let uri = root.pointer(&p)?.as_str()?.to_string();
+            let (header, payload) = uri.split_once(";base64,")?;
+            let engine = base64::engine::general_purpose::STANDARD;
+            let (bytes, what) = mutate_bytes(&engine.decode(payload).ok()?, rng);
+            *root.pointer_mut(&p)? = format!("{header};base64,{}", engine.encode(bytes)).into();
+            Some(format!("{p}: {what} in its data"))
         }
         _ => {
             // An array or object where a scalar belongs, or the reverse.
