@@ -9,6 +9,8 @@ if [ -d ../shared/gltf-validator-corpus ]; then
   find ../shared/gltf-validator-corpus \( -name '*.gltf' -o -name '*.glb' \) -size -256k -print0 |
     while IFS= read -r -d '' f; do cp "$f" "fuzz/corpus/gltf/$(echo "$f" | md5sum | cut -c1-12)-$(basename "$f")"; done
 fi
-cargo run --release --quiet -- render scenes/cornell-box.gltf -o fuzz/corpus/exr/cornell.exr --size 16x8 --spp 1
+# A built binary is used as it is; otherwise cargo builds one.
+pathwave() { if [ -x target/release/pathwave ]; then target/release/pathwave "$@"; else cargo run --release --quiet -- "$@"; fi; }
+pathwave render scenes/cornell-box.gltf -o fuzz/corpus/exr/cornell.exr --size 16x8 --spp 1 >/dev/null
 cp fuzz/corpus/exr/cornell.exr fuzz/corpus/environment/
 echo "seeded: $(ls fuzz/corpus/gltf | wc -l) glTF, 1 EXR"
