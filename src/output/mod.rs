@@ -166,18 +166,37 @@ fn encode(
     Ok(())
 }
 
+/// The most pixels `read_exr` takes: the pixels are allocated from the header's size before any is read.
+pub const MAX_READ_PIXELS: usize = 1 << 28;
+
 /// Reads an RGB EXR back as (width, height, pixels); used by tests and tools.
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::Error> {
     use exr::prelude::*;
+    let err = |message: String| crate::error::Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(format!("cannot read EXR: {e}")))?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        if size
+            .width()
+            .checked_mul(size.height())
+            .is_none_or(|n| n > MAX_READ_PIXELS)
+        {
+            return Err(err(format!(
+                "the EXR declares {}x{} pixels, more than the {MAX_READ_PIXELS} pathwave reads",
+                size.width(),
+                size.height()
+            )));
+        }
+    }
     let image = read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
         |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = [r, g, b],
     )
-    .map_err(|e| crate::error::Error::Output {
-        path: path.to_path_buf(),
-        message: format!("cannot read EXR: {e}"),
-    })?;
+    .map_err(|e| err(format!("cannot read EXR: {e}")))?;
     let size = image.layer_data.size;
     Ok((
         size.width() as u32,

@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 pub mod gltf_builder;
+pub mod mutate;
 pub mod rng;
 pub mod scenes;
 pub mod stats;

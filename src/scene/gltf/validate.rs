@@ -111,8 +111,8 @@ fn spec_valid(path: &str, error: gltf::json::validation::Error) -> bool {
         && (indexed("accessors", "bufferView") || indexed("textures", "source"))
 }
 
-/// What gltf 1.4's own validation assumes instead of checking (it indexes the POSITION accessor unchecked),
-/// plus required extensions, refused here with a clearer message than its "Unsupported extension".
+/// What gltf 1.4's own validation assumes instead of checking (it indexes the POSITION accessor unchecked and
+/// unwraps an image's uri, or its bufferView's mimeType), plus required extensions, refused here with a clearer message than its "Unsupported extension".
 pub(super) fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), Error> {
     for ext in &json.extensions_required {
         if !SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
@@ -121,6 +121,19 @@ pub(super) fn pre_validate(path: &Path, json: &gltf::json::Root) -> Result<(), E
                 format!("requires extension {ext}, which pathwave does not support"),
             ));
         }
+    }
+    // gltf's Image::source unwraps both, so an image that breaks the rule would panic where it is read.
+    for (i, image) in json.images.iter().enumerate() {
+        let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (Some(_), None, _) | (None, Some(_), Some(_)) => continue,
+            (None, None, _) => "has neither a uri nor a bufferView",
+            (Some(_), Some(_), _) => "has both a uri and a bufferView",
+            (None, Some(_), None) => "has a bufferView but no mimeType",
+        };
+        return Err(scene_err(
+            path,
+            format!("image {i} {problem}; glTF requires exactly one of them, and a mimeType with a bufferView"),
+        ));
     }
     let positions = gltf::json::validation::Checked::Valid(gltf::json::mesh::Semantic::Positions);
     for (m, mesh) in json.meshes.iter().enumerate() {
