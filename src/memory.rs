@@ -13,7 +13,7 @@ pub fn default_max_memory() -> u64 {
     let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
         let line = m.lines().find(|l| l.starts_with("MemAvailable:"))?;
         let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-        Some(kb * 1024)
+        Some(kb.saturating_mul(1024))
     });
     available.map_or(cap, |a| (a / 2).min(cap))
 }
@@ -61,8 +61,12 @@ pub fn load_estimate(doc: &gltf::Document) -> u64 {
         .meshes()
         .flat_map(|m| m.primitives())
         .flat_map(|p| {
-            let attributes = p.attributes().map(|(_, a)| a.count() as u64 * 16).collect::<Vec<_>>();
-            let indices = p.indices().map(|i| i.count() as u64 * 8);
+            // Counts come from the file unchecked (the mutation test raises them to 2^63): saturate.
+            let attributes = p
+                .attributes()
+                .map(|(_, a)| (a.count() as u64).saturating_mul(16))
+                .collect::<Vec<_>>();
+            let indices = p.indices().map(|i| (i.count() as u64).saturating_mul(8));
             attributes.into_iter().chain(indices)
         })
         .fold(0, u64::saturating_add);
