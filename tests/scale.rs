@@ -128,3 +128,28 @@ fn a_scene_beyond_every_limit_is_refused_by_buffer_name() {
         "{e}"
     );
 }
+
+/// A scene whose buffers outgrow the device memory it may use is refused before any is uploaded, with the figure,
+/// the largest buffer and the limit named; within the limit the same scene builds. Without the check a device
+/// past its memory fails somewhere in the allocator, or (on some drivers) only when the first pass runs.
+#[test]
+fn a_scene_past_the_device_memory_budget_is_refused_before_upload() {
+    let scene = pathwave::scene::load(&common::scenes_dir().join("cornell-box.gltf"), None).unwrap();
+    let make = |budget: u64| {
+        let ctx = pathwave::vk::Context::new(&pathwave::vk::DeviceChoice::Best, common::validation()).unwrap();
+        let options = pathwave::render::RendererOptions {
+            max_device_memory: Some(budget),
+            ..Default::default()
+        };
+        pathwave::Renderer::with_options(&scene, ctx, options)
+    };
+    let e = match make(1024) {
+        Ok(_) => panic!("a 1 KiB device budget held the Cornell box"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("of device memory") && e.contains("more than the 1024 bytes it may use") && e.contains("its "),
+        "{e}"
+    );
+    assert!(make(64 << 20).is_ok(), "64 MiB holds the Cornell box's buffers");
+}

@@ -145,7 +145,8 @@ impl Renderer {
                 packed.bvh.nodes.len()
             )));
         }
-        let gpu = GpuScene::upload(&ctx, &packed)?;
+        let device_budget = options.max_device_memory.unwrap_or_else(|| ctx.device_local_heap());
+        let gpu = GpuScene::upload(&ctx, &packed, device_budget)?;
         let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
         let schedule = match options.schedule {
             Some(s) => ScheduleChoice::Fixed(s),

@@ -149,18 +149,7 @@ impl Renderer {
     fn path_capacity(&self, wanted: u64) -> u32 {
         let per_path = PATH_FIELDS as u64 * 16;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let memory = unsafe {
-            self.ctx
-                .instance
-                .get_physical_device_memory_properties(self.ctx.physical)
-        };
-        let heap = memory.memory_heaps[..memory.memory_heap_count as usize]
-            .iter()
-            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
-            .map(|h| h.size)
-            .max()
-            .unwrap_or(256 << 20);
-        let budget = (heap / 16).max(per_path * 1024);
+        let budget = (self.ctx.device_local_heap() / 16).max(per_path * 1024);
         // The TEXEL_READS stages read the path state through one texel view, which must see all of it.
         let view_paths = self.ctx.properties.limits.max_texel_buffer_elements as u64 / PATH_FIELDS as u64;
         wanted

@@ -74,6 +74,9 @@ pub struct RendererOptions {
     pub schedule: Option<Schedule>,
     /// Force storage-buffer reads of the BVH and per-triangle data even where texel reads are possible.
     pub storage_reads: bool,
+    /// Device memory the scene's buffers may take; None: the device's largest device-local heap. A scene past it
+    /// is refused before anything is uploaded.
+    pub max_device_memory: Option<u64>,
 }
 
 impl RendererOptions {
@@ -104,6 +107,7 @@ impl RendererOptions {
         Ok(RendererOptions {
             schedule,
             storage_reads,
+            max_device_memory: None,
         })
     }
 

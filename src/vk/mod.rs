@@ -357,6 +357,17 @@ impl Context {
         })
     }
 
+    /// Bytes of the largest device-local memory heap (256 MiB if the device names none).
+    pub fn device_local_heap(&self) -> u64 {
+        let memory = unsafe { self.instance.get_physical_device_memory_properties(self.physical) };
+        memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(256 << 20)
+    }
+
     pub fn device_name(&self) -> String {
         self.properties
             .device_name_as_c_str()

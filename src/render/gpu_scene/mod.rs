@@ -118,6 +118,27 @@ pub(super) fn size_text(bytes: u64) -> String {
     }
 }
 
+/// Refuses a scene whose buffers would take more than `budget` bytes of device memory, before any is allocated.
+fn check_device_memory(packed: &PackedScene, budget: u64) -> Result<(), Error> {
+    // Every buffer is at least 16 bytes (Buffer::new).
+    let size = |b: &SceneBinding| (packed.bytes(b.1).len() as u64).max(16);
+    let total: u64 = SCENE_BINDINGS.iter().map(size).fold(0, u64::saturating_add);
+    if total <= budget {
+        return Ok(());
+    }
+    let largest = SCENE_BINDINGS
+        .iter()
+        .max_by_key(|b| size(b))
+        .expect("SCENE_BINDINGS is not empty");
+    Err(Error::Settings(format!(
+        "the scene's buffers take {} of device memory (the largest, its {}, {}), more than the {} it may use",
+        size_text(total),
+        largest.0,
+        size_text(size(largest)),
+        size_text(budget)
+    )))
+}
+
 /// A scene on the device: its buffers at their bindings, their texel views, and what its passes need to know of it.
 pub struct GpuScene {
     /// Dropped before the buffers they view.
@@ -140,7 +161,8 @@ pub struct GpuScene {
 
 impl GpuScene {
     /// Uploads `packed`, refusing it by buffer name when one outgrows every way this device can read it.
-    pub fn upload(ctx: &Context, packed: &PackedScene) -> Result<Self, Error> {
+    pub fn upload(ctx: &Context, packed: &PackedScene, device_budget: u64) -> Result<Self, Error> {
+        check_device_memory(packed, device_budget)?;
         let range = ctx.properties.limits.max_storage_buffer_range as u64;
         let max_texels = ctx.properties.limits.max_texel_buffer_elements as u64;
         let format_ok = |f| {
