@@ -3,21 +3,11 @@
 //! are refused before they are built.
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn pathwave() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
-    if common::validation() == pathwave::vk::Validation::On {
-        c.env("PATHWAVE_VALIDATION", "1");
-    }
-    c
-}
-
-fn cornell() -> PathBuf {
-    common::scenes_dir().join("cornell-box.gltf")
-}
+use common::{cornell, pathwave_cli as pathwave};
 
 /// Runs `cmd`, killing it after `limit`; the output and how long it ran. A run that had to be killed fails the test.
 fn run_within(cmd: &mut Command, limit: Duration) -> (Output, Duration) {

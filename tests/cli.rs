@@ -2,15 +2,13 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn pathwave(args: &[&str]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
-    c.args(args);
-    if common::validation() == pathwave::vk::Validation::On {
-        c.env("PATHWAVE_VALIDATION", "1");
-    }
-    c.output().expect("the pathwave binary runs")
+    common::pathwave_cli()
+        .args(args)
+        .output()
+        .expect("the pathwave binary runs")
 }
 
 fn stderr(o: &Output) -> String {
@@ -18,7 +16,7 @@ fn stderr(o: &Output) -> String {
 }
 
 fn cornell() -> String {
-    common::scenes_dir().join("cornell-box.gltf").display().to_string()
+    common::cornell().display().to_string()
 }
 
 /// Runs a render that must fail: non-zero exit, no panic, a message containing `needle`, and no output file.

@@ -1,10 +1,11 @@
 //! Robustness of `scene::load` against the Khronos glTF-Validator corpus: no file may panic or hang, every refusal names its file, valid files with triangles load.
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
 const TIMEOUT: Duration = Duration::from_secs(20);
 
 /// Why a file the validator finds error-free may still be refused: pathwave's documented limits, and where
@@ -27,18 +28,6 @@ const DOCUMENTED_REFUSALS: &[(&str, &str)] = &[
         "gltf 1.4: primitive without POSITION",
     ),
 ];
-
-fn corpus_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            corpus_files(&p, out);
-        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
-            out.push(p);
-        }
-    }
-}
 
 /// The validator's report beside `path` (`<file>.report.json`): (error count, triangle count).
 fn report(path: &Path) -> Option<(u64, u64)> {
@@ -114,13 +103,13 @@ fn load_guarded(path: &Path) -> Option<Outcome> {
 
 #[test]
 fn gltf_validator_corpus_never_panics_or_hangs() {
-    let corpus = Path::new(CORPUS);
+    let corpus = Path::new(common::CORPUS);
     if !corpus.is_dir() {
         eprintln!("skipping: the glTF-Validator corpus is not at {}", corpus.display());
         return;
     }
     let mut files = Vec::new();
-    corpus_files(corpus, &mut files);
+    common::corpus_files(corpus, &mut files);
     assert!(!files.is_empty(), "no .gltf/.glb files under {}", corpus.display());
 
     let start = Instant::now();

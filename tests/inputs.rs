@@ -181,7 +181,7 @@ fn assert_refused(args: &[&str], needles: &[&str]) {
 }
 
 fn cornell() -> String {
-    common::scenes_dir().join("cornell-box.gltf").display().to_string()
+    common::cornell().display().to_string()
 }
 
 #[test]

@@ -13,7 +13,6 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
 /// Mutants per seed that is refused as it is, and per seed that is read (whose mutants reach deeper): about 30 s
 /// in all for the corpus and the scenes in a test build on 2 cores.
 const MUTANTS_PER_REFUSED_SEED: usize = 100;
@@ -61,18 +60,6 @@ fn read(reader: Reader, path: &Path) -> Result<(), String> {
     match message {
         None => Ok(()),
         Some(e) => Err(e.to_string()),
-    }
-}
-
-fn corpus_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            corpus_files(&p, out);
-        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
-            out.push(p);
-        }
     }
 }
 
@@ -163,16 +150,16 @@ fn mutant_path(seed: &Seed, index: usize) -> PathBuf {
 
 fn seeds(maps: Vec<PathBuf>) -> Vec<(Reader, PathBuf)> {
     let mut scenes = Vec::new();
-    let corpus = Path::new(CORPUS);
+    let corpus = Path::new(common::CORPUS);
     if corpus.is_dir() {
-        corpus_files(corpus, &mut scenes);
+        common::corpus_files(corpus, &mut scenes);
     } else {
         eprintln!(
             "note: the glTF-Validator corpus is not at {}; seeding with scenes/ only",
             corpus.display()
         );
     }
-    corpus_files(&common::scenes_dir(), &mut scenes);
+    common::corpus_files(&common::scenes_dir(), &mut scenes);
     let mut seeds: Vec<(Reader, PathBuf)> = scenes.into_iter().map(|p| (Reader::Scene, p)).collect();
     for map in maps {
         seeds.push((Reader::Environment, map.clone()));

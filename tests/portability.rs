@@ -5,7 +5,6 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 /// lavapipe's vector width in bits and the subgroup size it gives.
 const WIDTHS: [(u32, u32); 3] = [(256, 8), (128, 4), (512, 16)];
@@ -18,14 +17,11 @@ struct Render {
 }
 
 fn render(out: &Path, scene: &str, width: u32, env: &[(&str, &str)], args: &[&str]) -> Render {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    let mut c = common::pathwave_cli();
     let scene = common::scenes_dir().join(scene);
     c.arg("render").arg(&scene).arg("-o").arg(out).args(args);
     c.env("LP_NATIVE_VECTOR_WIDTH", width.to_string())
         .envs(env.iter().copied());
-    if common::validation() == pathwave::vk::Validation::On {
-        c.env("PATHWAVE_VALIDATION", "1");
-    }
     let o = c.output().expect("the pathwave binary runs");
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(

@@ -5,23 +5,13 @@ mod common;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 const CONSTANT: [f32; 3] = [0.25, 0.5, 0.75];
 
-fn pathwave() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
-    if common::validation() == pathwave::vk::Validation::On {
-        c.env("PATHWAVE_VALIDATION", "1");
-    }
-    c
-}
-
-fn cornell() -> PathBuf {
-    common::scenes_dir().join("cornell-box.gltf")
-}
+use common::{cornell, pathwave_cli as pathwave};
 
 /// Every built-in stage and variant, sorted as `--shader-dir` reports them.
 fn every_stage() -> Vec<&'static str> {

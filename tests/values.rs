@@ -11,11 +11,8 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 fn command(args: &[&str], env: &[(&str, &str)]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    let mut c = common::pathwave_cli();
     c.args(args);
-    if common::validation() == pathwave::vk::Validation::On {
-        c.env("PATHWAVE_VALIDATION", "1");
-    }
     for (k, v) in env {
         c.env(k, v);
     }
@@ -31,7 +28,7 @@ fn stderr(o: &Output) -> String {
 }
 
 fn cornell() -> String {
-    common::scenes_dir().join("cornell-box.gltf").display().to_string()
+    common::cornell().display().to_string()
 }
 
 /// A run that must fail: non-zero exit, no panic, `needle` in the message, nothing left in `dir`.

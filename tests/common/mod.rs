@@ -59,6 +59,36 @@ pub fn validation_layer_installed() -> bool {
     .any(|p| std::path::Path::new(p).exists())
 }
 
+/// The pathwave binary, with the validation layer on when the tests run with it.
+pub fn pathwave_cli() -> std::process::Command {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_pathwave"));
+    if validation() == pathwave::vk::Validation::On {
+        c.env("PATHWAVE_VALIDATION", "1");
+    }
+    c
+}
+
+/// The project's Cornell box.
+pub fn cornell() -> PathBuf {
+    scenes_dir().join("cornell-box.gltf")
+}
+
+/// The Khronos glTF-Validator's test files, in shared/ beside the repository (absent: the tests that read it skip).
+pub const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
+
+/// Every .gltf and .glb under `dir`, in sorted order, depth first.
+pub fn corpus_files(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<PathBuf> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            corpus_files(&p, out);
+        } else if matches!(p.extension().and_then(|e| e.to_str()), Some("gltf" | "glb")) {
+            out.push(p);
+        }
+    }
+}
+
 pub fn scenes_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")
 }
