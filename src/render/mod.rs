@@ -161,7 +161,8 @@ impl Renderer {
         let stand_ins = StandIns::new(&ctx)?;
         kernels.pipelines.bind_texel_views(&ctx, &stand_ins.path_view.views);
         let env = scene.environment.as_ref();
-        let camera = scene.camera_or_default();
+        // From the packed bounds: the scene's own walk would place every instance again.
+        let camera = scene.camera.unwrap_or_else(|| Camera::framing(packed.bounds));
         let mut r = Renderer {
             timestamps: Timestamps::new(&ctx, 2048)?,
             kernels,
@@ -173,7 +174,7 @@ impl Renderer {
             follow: FollowRows::default(),
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
-            default_focus: default_focus(scene, &camera),
+            default_focus: default_focus(packed.bounds, &camera),
             camera,
             warnings,
             ctx,
@@ -347,11 +348,7 @@ impl Renderer {
 }
 
 /// The camera's distance to the scene's centre along its view direction, at least 1 mm.
-fn default_focus(scene: &Scene, cam: &Camera) -> f32 {
-    let (lo, hi) = if scene.is_empty() {
-        (glam::Vec3::ZERO, glam::Vec3::ZERO)
-    } else {
-        scene.bounds()
-    };
+fn default_focus(bounds: Option<(glam::Vec3, glam::Vec3)>, cam: &Camera) -> f32 {
+    let (lo, hi) = bounds.unwrap_or((glam::Vec3::ZERO, glam::Vec3::ZERO));
     ((lo + hi) * 0.5 - cam.origin()).dot(cam.basis().2).max(1e-3)
 }

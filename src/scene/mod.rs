@@ -119,6 +119,19 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// A camera on +Z that frames `bounds` (lo, hi), or the unit cube about the origin when there are none.
+    pub fn framing(bounds: Option<(Vec3, Vec3)>) -> Camera {
+        let (lo, hi) = bounds.unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        let yfov = 45f32.to_radians();
+        let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
+        Camera {
+            world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
+            yfov,
+        }
+    }
+
     /// Why `world_from_camera` cannot place a camera (not finite, or a basis of scale 0 or otherwise singular), if
     /// it cannot: the view direction and image plane would be NaN and the image black.
     pub fn check_transform(world_from_camera: &Mat4) -> Result<(), String> {
@@ -276,21 +289,9 @@ impl Scene {
 
     /// The file's camera, or one that frames the whole scene from +Z.
     pub fn camera_or_default(&self) -> Camera {
-        if let Some(c) = self.camera {
-            return c;
-        }
-        let (lo, hi) = if self.is_empty() {
-            (Vec3::splat(-1.0), Vec3::splat(1.0))
-        } else {
-            self.bounds()
-        };
-        let center = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-3);
-        let yfov = 45f32.to_radians();
-        let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
-        Camera {
-            world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
-            yfov,
+        match self.camera {
+            Some(c) => c,
+            None => Camera::framing((!self.is_empty()).then(|| self.bounds())),
         }
     }
 

@@ -10,6 +10,8 @@ use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, Triangl
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
+    /// The placed triangles' bounding box (lo, hi); None when there are none.
+    pub bounds: Option<(glam::Vec3, glam::Vec3)>,
     pub bvh: Bvh,
     /// Wall time of the BVH build alone (the rest of packing is copying).
     pub bvh_build: std::time::Duration,
@@ -203,12 +205,8 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
         path: scene.path.clone(),
         message: format!("out of host memory packing its {} triangles", soup.len()),
     })?;
-    let (lo, hi) = soup.bounds();
-    let radius = if soup.is_empty() {
-        1.0
-    } else {
-        ((hi - lo).length() * 0.5).max(1e-3)
-    };
+    let bounds = (!soup.is_empty()).then(|| soup.bounds());
+    let radius = bounds.map_or(1.0, |(lo, hi)| ((hi - lo).length() * 0.5).max(1e-3));
     let mut emitters = std::mem::take(&mut t.emitters);
     let punctual = pack_punctual(scene, radius, &mut emitters);
     // The environment competes with the emitters by the power it sends into the scene's bounding sphere.
@@ -221,6 +219,7 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
     let (lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading);
     let (textures, texels) = pack_textures(scene);
     Ok(PackedScene {
+        bounds,
         bvh_build,
         bvh,
         tri_verts: t.tri_verts,
