@@ -15,6 +15,7 @@ fn main() {
         ("glass.gltf", scenes::glass()),
         ("punctual-lights.gltf", scenes::punctual_lights()),
         ("textured.gltf", scenes::textured()),
+        ("animated.gltf", scenes::animated()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

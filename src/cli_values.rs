@@ -103,3 +103,31 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     }
     Ok((w, h))
 }
+
+/// Seconds into the animation, within a year either way (keys outside the animation clamp to its ends anyway).
+pub fn parse_time(s: &str) -> Result<f32, String> {
+    number(s, -3.2e7, 3.2e7, false)
+}
+
+/// Frames per second: positive and at most a million.
+pub fn parse_fps(s: &str) -> Result<f32, String> {
+    number(s, 0.0, 1e6, true)
+}
+
+/// `FIRST..LAST`, inclusive, or a single frame `N`; at most a million frames, the numbers within u32.
+pub fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not FIRST..LAST (e.g. 0..47) or one frame number");
+    let (a, b) = match s.split_once("..") {
+        Some((a, b)) => (a, b),
+        None => (s, s),
+    };
+    let first: u32 = a.trim().parse().map_err(|_| bad())?;
+    let last: u32 = b.trim().parse().map_err(|_| bad())?;
+    if first > last {
+        return Err(format!("'{s}': the first frame comes after the last"));
+    }
+    if last - first >= 1_000_000 {
+        return Err(format!("'{s}' is more than a million frames"));
+    }
+    Ok((first, last))
+}

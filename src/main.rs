@@ -153,6 +153,13 @@ struct SceneArgs {
     /// Distance to the plane in focus along the view direction (default: the camera's distance to the scene's centre).
     #[arg(long, value_parser = parse_focus_distance, allow_hyphen_values = true)]
     focus_distance: Option<f32>,
+    /// Render the scene as its animations place it at this time, in seconds (default 0); keys outside an
+    /// animation's range hold its first or last values.
+    #[arg(long, value_parser = parse_time, allow_hyphen_values = true)]
+    time: Option<f32>,
+    /// The animation that plays, by index or by name (default: every channel of the file, as viewers play them).
+    #[arg(long)]
+    animation: Option<String>,
     #[command(flatten)]
     env: EnvArgs,
     #[command(flatten)]
@@ -160,11 +167,42 @@ struct SceneArgs {
 }
 
 impl SceneArgs {
-    /// The scene with the environment the options ask for, refused if it would not fit the host budget.
+    /// The scene posed at --time with --animation and lit by the environment the options ask for, refused if it
+    /// would not fit the host budget.
     fn load(&self) -> Result<scene::Scene> {
+        self.load_at(self.time.unwrap_or(0.0))
+    }
+
+    /// `load`, at `time` rather than --time's.
+    fn load_at(&self, time: f32) -> Result<scene::Scene> {
         let mut scene = self.limits.load(&self.scene, self.camera)?;
+        let pose = self.pose_time(&scene, time)?;
+        if scene.rig.animated() && pose != scene.rig.posed {
+            scene.pose(pose)?;
+            scene.check_host_memory(self.limits.max_memory())?;
+        }
         scene.environment = self.env.environment(self.limits.max_texture_pixels)?;
         Ok(scene)
+    }
+
+    /// The pose `--animation` and `time` ask for; a time on a file without animations is warned about.
+    fn pose_time(&self, scene: &scene::Scene, time: f32) -> Result<scene::PoseTime> {
+        let animation = match &self.animation {
+            Some(a) => Some(
+                scene
+                    .rig
+                    .find_animation(a)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", self.scene.display()))?,
+            ),
+            None => None,
+        };
+        if self.time.is_some() && !scene.rig.animated() {
+            eprintln!(
+                "warning: {}: the file has no animations, so --time changes nothing",
+                self.scene.display()
+            );
+        }
+        Ok(scene::PoseTime { time, animation })
     }
 
     /// Render settings from these options; the caller sets the size and samples.
@@ -236,6 +274,56 @@ struct RenderArgs {
     /// include changes. A stage that fails to compile is reported and the last image is kept. Stop with Ctrl-C.
     #[arg(long, requires = "shader_dir")]
     watch: bool,
+    /// Render frames FIRST..LAST (inclusive) of the animation, frame k at time k / --fps, one file per frame: the
+    /// last run of # in each -o name becomes the zero-padded frame number (-o out.####.exr).
+    #[arg(long, value_parser = parse_frames, conflicts_with_all = ["time", "watch"])]
+    frames: Option<(u32, u32)>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value = "24", value_parser = parse_fps, requires = "frames")]
+    fps: f32,
+    /// With --frames: skip the frames whose every output file exists already.
+    #[arg(long, requires = "frames")]
+    resume: bool,
+}
+
+/// One image a render writes: which frame (None: not a sequence), at what time, into which files.
+struct Shot {
+    frame: Option<u32>,
+    time: f32,
+    outputs: Vec<PathBuf>,
+}
+
+impl RenderArgs {
+    /// The images to render: one at --time, or one per frame of --frames with its numbered file names.
+    fn shots(&self) -> Result<Vec<Shot>> {
+        let Some((first, last)) = self.frames else {
+            return Ok(vec![Shot {
+                frame: None,
+                time: self.common.time.unwrap_or(0.0),
+                outputs: self.output.clone(),
+            }]);
+        };
+        (first..=last)
+            .map(|k| {
+                let outputs = (self.output.iter())
+                    .map(|o| match output::frame_path(o, k) {
+                        Some(p) => Ok(p),
+                        None if first == last => Ok(o.clone()),
+                        None => bail!(
+                            "-o {}: with --frames {first}..{last}, every output name needs a run of # for the frame \
+                             number (e.g. out.####.exr)",
+                            o.display()
+                        ),
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                Ok(Shot {
+                    frame: Some(k),
+                    time: k as f32 / self.fps,
+                    outputs,
+                })
+            })
+            .collect()
+    }
 }
 
 fn main() {
@@ -254,13 +342,16 @@ fn main() {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
+    let shots = args.shots()?;
     // Refuse a bad output path before spending time on the render.
-    for out in &args.output {
-        output::check_writable(out)?;
+    for shot in &shots {
+        for out in &shot.outputs {
+            output::check_writable(out)?;
+        }
     }
     interrupt::install()?;
     let start = Instant::now();
-    let scene = args.common.load()?;
+    let mut scene = args.common.load_at(shots[0].time)?;
     let mut renderer = Renderer::new(&scene, &args.common.device.clone().unwrap_or_default())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
@@ -288,7 +379,10 @@ fn render(args: RenderArgs) -> Result<()> {
         energy_compensation: !args.no_energy_compensation,
         ..args.common.settings()
     };
-    render_and_write(&mut renderer, &settings, &args, start)?;
+    if args.frames.is_some() {
+        return render_frames(&args, &shots, &mut scene, &mut renderer, &settings, start);
+    }
+    render_and_write(&mut renderer, &settings, &args, &shots[0], start)?;
     let Some(dir) = shader_dir.filter(|_| args.watch) else {
         return Ok(());
     };
@@ -304,7 +398,7 @@ fn render(args: RenderArgs) -> Result<()> {
         match renderer.load_shaders(&dir, Some(&stale)) {
             Ok(rebuilt) => {
                 eprintln!("rebuilt {}", rebuilt.join(", "));
-                match render_and_write(&mut renderer, &settings, &args, Instant::now()) {
+                match render_and_write(&mut renderer, &settings, &args, &shots[0], Instant::now()) {
                     Err(e) if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) => return Err(e),
                     Err(e) => eprintln!("error: {e:#}"),
                     Ok(()) => {}
@@ -315,16 +409,67 @@ fn render(args: RenderArgs) -> Result<()> {
     }
 }
 
+/// Every frame of --frames in turn: the scene posed at the frame's time and uploaded again on the same device, the
+/// pipelines kept. An interrupted frame is not written (so --resume renders it again); the run then fails.
+fn render_frames(
+    args: &RenderArgs,
+    shots: &[Shot],
+    scene: &mut scene::Scene,
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    start: Instant,
+) -> Result<()> {
+    let (mut rendered, mut skipped) = (0, 0);
+    if !scene.rig.animated() {
+        eprintln!(
+            "warning: {}: the file has no animations, so every frame is the same image",
+            args.common.scene.display()
+        );
+    }
+    for (i, shot) in shots.iter().enumerate() {
+        if args.resume && shot.outputs.iter().all(|o| o.exists()) {
+            skipped += 1;
+            continue;
+        }
+        let pose = args.common.pose_time(scene, shot.time)?;
+        if scene.rig.animated() && pose != scene.rig.posed {
+            scene.pose(pose)?;
+            scene.check_host_memory(args.common.limits.max_memory())?;
+            renderer.set_scene(scene)?;
+        }
+        let label = format!("frame {} ({}/{})", shot.frame.unwrap_or(0), i + 1, shots.len());
+        let written = render_and_write(renderer, settings, args, shot, Instant::now());
+        match written {
+            Ok(()) => rendered += 1,
+            Err(e) => return Err(e.context(format!("{label}, at {} s", shot.time))),
+        }
+    }
+    let (first, last) = args.frames.unwrap_or((0, 0));
+    eprintln!(
+        "frames {first}..{last} at {} fps: {rendered} rendered, {skipped} already there (--resume); wall {:.2} s",
+        args.fps,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 fn render_and_write(
     renderer: &mut Renderer,
     settings: &RenderSettings,
     args: &RenderArgs,
+    shot: &Shot,
     start: Instant,
 ) -> Result<()> {
     let bar = ProgressBar::new(args.spp as u64);
+    let prefix = match shot.frame {
+        Some(k) => format!("frame {k} "),
+        None => String::new(),
+    };
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} spp  {per_sec}  eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        ProgressStyle::with_template(&format!(
+            "{prefix}{{bar:40}} {{pos}}/{{len}} spp  {{per_sec}}  eta {{eta}}"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let device = renderer.context().device_name();
     let warned = renderer.warnings.len();
@@ -339,9 +484,16 @@ fn render_and_write(
     if film.spp == 0 {
         bail!("interrupted before the first pass ended: no samples, nothing written");
     }
+    if film.spp < settings.spp && shot.frame.is_some() {
+        bail!(
+            "interrupted with {} of {} samples per pixel; the frame is not written, so --resume renders it again",
+            film.spp,
+            settings.spp
+        );
+    }
     let pixels = film.mean();
-    output::write_images(&args.output, film.width, film.height, &pixels, args.exposure)?;
-    let names: Vec<String> = args.output.iter().map(|p| p.display().to_string()).collect();
+    output::write_images(&shot.outputs, film.width, film.height, &pixels, args.exposure)?;
+    let names: Vec<String> = shot.outputs.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
         names.join(", "),
@@ -487,12 +639,34 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());
     println!("triangles   {}", packed.tri_verts.len());
+    let file_meshes = &scene.meshes[..scene.rig.file_meshes.min(scene.meshes.len())];
     println!(
         "meshes      {} unique ({} triangles), placed by {} instances",
-        scene.meshes.len(),
-        scene.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(),
+        file_meshes.len(),
+        file_meshes.iter().map(|m| m.triangle_count()).sum::<usize>(),
         scene.instances.len()
     );
+    let (morphed, skinned) = pathwave::scene::rig::deformation_counts(&scene);
+    println!(
+        "deforming   {} skins, {skinned} skinned meshes, {morphed} meshes with morph targets",
+        scene.rig.skins.len()
+    );
+    if scene.rig.animations.is_empty() {
+        println!("animations  none");
+    }
+    for (i, a) in scene.rig.animations.iter().enumerate() {
+        let (lo, hi) = a.range();
+        let name = if a.name.is_empty() {
+            String::new()
+        } else {
+            format!(" '{}'", a.name)
+        };
+        println!(
+            "animation   {i}{name}: {} channels, keys from {lo} s to {hi} s ({:.3} s)",
+            a.channels.len(),
+            hi - lo
+        );
+    }
     println!("materials   {}", scene.materials.len() - 1);
     println!(
         "lights      {} emissive triangles, {:.4} W in total",

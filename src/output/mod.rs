@@ -204,3 +204,29 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::
         image.layer_data.channel_data.pixels.1,
     ))
 }
+
+/// `path` with the last run of `#` in its file name replaced by `frame`, zero-padded to the run's length (longer
+/// numbers keep all their digits): `out.####.exr` and 7 give `out.0007.exr`. None when the name has no `#`.
+pub fn frame_path(path: &Path, frame: u32) -> Option<std::path::PathBuf> {
+    let name = path.file_name()?.to_str()?;
+    let end = name.rfind('#')? + 1;
+    let start = name[..end].trim_end_matches('#').len();
+    let width = end - start;
+    let numbered = format!("{}{frame:0width$}{}", &name[..start], &name[end..]);
+    Some(path.with_file_name(numbered))
+}
+
+#[cfg(test)]
+mod frame_tests {
+    use super::frame_path;
+    use std::path::Path;
+
+    #[test]
+    fn the_last_run_of_hashes_becomes_the_padded_frame_number() {
+        let f = |p: &str, k| frame_path(Path::new(p), k).map(|p| p.display().to_string());
+        assert_eq!(f("out.####.exr", 7).as_deref(), Some("out.0007.exr"));
+        assert_eq!(f("dir#/a#b##.png", 123).as_deref(), Some("dir#/a#b123.png"));
+        assert_eq!(f("x.#.png", 42).as_deref(), Some("x.42.png"));
+        assert_eq!(f("renders/out.exr", 1), None);
+    }
+}

@@ -86,6 +86,7 @@ pub struct Renderer {
     energy: Option<Buffer>,
     /// How traversal reads the BVH; Texel needs the scene's texel views.
     bvh_reads: BvhReads,
+    options: RendererOptions,
     schedule: ScheduleChoice,
     follow: FollowRows,
     env_size: (u32, u32),
@@ -125,62 +126,73 @@ impl Renderer {
     }
 
     pub fn with_options(scene: &Scene, ctx: Context, options: RendererOptions) -> Result<Self, Error> {
-        if let Some(env) = &scene.environment {
-            env.check()
-                .map_err(|why| Error::Settings(format!("the environment: {why}")))?;
-        }
-        let packed = gpu_scene::try_pack(scene)?;
-        let mut warnings = scene.warnings.clone();
-        if packed.lights.is_empty() {
-            warnings.push(
-                "the scene has no emissive surface and no environment, so nothing lights it and the image is black"
-                    .into(),
-            );
-        }
-        // Traversal packs node and triangle indices with a leaf's count into one word (STACK_COUNT_BITS).
-        if packed.bvh.nodes.len().max(packed.tri_verts.len()) as u64 >= MAX_SCENE_ITEMS as u64 {
-            return Err(Error::Settings(format!(
-                "the scene has {} triangles in {} BVH nodes; traversal handles fewer than {MAX_SCENE_ITEMS} of each",
-                packed.tri_verts.len(),
-                packed.bvh.nodes.len()
-            )));
-        }
-        let device_budget = options.max_device_memory.unwrap_or_else(|| ctx.device_local_heap());
-        let gpu = GpuScene::upload(&ctx, &packed, device_budget)?;
-        let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
+        let uploaded = Uploaded::new(&ctx, scene, &options)?;
         let schedule = match options.schedule {
             Some(s) => ScheduleChoice::Fixed(s),
             // On GPUs the wavefront's compacted, coherent stages are the design; a CPU device is measured.
             None if ctx.properties.device_type == vk::PhysicalDeviceType::CPU => ScheduleChoice::trial(),
             None => ScheduleChoice::Fixed(Schedule::Wavefront),
         };
-        let kernels = Kernels::new(&ctx, crate::shaders::BUILTIN_SPIRV, gpu.features)?;
-        if let Some(views) = gpu.texel_views() {
-            kernels.pipelines.bind_texel_views(&ctx, views);
-        }
+        let kernels = Kernels::new(&ctx, crate::shaders::BUILTIN_SPIRV, uploaded.gpu.features)?;
         let stand_ins = StandIns::new(&ctx)?;
-        kernels.pipelines.bind_texel_views(&ctx, &stand_ins.path_view.views);
         let env = scene.environment.as_ref();
-        // From the packed bounds: the scene's own walk would place every instance again.
-        let camera = scene.camera.unwrap_or_else(|| Camera::framing(packed.bounds));
         let mut r = Renderer {
             timestamps: Timestamps::new(&ctx, 2048)?,
             kernels,
-            scene: gpu,
+            scene: uploaded.gpu,
             stand_ins,
             energy: None,
-            bvh_reads,
+            bvh_reads: uploaded.bvh_reads,
+            options,
             schedule,
             follow: FollowRows::default(),
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
-            default_focus: default_focus(packed.bounds, &camera),
-            camera,
-            warnings,
+            default_focus: uploaded.default_focus,
+            camera: uploaded.camera,
+            warnings: uploaded.warnings,
             ctx,
         };
+        r.bind_scene_views();
         r.energy = Some(r.build_energy_tables()?);
         Ok(r)
+    }
+
+    /// Replaces the scene, e.g. with the next frame's pose of it: packs and uploads it, keeping the device, the
+    /// energy tables, the schedule and every pipeline the new scene's features do not change. The camera becomes
+    /// the new scene's. Warnings the new scene brings are added to `warnings`.
+    pub fn set_scene(&mut self, scene: &Scene) -> Result<(), Error> {
+        // Uploaded before the old scene goes, so that a scene refused leaves the renderer as it was. No pass is in
+        // flight between calls, and every pass binds the scene's buffers again.
+        let features = self.scene.features;
+        let uploaded = Uploaded::new(&self.ctx, scene, &self.options)?;
+        self.scene = uploaded.gpu;
+        if self.scene.features != features {
+            self.kernels.set_features(self.scene.features);
+        }
+        self.bvh_reads = uploaded.bvh_reads;
+        let env = scene.environment.as_ref();
+        self.env_size = env.map(|e| (e.width, e.height)).unwrap_or((0, 0));
+        self.env_rotation = env.map(|e| e.rotation).unwrap_or(0.0);
+        self.default_focus = uploaded.default_focus;
+        self.camera = uploaded.camera;
+        for w in uploaded.warnings {
+            if !self.warnings.contains(&w) {
+                self.warnings.push(w);
+            }
+        }
+        self.bind_scene_views();
+        Ok(())
+    }
+
+    /// The scene's texel views where it has them, the path-state stand-in's otherwise.
+    fn bind_scene_views(&self) {
+        if let Some(views) = self.scene.texel_views() {
+            self.kernels.pipelines.bind_texel_views(&self.ctx, views);
+        }
+        self.kernels
+            .pipelines
+            .bind_texel_views(&self.ctx, &self.stand_ins.path_view.views);
     }
 
     /// Rebuilds the pipelines of `stages` (every stage the folder overrides when None) from a shader folder. All
@@ -344,6 +356,52 @@ impl Renderer {
     /// The focus distance used when the settings give none: the camera's distance to the scene's centre.
     pub fn default_focus(&self) -> f32 {
         self.default_focus
+    }
+}
+
+/// A scene packed and on the device, with what the renderer takes from it.
+struct Uploaded {
+    gpu: GpuScene,
+    bvh_reads: BvhReads,
+    camera: Camera,
+    default_focus: f32,
+    warnings: Vec<String>,
+}
+
+impl Uploaded {
+    fn new(ctx: &Context, scene: &Scene, options: &RendererOptions) -> Result<Self, Error> {
+        if let Some(env) = &scene.environment {
+            env.check()
+                .map_err(|why| Error::Settings(format!("the environment: {why}")))?;
+        }
+        let packed = gpu_scene::try_pack(scene)?;
+        let mut warnings = scene.warnings.clone();
+        if packed.lights.is_empty() {
+            warnings.push(
+                "the scene has no emissive surface and no environment, so nothing lights it and the image is black"
+                    .into(),
+            );
+        }
+        // Traversal packs node and triangle indices with a leaf's count into one word (STACK_COUNT_BITS).
+        if packed.bvh.nodes.len().max(packed.tri_verts.len()) as u64 >= MAX_SCENE_ITEMS as u64 {
+            return Err(Error::Settings(format!(
+                "the scene has {} triangles in {} BVH nodes; traversal handles fewer than {MAX_SCENE_ITEMS} of each",
+                packed.tri_verts.len(),
+                packed.bvh.nodes.len()
+            )));
+        }
+        let device_budget = options.max_device_memory.unwrap_or_else(|| ctx.device_local_heap());
+        let gpu = GpuScene::upload(ctx, &packed, device_budget)?;
+        let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
+        // From the packed bounds: the scene's own walk would place every instance again.
+        let camera = scene.camera.unwrap_or_else(|| Camera::framing(packed.bounds));
+        Ok(Uploaded {
+            gpu,
+            bvh_reads,
+            camera,
+            default_focus: default_focus(packed.bounds, &camera),
+            warnings,
+        })
     }
 }
 

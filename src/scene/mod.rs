@@ -1,12 +1,15 @@
 //! The host scene model: meshes placed by instances, materials, textures, emitters and the camera.
+pub mod animation;
 mod environment;
 mod gltf;
+pub mod rig;
 mod soup;
 mod tangent;
 pub mod texture;
 
 pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, MAX_FILE_BYTES, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
+pub use rig::{JointSet, MorphTarget, PoseTime, Rig};
 pub use soup::{TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};
 
@@ -188,6 +191,10 @@ pub struct Primitive {
     /// Vertex indices with counter-clockwise front faces: strips and fans are already unrolled.
     pub triangles: Vec<[u32; 3]>,
     pub material: u32,
+    /// Displacements `Scene::pose` blends by the node's weights; empty in posed meshes.
+    pub morph_targets: Vec<MorphTarget>,
+    /// JOINTS_n and WEIGHTS_n: which joints move each vertex, for a node with a skin; empty in posed meshes.
+    pub skin: Vec<JointSet>,
 }
 
 impl Primitive {
@@ -236,6 +243,8 @@ pub struct Scene {
     /// The textures materials use (indexed by TextureRef::texture) and their images.
     pub textures: Vec<Texture>,
     pub images: Vec<Image>,
+    /// The node hierarchy, animations and skins `pose` places the scene from.
+    pub rig: Rig,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

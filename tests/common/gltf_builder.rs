@@ -17,6 +17,9 @@ pub struct GltfBuilder {
     samplers: Vec<Value>,
     textures: Vec<Value>,
     extensions: Vec<&'static str>,
+    /// Each animation's name, samplers and channels.
+    animations: Vec<(String, Vec<Value>, Vec<Value>)>,
+    skins: Vec<Value>,
 }
 
 impl GltfBuilder {
@@ -224,6 +227,119 @@ impl GltfBuilder {
         self.nodes.push(json!({ "name": name, "mesh": self.meshes.len() - 1 }));
     }
 
+    /// The index of the last node added.
+    pub fn last_node(&self) -> usize {
+        self.nodes.len() - 1
+    }
+
+    /// A node with the given JSON fields (e.g. a joint with a translation); returns its index.
+    pub fn node(&mut self, name: &str, fields: Value) -> usize {
+        self.nodes.push(json!({ "name": name }));
+        self.transform_last_node(fields);
+        self.last_node()
+    }
+
+    /// Makes `child` a child of `parent` (it is then no longer a root of the scene).
+    pub fn add_child(&mut self, parent: usize, child: usize) {
+        let node = &mut self.nodes[parent];
+        if node.get("children").is_none() {
+            node["children"] = json!([]);
+        }
+        node["children"].as_array_mut().unwrap().push(json!(child));
+    }
+
+    /// A keyframed channel of animation `animation` (created, by name, at first use) on `node`'s `path`
+    /// ("translation", "rotation", "scale" or "weights"): `values` holds every output float in order.
+    pub fn animate(
+        &mut self,
+        animation: &str,
+        node: usize,
+        path: &str,
+        interpolation: &str,
+        times: &[f32],
+        values: &[f32],
+    ) {
+        let input: Vec<[f32; 1]> = times.iter().map(|&t| [t]).collect();
+        let input = self.float_accessor(&input, "SCALAR");
+        let lo = times.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = times.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        self.accessors[input]["min"] = json!([lo]);
+        self.accessors[input]["max"] = json!([hi]);
+        let output = match path {
+            "translation" | "scale" => self.float_accessor(
+                &values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>(),
+                "VEC3",
+            ),
+            "rotation" => self.float_accessor(
+                &values.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect::<Vec<_>>(),
+                "VEC4",
+            ),
+            _ => self.float_accessor(&values.iter().map(|&v| [v]).collect::<Vec<_>>(), "SCALAR"),
+        };
+        let a = match self.animations.iter().position(|(n, _, _)| n == animation) {
+            Some(a) => a,
+            None => {
+                self.animations.push((animation.to_string(), Vec::new(), Vec::new()));
+                self.animations.len() - 1
+            }
+        };
+        let (_, samplers, channels) = &mut self.animations[a];
+        samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+        channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
+    }
+
+    /// Gives the last mesh a morph target of position displacements (one per vertex) and the mesh default weights.
+    pub fn add_morph_target(&mut self, displacements: &[[f32; 3]], weights: &[f32]) {
+        let acc = self.float_accessor(displacements, "VEC3");
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for d in displacements {
+            for c in 0..3 {
+                lo[c] = lo[c].min(d[c]);
+                hi[c] = hi[c].max(d[c]);
+            }
+        }
+        self.accessors[acc]["min"] = json!(lo);
+        self.accessors[acc]["max"] = json!(hi);
+        let mesh = self.meshes.last_mut().unwrap();
+        let prim = &mut mesh["primitives"][0];
+        if prim.get("targets").is_none() {
+            prim["targets"] = json!([]);
+        }
+        prim["targets"].as_array_mut().unwrap().push(json!({ "POSITION": acc }));
+        mesh["weights"] = json!(weights);
+    }
+
+    /// Skins the last mesh (placed by the last mesh node): JOINTS_0 and WEIGHTS_0 per vertex, and a skin over
+    /// `joints` (node indices) with their inverse bind matrices (column-major, as glTF stores them).
+    pub fn skin_last_mesh(
+        &mut self,
+        joints: &[usize],
+        inverse_bind: &[[f32; 16]],
+        vertex_joints: &[[u16; 4]],
+        vertex_weights: &[[f32; 4]],
+    ) {
+        let jb: Vec<u8> = vertex_joints.iter().flatten().flat_map(|j| j.to_le_bytes()).collect();
+        let jv = self.push_view(&jb, 34962);
+        self.accessors
+            .push(json!({ "bufferView": jv, "componentType": 5123, "count": vertex_joints.len(), "type": "VEC4" }));
+        let ja = self.accessors.len() - 1;
+        self.set_attribute("JOINTS_0", ja);
+        let wa = self.float_accessor(vertex_weights, "VEC4");
+        self.set_attribute("WEIGHTS_0", wa);
+        let ibm = self.float_accessor(inverse_bind, "MAT4");
+        self.views[self.accessors[ibm]["bufferView"].as_u64().unwrap() as usize]
+            .as_object_mut()
+            .unwrap()
+            .remove("target");
+        self.skins.push(json!({ "joints": joints, "inverseBindMatrices": ibm }));
+        let mesh = self.meshes.len() - 1;
+        let node = (self.nodes.iter_mut().rev())
+            .find(|n| n.get("mesh").and_then(Value::as_u64) == Some(mesh as u64))
+            .unwrap();
+        node["skin"] = json!(self.skins.len() - 1);
+    }
+
     /// Sets the last node's glTF transform fields (`translation`, `rotation`, `scale` or `matrix`).
     pub fn transform_last_node(&mut self, transform: Value) {
         let node = self.nodes.last_mut().unwrap();
@@ -393,7 +509,7 @@ impl GltfBuilder {
         let mut doc = json!({
             "asset": { "version": "2.0", "generator": "pathwave tests/common/gltf_builder.rs" },
             "scene": 0,
-            "scenes": [{ "nodes": (0..self.nodes.len()).collect::<Vec<_>>() }],
+            "scenes": [{ "nodes": self.roots() }],
             "nodes": self.nodes,
             "meshes": self.meshes,
             "materials": self.materials,
@@ -403,6 +519,15 @@ impl GltfBuilder {
         });
         if !self.cameras.is_empty() {
             doc["cameras"] = json!(self.cameras);
+        }
+        if !self.animations.is_empty() {
+            let animations: Vec<Value> = (self.animations.iter())
+                .map(|(name, samplers, channels)| json!({ "name": name, "samplers": samplers, "channels": channels }))
+                .collect();
+            doc["animations"] = json!(animations);
+        }
+        if !self.skins.is_empty() {
+            doc["skins"] = json!(self.skins);
         }
         if !self.extensions.is_empty() {
             doc["extensionsUsed"] = json!(self.extensions);
@@ -416,6 +541,18 @@ impl GltfBuilder {
             doc["textures"] = json!(self.textures);
         }
         doc
+    }
+
+    /// Every node no other node lists as a child, in order.
+    fn roots(&self) -> Vec<usize> {
+        let children: Vec<u64> = (self.nodes.iter())
+            .filter_map(|n| n.get("children").and_then(Value::as_array))
+            .flatten()
+            .filter_map(Value::as_u64)
+            .collect();
+        (0..self.nodes.len())
+            .filter(|i| !children.contains(&(*i as u64)))
+            .collect()
     }
 
     pub fn write(&self, path: &std::path::Path) {

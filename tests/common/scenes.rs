@@ -450,3 +450,169 @@ pub fn textured() -> GltfBuilder {
     b.camera([0.3, 2.4, 5.2], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 45.0);
     b
 }
+
+/// Everything glTF animation moves, in a small lit room, over two seconds: a cube that slides (LINEAR translation)
+/// and turns (LINEAR rotation, slerped), a sphere that bounces (CUBICSPLINE), a quad whose corner morphs up and
+/// down (morph-target weights), a two-bone bar that bends (a skin), a light that blinks on and off (STEP scale),
+/// and a camera that dollies in.
+pub fn animated() -> GltfBuilder {
+    use glam::{Quat, Vec3};
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.7, 0.7, 0.7], [0.0; 3], false);
+    let red = b.material("red", [0.7, 0.1, 0.08], [0.0; 3], false);
+    let blue = b.material("blue", [0.1, 0.2, 0.7], [0.0; 3], true);
+    let yellow = b.material("yellow", [0.8, 0.6, 0.1], [0.0; 3], false);
+    let light = b.material("light", [0.8; 3], [12.0, 11.0, 9.0], false);
+    b.quad(
+        "floor",
+        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "back wall",
+        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 3.0, -2.0], [-2.0, 3.0, -2.0]],
+        white,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.quad(
+        "lamp",
+        [[-0.6, 2.9, -0.6], [0.6, 2.9, -0.6], [0.6, 2.9, 0.6], [-0.6, 2.9, 0.6]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.quad(
+        "blinker",
+        [
+            [1.2, 2.0, -1.99],
+            [1.8, 2.0, -1.99],
+            [1.8, 2.6, -1.99],
+            [1.2, 2.6, -1.99],
+        ],
+        light,
+        Some([0.0, 0.0, 1.0]),
+    );
+    let blinker = b.last_node();
+    b.animate(
+        "blink",
+        blinker,
+        "scale",
+        "STEP",
+        &[0.0, 0.5, 1.0, 1.5],
+        &[1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0],
+    );
+
+    b.cube("cube", [-0.25, 0.0, -0.25], [0.25, 0.5, 0.25], red, false);
+    // `cube` makes one node per face: a parent moves them together.
+    let faces: Vec<usize> = (b.last_node() - 5..=b.last_node()).collect();
+    let cube = b.node("cube", serde_json::json!({ "translation": [-1.2, 0.0, 0.0] }));
+    for f in faces {
+        b.add_child(cube, f);
+    }
+    b.animate(
+        "move",
+        cube,
+        "translation",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[-1.2, 0.0, 0.3, -0.6, 0.0, -0.6],
+    );
+    let turn = |deg: f32| Quat::from_rotation_y(deg.to_radians()).to_array();
+    let rotations: Vec<f32> = [0.0, 90.0, 180.0].iter().flat_map(|&d| turn(d)).collect();
+    b.animate("move", cube, "rotation", "LINEAR", &[0.0, 1.0, 2.0], &rotations);
+
+    b.sphere("ball", [0.0, 0.0, 0.0], 0.25, yellow);
+    let ball = b.last_node();
+    b.transform_last_node(serde_json::json!({ "translation": [0.2, 0.25, 0.6] }));
+    // In-tangent, value, out-tangent per key (metres per second): up fast, down fast, a rest at the top.
+    let bounce = [
+        [0.0, 0.0, 0.0],
+        [0.2, 0.25, 0.6],
+        [0.0, 3.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [0.2, 1.2, 0.6],
+        [0.0, 0.0, 0.0],
+        [0.0, -3.0, 0.0],
+        [0.2, 0.25, 0.6],
+        [0.0, 0.0, 0.0],
+    ];
+    b.animate(
+        "move",
+        ball,
+        "translation",
+        "CUBICSPLINE",
+        &[0.0, 1.0, 2.0],
+        &bounce.concat(),
+    );
+
+    let corners = [[0.6, 0.01, 0.2], [1.6, 0.01, 0.2], [1.6, 0.01, 1.2], [0.6, 0.01, 1.2]];
+    b.mesh("sheet", &corners, &[0, 2, 1, 0, 3, 2], blue);
+    b.add_morph_target(&[[0.0; 3], [0.0; 3], [0.0, 0.9, 0.0], [0.0; 3]], &[0.0]);
+    let sheet = b.last_node();
+    b.animate("move", sheet, "weights", "LINEAR", &[0.0, 1.0, 2.0], &[0.0, 1.0, 0.0]);
+
+    // A bar of two segments along +y from (-0.5, 0, -1): the lower joint holds the bottom, the upper the top.
+    let (w, h) = (0.12, 0.6);
+    let mut positions = Vec::new();
+    for level in 0..=2 {
+        let y = level as f32 * h;
+        for (x, z) in [(-w, -w), (w, -w), (w, w), (-w, w)] {
+            positions.push([-0.5 + x, y, -1.0 + z]);
+        }
+    }
+    let mut indices = Vec::new();
+    for level in 0..2u32 {
+        let (lo, hi) = (level * 4, level * 4 + 4);
+        for s in 0..4 {
+            let (a, c) = (s, (s + 1) % 4);
+            indices.extend([lo + a, lo + c, hi + c, lo + a, hi + c, hi + a]);
+        }
+    }
+    indices.extend([8, 10, 9, 8, 11, 10]);
+    b.mesh("bar", &positions, &indices, yellow);
+    let root = b.node("bone 0", serde_json::json!({ "translation": [-0.5, 0.0, -1.0] }));
+    let upper = b.node("bone 1", serde_json::json!({ "translation": [0.0, h, 0.0] }));
+    b.add_child(root, upper);
+    let joints: Vec<[u16; 4]> = (0..12)
+        .map(|v| {
+            if v < 4 {
+                [0, 0, 0, 0]
+            } else if v < 8 {
+                [0, 1, 0, 0]
+            } else {
+                [1, 0, 0, 0]
+            }
+        })
+        .collect();
+    let weights: Vec<[f32; 4]> = (0..12)
+        .map(|v| {
+            if (4..8).contains(&v) {
+                [0.5, 0.5, 0.0, 0.0]
+            } else {
+                [1.0, 0.0, 0.0, 0.0]
+            }
+        })
+        .collect();
+    let inverse = |t: Vec3| glam::Mat4::from_translation(-t).to_cols_array();
+    b.skin_last_mesh(
+        &[root, upper],
+        &[inverse(Vec3::new(-0.5, 0.0, -1.0)), inverse(Vec3::new(-0.5, h, -1.0))],
+        &joints,
+        &weights,
+    );
+    let bend = |deg: f32| Quat::from_rotation_z(deg.to_radians()).to_array();
+    let bends: Vec<f32> = [0.0, -70.0, 0.0].iter().flat_map(|&d| bend(d)).collect();
+    b.animate("move", upper, "rotation", "LINEAR", &[0.0, 1.0, 2.0], &bends);
+
+    b.camera([0.0, 1.4, 4.6], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 40.0);
+    let camera = b.last_node();
+    b.animate(
+        "move",
+        camera,
+        "translation",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 1.4, 4.6, 0.0, 1.3, 3.8],
+    );
+    b
+}

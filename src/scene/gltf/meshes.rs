@@ -9,7 +9,7 @@ use gltf::mesh::Mode;
 
 /// What an accessor accepted by `Loader::check_accessor` holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Contents {
+pub(super) enum Contents {
     /// Elements in a bufferView, which gltf's reader can read.
     Data,
     /// No bufferView and no sparse: every element is zero, and there is nothing to read.
@@ -42,7 +42,7 @@ impl Loader<'_> {
 
     /// Checks an accessor against what its reader assumes, so malformed files give errors instead of panics.
     /// An accessor without bufferView and sparse holds zeros (valid glTF); it must not be given to the reader.
-    fn check_accessor(
+    pub(super) fn check_accessor(
         &self,
         acc: &gltf::Accessor,
         what: &str,
@@ -109,9 +109,6 @@ impl Loader<'_> {
             ));
             return Ok(None);
         }
-        if prim.morph_targets().next().is_some() {
-            self.warn(format!("mesh '{mesh_name}': morph targets are ignored"));
-        }
         let Some(mut present) = self.check_geometry(mesh_name, prim)? else {
             return Ok(None);
         };
@@ -120,11 +117,13 @@ impl Loader<'_> {
         self.check_shading(mesh_name, prim, &mat, &mut present)?;
         let (read, indices) = self.read(mesh_name, prim, &present)?;
         self.check_counts(mesh_name, &read, &indices)?;
-        Ok(Some(Primitive {
+        let mut p = Primitive {
             triangles: unroll(mode, &indices),
             material,
             ..read
-        }))
+        };
+        self.read_deformation(mesh_name, prim, &mut p)?;
+        Ok(Some(p))
     }
 
     /// COLOR_0, POSITION, NORMAL and the indices; `None` when the primitive is skipped (with a warning).

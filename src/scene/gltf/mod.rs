@@ -1,12 +1,15 @@
 //! The glTF reader: refuses malformed files with a clear error, then takes in nodes, meshes, materials and lights.
+mod animation;
 mod materials;
 mod meshes;
 mod uri;
 mod validate;
 
-use super::{Camera, Instance, Material, PunctualKind, PunctualLight, Scene};
+use super::animation::Trs;
+use super::rig::{LightSpec, Node};
+use super::{Material, PoseTime, PunctualKind, Scene};
 use crate::error::Error;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Quat, Vec3};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 pub(super) use uri::regular_len;
@@ -114,7 +117,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         max_texture_pixels: options.max_texture_pixels,
         buffers: &buffers,
         scene: &mut scene,
-        cameras: Vec::new(),
+        cameras: 0,
         texture_map: Default::default(),
         image_map: Default::default(),
         mesh_map: Default::default(),
@@ -130,7 +133,8 @@ struct Loader<'a> {
     max_texture_pixels: u64,
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
-    cameras: Vec<Camera>,
+    /// Perspective cameras placed so far, for the warning when there is none.
+    cameras: usize,
     /// glTF texture index to scene texture (None: no readable image); glTF image index to scene image.
     texture_map: HashMap<usize, Option<usize>>,
     image_map: HashMap<usize, usize>,
@@ -151,18 +155,13 @@ impl Loader<'_> {
                 self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }
         }
-        if doc.animations().next().is_some() {
-            self.warn("animations are ignored; the scene renders at its rest pose".into());
-        }
-        if doc.skins().next().is_some() {
-            self.warn("skins are ignored; skinned meshes render at their bind pose".into());
-        }
         for m in doc.materials() {
             self.material(&m)?;
         }
         let default_material = self.scene.materials.len() as u32;
         self.scene.materials.push(Material::default());
 
+        self.scene.rig.nodes = doc.nodes().map(|n| rest_node(&n)).collect();
         let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => s.nodes().collect(),
             None => {
@@ -171,27 +170,22 @@ impl Loader<'_> {
             }
         };
         let mut visited = HashSet::new();
-        // Depth-first in node order, on an explicit stack so a deep hierarchy cannot overflow the thread's stack.
-        let mut stack: Vec<(gltf::Node, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
-        while let Some((node, parent)) = stack.pop() {
-            let world = self.node(&node, parent, default_material, &mut visited)?;
-            let children: Vec<gltf::Node> = node.children().collect();
-            stack.extend(children.into_iter().rev().map(|c| (c, world)));
-        }
-        self.scene.camera_count = self.cameras.len();
-        self.scene.camera = match camera {
-            None => self.cameras.first().copied(),
-            Some(i) => Some(*self.cameras.get(i).ok_or_else(|| {
-                scene_err(
-                    self.path,
-                    format!(
-                        "--camera {i}: the file has {} perspective camera(s)",
-                        self.cameras.len()
-                    ),
-                )
-            })?),
-        };
-        if self.scene.camera.is_none() {
+        self.walk(roots, true, default_material, &mut visited)?;
+        // Joints may sit outside the rendered scene: the other trees give them their world transforms.
+        let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+        let others: Vec<gltf::Node> = (doc.nodes())
+            .filter(|n| !visited.contains(&n.index()) && !children.contains(&n.index()))
+            .collect();
+        self.walk(others, false, default_material, &mut visited)?;
+
+        self.scene.rig.skins = doc.skins().map(|s| self.skin(&s)).collect::<Result<_, _>>()?;
+        self.check_skins(&visited)?;
+        self.scene.rig.animations = self.animations(doc)?;
+        self.scene.rig.file_meshes = self.scene.meshes.len();
+        self.scene.rig.camera_choice = camera;
+        // With animations, at their start (time 0, every channel), as viewers show a file before it plays.
+        self.scene.pose(PoseTime::default())?;
+        if self.cameras == 0 {
             self.warn("the file has no perspective camera; using one that frames the scene".into());
         }
         if self.scene.is_empty() {
@@ -200,41 +194,81 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// Takes in one node's light, camera and mesh (as an instance); returns its world transform for its children.
-    fn node(
+    /// Depth-first in node order from `roots`, on an explicit stack so that a deep hierarchy cannot overflow the
+    /// thread's stack: each node recorded in the rig's order with its parent. `placed` nodes are part of the scene.
+    fn walk(
         &mut self,
-        node: &gltf::Node,
-        parent: Mat4,
+        roots: Vec<gltf::Node>,
+        placed: bool,
         default_material: u32,
         visited: &mut HashSet<usize>,
-    ) -> Result<Mat4, Error> {
-        if !visited.insert(node.index()) {
-            return Err(scene_err(
-                self.path,
-                format!(
-                    "node {} appears twice in the hierarchy (a cycle or a shared child)",
-                    node.index()
-                ),
-            ));
+    ) -> Result<(), Error> {
+        let mut stack: Vec<(gltf::Node, Option<usize>)> = roots.into_iter().rev().map(|n| (n, None)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            if !visited.insert(node.index()) {
+                return Err(scene_err(
+                    self.path,
+                    format!(
+                        "node {} appears twice in the hierarchy (a cycle or a shared child)",
+                        node.index()
+                    ),
+                ));
+            }
+            self.scene.rig.nodes[node.index()].parent = parent;
+            self.scene.rig.order.push(node.index());
+            if placed {
+                self.node(&node, default_material)?;
+            }
+            let children: Vec<gltf::Node> = node.children().collect();
+            stack.extend(children.into_iter().rev().map(|c| (c, Some(node.index()))));
         }
-        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
-        let world = parent * local;
-        if !world.is_finite() {
-            return Err(scene_err(
-                self.path,
-                format!("node {} has a non-finite transform", node.index()),
-            ));
+        Ok(())
+    }
+
+    /// Every skin's joints have world transforms, and every skinned mesh names only joints its skin has.
+    fn check_skins(&self, visited: &HashSet<usize>) -> Result<(), Error> {
+        for (s, skin) in self.scene.rig.skins.iter().enumerate() {
+            if let Some(j) = skin.joints.iter().find(|j| !visited.contains(j)) {
+                return Err(scene_err(
+                    self.path,
+                    format!("skin {s}: joint node {j} is in a cycle, outside every tree of nodes"),
+                ));
+            }
         }
+        for (i, node) in self.scene.rig.nodes.iter().enumerate().filter(|(_, n)| n.placed) {
+            let (Some(m), Some(s)) = (node.mesh, node.skin) else {
+                continue;
+            };
+            let joints = self.scene.rig.skins[s].joints.len();
+            let mesh = &self.scene.meshes[m];
+            let most = (mesh.primitives.iter())
+                .flat_map(|p| &p.skin)
+                .flat_map(|set| set.joints.iter().flatten())
+                .max();
+            if let Some(&j) = most.filter(|&&j| j as usize >= joints) {
+                return Err(scene_err(
+                    self.path,
+                    format!(
+                        "node {i}: mesh '{}' names joint {j}, but skin {s} has {joints} joints",
+                        mesh.name
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes in one placed node's light, camera, mesh and skin; `pose` places them.
+    fn node(&mut self, node: &gltf::Node, default_material: u32) -> Result<(), Error> {
+        let i = node.index();
+        self.scene.rig.nodes[i].placed = true;
         if let Some(light) = node.light() {
-            self.punctual(&light, world)?;
+            self.scene.rig.nodes[i].light = Some(self.punctual(&light)?);
         }
         if let Some(cam) = node.camera() {
-            self.camera(&cam, world)?;
+            self.scene.rig.nodes[i].camera = self.camera(&cam);
         }
         if let Some(mesh) = node.mesh() {
-            if node.skin().is_some() {
-                self.warn("skins are ignored; skinned meshes render at their bind pose".into());
-            }
             // Read at the first node that places it, so its warnings and errors come in node order as before.
             let index = match self.mesh_map.get(&mesh.index()) {
                 Some(&i) => i,
@@ -245,48 +279,41 @@ impl Loader<'_> {
                     self.scene.meshes.len() - 1
                 }
             };
-            self.scene.instances.push(Instance {
-                mesh: index,
-                world_from_object: world,
-            });
+            let targets = mesh.primitives().map(|p| p.morph_targets().count()).max().unwrap_or(0);
+            let n = &mut self.scene.rig.nodes[i];
+            n.mesh = Some(index);
+            n.skin = node.skin().map(|s| s.index());
+            if targets > 0 {
+                let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
+                n.weights = (0..targets).map(|t| weights.get(t).copied().unwrap_or(0.0)).collect();
+            }
         }
-        Ok(world)
+        Ok(())
     }
 
-    fn camera(&mut self, cam: &gltf::Camera, world: Mat4) -> Result<(), Error> {
+    /// A perspective camera's index and field of view; others are ignored with a warning.
+    fn camera(&mut self, cam: &gltf::Camera) -> Option<(usize, f32)> {
         match cam.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
-                if let Err(why) = Camera::check_transform(&world) {
-                    return Err(scene_err(
-                        self.path,
-                        format!(
-                            "camera {}: its node's world transform {why}, so it has no view",
-                            cam.index()
-                        ),
-                    ));
-                }
                 if yfov > 0.0 && yfov < std::f32::consts::PI {
-                    self.cameras.push(Camera {
-                        world_from_camera: world,
-                        yfov,
-                    });
-                } else {
-                    self.warn(format!(
-                        "camera {}: yfov {yfov} is out of range and the camera is ignored",
-                        cam.index()
-                    ));
+                    self.cameras += 1;
+                    return Some((cam.index(), yfov));
                 }
+                self.warn(format!(
+                    "camera {}: yfov {yfov} is out of range and the camera is ignored",
+                    cam.index()
+                ));
             }
             gltf::camera::Projection::Orthographic(_) => self.warn(format!(
                 "camera {}: orthographic cameras are not supported and it is ignored",
                 cam.index()
             )),
         }
-        Ok(())
+        None
     }
 
-    fn punctual(&mut self, light: &gltf::khr_lights_punctual::Light, world: Mat4) -> Result<(), Error> {
+    fn punctual(&mut self, light: &gltf::khr_lights_punctual::Light) -> Result<LightSpec, Error> {
         use gltf::khr_lights_punctual::Kind;
         let name = light
             .name()
@@ -328,13 +355,45 @@ impl Loader<'_> {
                 }
             }
         };
-        let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
-        self.scene.punctual.push(PunctualLight {
+        Ok(LightSpec {
             kind,
-            position: world.transform_point3(Vec3::ZERO),
-            direction,
             intensity: intensity.max(Vec3::ZERO),
-        });
-        Ok(())
+        })
+    }
+}
+
+/// A node before any placing: the file's local transform both composed (as gltf composes it) and decomposed.
+fn rest_node(node: &gltf::Node) -> Node {
+    let rest = Mat4::from_cols_array_2d(&node.transform().matrix());
+    let trs = match node.transform() {
+        gltf::scene::Transform::Decomposed {
+            translation,
+            rotation,
+            scale,
+        } => Trs {
+            translation: Vec3::from(translation),
+            rotation: Quat::from_array(rotation),
+            scale: Vec3::from(scale),
+        },
+        // glTF forbids animating a node given by matrix; should a file do it, the channels replace the parts.
+        gltf::scene::Transform::Matrix { .. } => {
+            let (scale, rotation, translation) = rest.to_scale_rotation_translation();
+            Trs {
+                translation,
+                rotation,
+                scale,
+            }
+        }
+    };
+    Node {
+        parent: None,
+        rest,
+        trs,
+        placed: false,
+        mesh: None,
+        skin: None,
+        camera: None,
+        light: None,
+        weights: Vec::new(),
     }
 }

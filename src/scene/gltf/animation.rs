@@ -1,0 +1,269 @@
+//! Animations, skins, morph targets and vertex joints: each accessor checked as meshes' are, each keyframe set
+//! checked so that sampling cannot fail; a channel that cannot play is dropped with a warning.
+use super::meshes::Contents;
+use super::{scene_err, Loader};
+use crate::error::Error;
+use crate::scene::animation::{Animation, Channel, Interpolation, Property, Sampler};
+use crate::scene::rig::Skin;
+use crate::scene::{JointSet, MorphTarget, Primitive};
+use glam::{Mat4, Vec3, Vec4};
+use gltf::accessor::{DataType, Dimensions};
+
+const NORMALIZED_INTS: [DataType; 5] = [DataType::F32, DataType::I8, DataType::U8, DataType::I16, DataType::U16];
+
+impl Loader<'_> {
+    pub(super) fn animations(&mut self, doc: &gltf::Document) -> Result<Vec<Animation>, Error> {
+        let mut animations = Vec::new();
+        for a in doc.animations() {
+            let name = a.name().unwrap_or_default().to_string();
+            let mut channels = Vec::new();
+            for c in a.channels() {
+                // gltf's Target unwraps both: a file may name a node that does not exist or a path it cannot read
+                // (KHR_animation_pointer's "pointer").
+                let target = &doc.as_json().animations[a.index()].channels[c.index()].target;
+                let problem = if target.node.value() >= doc.nodes().len() {
+                    Some(format!("its target node {} does not exist", target.node.value()))
+                } else if !matches!(target.path, gltf::json::validation::Checked::Valid(_)) {
+                    Some("its target path is not translation, rotation, scale or weights".to_string())
+                } else {
+                    None
+                };
+                if let Some(why) = problem {
+                    self.warn(format!(
+                        "animation {} channel {}: {why}; the channel is ignored",
+                        a.index(),
+                        c.index()
+                    ));
+                    continue;
+                }
+                match self.channel(&c)? {
+                    Ok(channel) => channels.push(channel),
+                    Err(why) => self.warn(format!(
+                        "animation {} channel {}: {why}; the channel is ignored",
+                        a.index(),
+                        c.index()
+                    )),
+                }
+            }
+            animations.push(Animation { name, channels });
+        }
+        Ok(animations)
+    }
+
+    /// One channel, an error for a malformed accessor, or why its keys cannot play (the inner Err).
+    fn channel(&self, c: &gltf::animation::Channel) -> Result<Result<Channel, String>, Error> {
+        use gltf::animation::util::ReadOutputs;
+        let node = c.target().node().index();
+        let property = match c.target().property() {
+            gltf::animation::Property::Translation => Property::Translation,
+            gltf::animation::Property::Rotation => Property::Rotation,
+            gltf::animation::Property::Scale => Property::Scale,
+            gltf::animation::Property::MorphTargetWeights => Property::Weights,
+        };
+        let interpolation = match c.sampler().interpolation() {
+            gltf::animation::Interpolation::Step => Interpolation::Step,
+            gltf::animation::Interpolation::Linear => Interpolation::Linear,
+            gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+        };
+        let (input, output) = (c.sampler().input(), c.sampler().output());
+        let inputs = self.check_accessor(&input, "animation input", &[DataType::F32], Dimensions::Scalar, false)?;
+        let (types, dims): (&[DataType], Dimensions) = match property {
+            Property::Translation | Property::Scale => (&[DataType::F32], Dimensions::Vec3),
+            Property::Rotation => (&NORMALIZED_INTS, Dimensions::Vec4),
+            Property::Weights => (&NORMALIZED_INTS, Dimensions::Scalar),
+        };
+        let outputs = self.check_accessor(&output, "animation output", types, dims, true)?;
+        if inputs == Contents::Zeros {
+            return Ok(Err("its input accessor has no data".into()));
+        }
+        let buffers = self.buffers;
+        let reader = c.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+        let times: Vec<f32> = reader.read_inputs().map(|i| i.collect()).unwrap_or_default();
+        if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[0] >= w[1]) {
+            return Ok(Err("its key times are not finite and strictly increasing".into()));
+        }
+        let per_key = if interpolation == Interpolation::CubicSpline {
+            3
+        } else {
+            1
+        };
+        let width = match property {
+            Property::Translation | Property::Scale => 3,
+            Property::Rotation => 4,
+            // One weight per target: the output holds keys times targets of them.
+            Property::Weights => {
+                let elements = times.len() * per_key;
+                if output.count() % elements != 0 {
+                    return Ok(Err(format!(
+                        "its {} weights are not a whole number per key ({} keys)",
+                        output.count(),
+                        times.len()
+                    )));
+                }
+                output.count() / elements
+            }
+        };
+        let values: Vec<f32> = if outputs == Contents::Zeros {
+            vec![0.0; output.count() * dims.multiplicity()]
+        } else {
+            match reader.read_outputs() {
+                Some(ReadOutputs::Translations(v)) | Some(ReadOutputs::Scales(v)) => v.flatten().collect(),
+                Some(ReadOutputs::Rotations(v)) => v.into_f32().flatten().collect(),
+                Some(ReadOutputs::MorphTargetWeights(v)) => v.into_f32().collect(),
+                None => return Ok(Err("its output accessor cannot be read".into())),
+            }
+        };
+        if values.len() != times.len() * per_key * width {
+            return Ok(Err(format!(
+                "it has {} keys but {} output values ({} expected)",
+                times.len(),
+                values.len() / width.max(1),
+                times.len() * per_key
+            )));
+        }
+        if values.iter().any(|v| !v.is_finite()) {
+            return Ok(Err("an output value is not finite".into()));
+        }
+        let targets = self.scene.rig.nodes[node].weights.len();
+        if property == Property::Weights && width != targets {
+            return Ok(Err(format!(
+                "it drives {width} morph weights, but node {node}'s mesh has {targets} morph targets"
+            )));
+        }
+        Ok(Ok(Channel {
+            node,
+            property,
+            sampler: Sampler {
+                interpolation,
+                times,
+                values,
+                width,
+            },
+        }))
+    }
+
+    pub(super) fn skin(&self, s: &gltf::Skin) -> Result<Skin, Error> {
+        let joints: Vec<usize> = s.joints().map(|j| j.index()).collect();
+        let err = |m: String| scene_err(self.path, format!("skin {}: {m}", s.index()));
+        let inverse_bind = match s.inverse_bind_matrices() {
+            None => vec![Mat4::IDENTITY; joints.len()],
+            Some(acc) => {
+                let contents =
+                    self.check_accessor(&acc, "inverseBindMatrices", &[DataType::F32], Dimensions::Mat4, false)?;
+                if acc.count() < joints.len() {
+                    return Err(err(format!(
+                        "{} inverse bind matrices for {} joints",
+                        acc.count(),
+                        joints.len()
+                    )));
+                }
+                let buffers = self.buffers;
+                let read: Vec<Mat4> = match contents {
+                    Contents::Zeros => vec![Mat4::ZERO; joints.len()],
+                    Contents::Data => s
+                        .reader(|b| buffers.get(b.index()).map(|d| &d[..]))
+                        .read_inverse_bind_matrices()
+                        .map(|m| m.map(|m| Mat4::from_cols_array_2d(&m)).collect())
+                        .unwrap_or_default(),
+                };
+                if read.iter().any(|m| !m.is_finite()) {
+                    return Err(err("an inverse bind matrix is not finite".into()));
+                }
+                read
+            }
+        };
+        Ok(Skin {
+            name: s.name().unwrap_or_default().to_string(),
+            joints,
+            inverse_bind,
+        })
+    }
+
+    /// The primitive's morph targets and joint sets, checked against its vertex count.
+    pub(super) fn read_deformation(
+        &self,
+        mesh_name: &str,
+        prim: &gltf::Primitive,
+        p: &mut Primitive,
+    ) -> Result<(), Error> {
+        let err = |m: String| scene_err(self.path, format!("mesh '{mesh_name}': {m}"));
+        let n = p.positions.len();
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
+        for (t, target) in prim.morph_targets().enumerate() {
+            for (what, acc) in [
+                ("POSITION", target.positions()),
+                ("NORMAL", target.normals()),
+                ("TANGENT", target.tangents()),
+            ] {
+                if let Some(acc) = acc {
+                    let what = format!("morph target {t} {what}");
+                    // One without data displaces nothing, and gltf's reader yields nothing for it: the same.
+                    self.check_accessor(&acc, &what, &[DataType::F32], Dimensions::Vec3, false)?;
+                    if acc.count() != n {
+                        return Err(err(format!("{what} has {} elements for {n} vertices", acc.count())));
+                    }
+                }
+            }
+        }
+        for (t, (positions, normals, tangents)) in reader.read_morph_targets().enumerate() {
+            let read = |v: Option<gltf::accessor::Iter<'_, [f32; 3]>>| v.map(|v| v.map(Vec3::from).collect::<Vec<_>>());
+            let target = MorphTarget {
+                positions: read(positions),
+                normals: read(normals),
+                tangents: read(tangents),
+            };
+            let all = [&target.positions, &target.normals, &target.tangents];
+            if all.iter().copied().flatten().flatten().any(|v| !v.is_finite()) {
+                return Err(err(format!("morph target {t} holds a non-finite value")));
+            }
+            p.morph_targets.push(target);
+        }
+        for set in 0.. {
+            let (Some(j), Some(w)) = (
+                prim.get(&gltf::Semantic::Joints(set)),
+                prim.get(&gltf::Semantic::Weights(set)),
+            ) else {
+                break;
+            };
+            let jc = self.check_accessor(
+                &j,
+                &format!("JOINTS_{set}"),
+                &[DataType::U8, DataType::U16],
+                Dimensions::Vec4,
+                false,
+            )?;
+            let wc = self.check_accessor(
+                &w,
+                &format!("WEIGHTS_{set}"),
+                &[DataType::F32, DataType::U8, DataType::U16],
+                Dimensions::Vec4,
+                true,
+            )?;
+            if j.count() != n || w.count() != n {
+                return Err(err(format!(
+                    "JOINTS_{set} or WEIGHTS_{set} and POSITION have different counts"
+                )));
+            }
+            let joints: Vec<[u16; 4]> = match jc {
+                Contents::Zeros => vec![[0; 4]; n],
+                Contents::Data => reader
+                    .read_joints(set)
+                    .map(|r| r.into_u16().collect())
+                    .unwrap_or_default(),
+            };
+            let weights: Vec<Vec4> = match wc {
+                Contents::Zeros => vec![Vec4::ZERO; n],
+                Contents::Data => reader
+                    .read_weights(set)
+                    .map(|r| r.into_f32().map(Vec4::from).collect())
+                    .unwrap_or_default(),
+            };
+            if weights.iter().any(|w| !w.is_finite() || w.min_element() < 0.0) {
+                return Err(err(format!("WEIGHTS_{set} holds a negative or non-finite weight")));
+            }
+            p.skin.push(JointSet { joints, weights });
+        }
+        Ok(())
+    }
+}

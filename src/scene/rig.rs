@@ -1,0 +1,351 @@
+//! The file's node hierarchy with its animations, skins and morph targets, and `Scene::pose`, which places the
+//! scene at a time: instances, deformed meshes, cameras and lights.
+use super::animation::{Animation, Property, Trs};
+use super::{Camera, Instance, Mesh, Primitive, PunctualKind, PunctualLight, Scene};
+use crate::error::Error;
+use glam::{Mat3, Mat4, Vec3, Vec4};
+
+/// A light as its node carries it; `pose` places it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSpec {
+    pub kind: PunctualKind,
+    pub intensity: Vec3,
+}
+
+/// One glTF node, as the loader took it in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// The parent, which `Rig::order` lists before this node.
+    pub parent: Option<usize>,
+    /// The file's local transform, composed as gltf composes it: what every node no channel drives keeps, so a
+    /// file without animation places its meshes exactly as before animation was read.
+    pub rest: Mat4,
+    /// The file's translation, rotation and scale (decomposed from `matrix` when the file gives one), which
+    /// channels replace one by one.
+    pub trs: Trs,
+    /// Whether the node is part of the rendered scene (otherwise it is only reachable as a joint).
+    pub placed: bool,
+    /// Index into `Scene::meshes`.
+    pub mesh: Option<usize>,
+    pub skin: Option<usize>,
+    /// A perspective camera: its glTF index and vertical field of view.
+    pub camera: Option<(usize, f32)>,
+    pub light: Option<LightSpec>,
+    /// The node's morph-target weights, or its mesh's defaults (empty without targets).
+    pub weights: Vec<f32>,
+}
+
+/// A skeleton: joints (indices into `Rig::nodes`) and the inverse bind matrix of each.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Skin {
+    pub name: String,
+    pub joints: Vec<usize>,
+    pub inverse_bind: Vec<Mat4>,
+}
+
+/// What the scene is posed with: every channel of the file (`animation` None), or one animation's, at `time`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PoseTime {
+    pub time: f32,
+    pub animation: Option<usize>,
+}
+
+/// The nodes and what moves them.
+#[derive(Clone, Debug, Default)]
+pub struct Rig {
+    /// By glTF node index.
+    pub nodes: Vec<Node>,
+    /// Every node with a world transform, parents first: the placed ones in the file's depth-first node order
+    /// (the order instances, cameras and lights come in), then those only skins reach.
+    pub order: Vec<usize>,
+    pub animations: Vec<Animation>,
+    pub skins: Vec<Skin>,
+    /// `Scene::meshes[..file_meshes]` are the file's; `pose` appends the deformed (skinned or morphed) ones.
+    pub file_meshes: usize,
+    /// The Nth perspective camera in node order that `pose` makes the scene's camera (default: the first).
+    pub camera_choice: Option<usize>,
+    /// What the scene is posed with now.
+    pub posed: PoseTime,
+}
+
+impl Rig {
+    /// Whether a pose at another time can differ: the file has animations.
+    pub fn animated(&self) -> bool {
+        !self.animations.is_empty()
+    }
+
+    /// The animation `--animation` names, by index or by name.
+    pub fn find_animation(&self, which: &str) -> Result<usize, String> {
+        if let Some(i) = self.animations.iter().position(|a| a.name == which) {
+            return Ok(i);
+        }
+        match which.parse::<usize>() {
+            Ok(i) if i < self.animations.len() => Ok(i),
+            _ => {
+                let names: Vec<String> = (self.animations.iter().enumerate())
+                    .map(|(i, a)| {
+                        if a.name.is_empty() {
+                            format!("{i}")
+                        } else {
+                            format!("{i} '{}'", a.name)
+                        }
+                    })
+                    .collect();
+                Err(if names.is_empty() {
+                    format!("--animation {which}: the file has no animations")
+                } else {
+                    format!("--animation {which}: the file's animations are {}", names.join(", "))
+                })
+            }
+        }
+    }
+
+    /// The first and last key time of the animations a pose plays ((0, 0) without any).
+    pub fn range(&self, animation: Option<usize>) -> (f32, f32) {
+        let ranges: Vec<(f32, f32)> = match animation {
+            Some(a) => vec![self.animations[a].range()],
+            None => self.animations.iter().map(Animation::range).collect(),
+        };
+        (ranges.iter().copied())
+            .reduce(|(a, b), (c, d)| (a.min(c), b.max(d)))
+            .unwrap_or((0.0, 0.0))
+    }
+}
+
+impl Scene {
+    /// Places the scene as it is at `pose`: node transforms and morph weights from the channels, then instances,
+    /// skinned and morphed meshes, cameras and lights, replacing those of the previous pose. Nodes no channel drives
+    /// keep the file's transform. Fails only on a camera whose animated transform has no view.
+    pub fn pose(&mut self, pose: PoseTime) -> Result<(), Error> {
+        // A scene built in code (tests, benchmarks) has no nodes: its instances are what it is.
+        if self.rig.nodes.is_empty() {
+            return Ok(());
+        }
+        let rig = &self.rig;
+        let mut trs: Vec<Option<Trs>> = vec![None; rig.nodes.len()];
+        let mut weights: Vec<Option<Vec<f32>>> = vec![None; rig.nodes.len()];
+        let playing: Vec<&Animation> = match pose.animation {
+            Some(a) => vec![&rig.animations[a]],
+            None => rig.animations.iter().collect(),
+        };
+        let mut value = Vec::new();
+        // In file order: where two animations drive the same property, the later one wins.
+        for channel in playing.iter().flat_map(|a| &a.channels) {
+            value.resize(channel.sampler.width, 0.0);
+            channel
+                .sampler
+                .sample(pose.time, channel.property == Property::Rotation, &mut value);
+            let node = &rig.nodes[channel.node];
+            match channel.property {
+                Property::Weights => weights[channel.node] = Some(value.clone()),
+                p => trs[channel.node].get_or_insert(node.trs).set(p, &value),
+            }
+        }
+        let mut world = vec![Mat4::IDENTITY; rig.nodes.len()];
+        for &i in &rig.order {
+            let node = &rig.nodes[i];
+            let local = trs[i].map_or(node.rest, |t| t.matrix());
+            let parent = node.parent.map_or(Mat4::IDENTITY, |p| world[p]);
+            world[i] = parent * local;
+        }
+
+        let mut instances = Vec::new();
+        let mut posed_meshes = Vec::new();
+        let mut cameras = Vec::new();
+        let mut punctual = Vec::new();
+        let file_meshes = rig.file_meshes;
+        for &i in rig.order.iter().filter(|&&i| rig.nodes[i].placed) {
+            let node = &rig.nodes[i];
+            let w = world[i];
+            if !w.is_finite() {
+                return Err(self.pose_err(pose, format!("node {i} has a non-finite transform")));
+            }
+            if let Some(light) = node.light {
+                punctual.push(PunctualLight {
+                    kind: light.kind,
+                    position: w.transform_point3(Vec3::ZERO),
+                    direction: w.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
+                    intensity: light.intensity,
+                });
+            }
+            if let Some((index, yfov)) = node.camera {
+                if let Err(why) = Camera::check_transform(&w) {
+                    return Err(self.pose_err(
+                        pose,
+                        format!("camera {index}: its node's world transform {why}, so it has no view"),
+                    ));
+                }
+                cameras.push(Camera {
+                    world_from_camera: w,
+                    yfov,
+                });
+            }
+            let Some(m) = node.mesh else { continue };
+            let mesh = &self.meshes[m];
+            let node_weights = weights[i].as_deref().unwrap_or(&node.weights);
+            let morphing =
+                mesh.primitives.iter().any(|p| !p.morph_targets.is_empty()) && node_weights.iter().any(|&w| w != 0.0);
+            let skin = node.skin.map(|s| &rig.skins[s]);
+            if skin.is_none() && !morphing {
+                instances.push(Instance {
+                    mesh: m,
+                    world_from_object: w,
+                });
+                continue;
+            }
+            let mut posed = mesh.clone();
+            for p in &mut posed.primitives {
+                if morphing {
+                    morph(p, node_weights);
+                }
+                if let Some(skin) = skin {
+                    let joints: Vec<Mat4> = (skin.joints.iter().zip(&skin.inverse_bind))
+                        .map(|(&j, ibm)| world[j] * *ibm)
+                        .collect();
+                    skin_primitive(p, &joints);
+                }
+                p.morph_targets.clear();
+                p.skin.clear();
+            }
+            posed_meshes.push(posed);
+            instances.push(Instance {
+                mesh: file_meshes + posed_meshes.len() - 1,
+                // glTF: a skinned mesh is placed by its joints alone, its own node's transform is ignored.
+                world_from_object: if skin.is_some() { Mat4::IDENTITY } else { w },
+            });
+        }
+        self.meshes.truncate(file_meshes);
+        self.meshes.extend(posed_meshes);
+        self.instances = instances;
+        self.punctual = punctual;
+        self.camera_count = cameras.len();
+        self.camera = match self.rig.camera_choice {
+            None => cameras.first().copied(),
+            Some(i) => Some(*cameras.get(i).ok_or_else(|| Error::Scene {
+                path: self.path.clone(),
+                message: format!("--camera {i}: the file has {} perspective camera(s)", cameras.len()),
+            })?),
+        };
+        self.rig.posed = pose;
+        Ok(())
+    }
+
+    fn pose_err(&self, pose: PoseTime, message: String) -> Error {
+        let at = if self.rig.animated() {
+            format!(" at time {} s", pose.time)
+        } else {
+            String::new()
+        };
+        Error::Scene {
+            path: self.path.clone(),
+            message: format!("{message}{at}"),
+        }
+    }
+}
+
+/// Adds each morph target's displacements times its weight to the base vertices (glTF's morphing equation).
+fn morph(p: &mut Primitive, weights: &[f32]) {
+    let targets = std::mem::take(&mut p.morph_targets);
+    for (target, &w) in targets.iter().zip(weights) {
+        if w == 0.0 {
+            continue;
+        }
+        if let Some(d) = &target.positions {
+            for (v, d) in p.positions.iter_mut().zip(d) {
+                *v += *d * w;
+            }
+        }
+        if let (Some(ns), Some(d)) = (&mut p.normals, &target.normals) {
+            for (n, d) in ns.iter_mut().zip(d) {
+                *n += *d * w;
+            }
+        }
+        if let (Some(ts), Some(d)) = (&mut p.tangents, &target.tangents) {
+            for (t, d) in ts.iter_mut().zip(d) {
+                *t += d.extend(0.0) * w;
+            }
+        }
+    }
+    // Placing normalises normals and tangents again; a morphed one of length 0 falls back to the face normal.
+    p.morph_targets = targets;
+}
+
+/// Moves every vertex by its joints' matrices (joint world transform times inverse bind), blended by its weights,
+/// into world space. Normals take the blend's inverse transpose, tangents the blend itself; a mirroring blend
+/// swaps a triangle's winding so its front face stays counter-clockwise.
+fn skin_primitive(p: &mut Primitive, joints: &[Mat4]) {
+    let n = p.positions.len();
+    let mut blends = vec![Mat4::ZERO; n];
+    let mut totals = vec![0.0f32; n];
+    for set in &p.skin {
+        for (v, (js, ws)) in set.joints.iter().zip(&set.weights).enumerate() {
+            for k in 0..4 {
+                if ws[k] != 0.0 {
+                    blends[v] += joints[js[k] as usize] * ws[k];
+                    totals[v] += ws[k];
+                }
+            }
+        }
+    }
+    // glTF's weights sum to 1; quantised ones only nearly, so they are normalised. A vertex no joint holds stays
+    // where the mesh puts it.
+    for (m, &total) in blends.iter_mut().zip(&totals) {
+        *m = if total > 0.0 {
+            *m * (1.0 / total)
+        } else {
+            Mat4::IDENTITY
+        };
+    }
+    for (v, m) in p.positions.iter_mut().zip(&blends) {
+        *v = m.transform_point3(*v);
+    }
+    if let Some(ns) = &mut p.normals {
+        for (nrm, m) in ns.iter_mut().zip(&blends) {
+            *nrm = Mat3::from_mat4(*m).inverse().transpose() * *nrm;
+        }
+    }
+    if let Some(ts) = &mut p.tangents {
+        for (t, m) in ts.iter_mut().zip(&blends) {
+            let sign = if Mat3::from_mat4(*m).determinant() < 0.0 {
+                -t.w
+            } else {
+                t.w
+            };
+            *t = (Mat3::from_mat4(*m) * t.truncate()).extend(sign);
+        }
+    }
+    for tri in &mut p.triangles {
+        if Mat3::from_mat4(blends[tri[0] as usize]).determinant() < 0.0 {
+            tri.swap(1, 2);
+        }
+    }
+}
+
+/// One morph target's displacements of a primitive's vertices (each as long as its positions where present).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MorphTarget {
+    pub positions: Option<Vec<Vec3>>,
+    pub normals: Option<Vec<Vec3>>,
+    pub tangents: Option<Vec<Vec3>>,
+}
+
+/// One JOINTS_n / WEIGHTS_n pair: four joints (indices into the skin's joints) and their weights per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct JointSet {
+    pub joints: Vec<[u16; 4]>,
+    pub weights: Vec<Vec4>,
+}
+
+/// Every mesh the rig's placed nodes can deform, with how: for `pathwave info`.
+pub fn deformation_counts(scene: &Scene) -> (usize, usize) {
+    let file = &scene.meshes[..scene.rig.file_meshes.min(scene.meshes.len())];
+    let morphed = file
+        .iter()
+        .filter(|m: &&Mesh| m.primitives.iter().any(|p| !p.morph_targets.is_empty()))
+        .count();
+    let skinned = file
+        .iter()
+        .filter(|m: &&Mesh| m.primitives.iter().any(|p| !p.skin.is_empty()))
+        .count();
+    (morphed, skinned)
+}

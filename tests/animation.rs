@@ -1,0 +1,469 @@
+//! glTF animation as the loader reads it and `Scene::pose` places it: channels on nodes and cameras, morph
+//! weights, a two-bone skin, against values worked out by hand; and the CLI's --time, --animation and --frames.
+mod common;
+
+use common::gltf_builder::GltfBuilder;
+use glam::{Quat, Vec3};
+use pathwave::scene::{load, PoseTime, Scene};
+use serde_json::json;
+use std::path::Path;
+
+fn posed(path: &Path, time: f32, animation: Option<usize>) -> Scene {
+    let mut scene = load(path, None).unwrap_or_else(|e| panic!("{e}"));
+    scene
+        .pose(PoseTime { time, animation })
+        .unwrap_or_else(|e| panic!("{e}"));
+    scene
+}
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).abs().max_element() < 1e-5
+}
+
+/// A lit quad at the origin on node 1 (node 0 is the lamp), for channels to move.
+fn lit_quad() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let light = b.material("light", [0.8; 3], [5.0; 3], false);
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    b.quad(
+        "lamp",
+        [[-1.0, 3.0, -1.0], [1.0, 3.0, -1.0], [1.0, 3.0, 1.0], [-1.0, 3.0, 1.0]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.quad(
+        "quad",
+        [[-0.5, 0.0, -0.5], [0.5, 0.0, -0.5], [0.5, 0.0, 0.5], [-0.5, 0.0, 0.5]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b
+}
+
+fn translation_of(scene: &Scene, instance: usize) -> Vec3 {
+    scene.instances[instance].world_from_object.transform_point3(Vec3::ZERO)
+}
+
+/// Catches: keys read from the wrong place, times not clamped, STEP or LINEAR mixed up, CUBICSPLINE's triplets
+/// read as plain keys, tangents not scaled by the segment's length.
+#[test]
+fn translation_channels_place_the_node_at_and_between_keys_for_each_interpolation() {
+    /// Interpolation, key times, output values, and (time, expected x) pairs.
+    type Case = (&'static str, Vec<f32>, Vec<f32>, Vec<(f32, f32)>);
+    let cases: [Case; 3] = [
+        (
+            "STEP",
+            vec![1.0, 2.0],
+            vec![3.0, 0.0, 0.0, 5.0, 0.0, 0.0],
+            vec![(0.0, 3.0), (1.5, 3.0), (2.0, 5.0), (9.0, 5.0)],
+        ),
+        (
+            "LINEAR",
+            vec![1.0, 3.0],
+            vec![2.0, 0.0, 0.0, 6.0, 0.0, 0.0],
+            vec![(0.0, 2.0), (1.5, 3.0), (2.0, 4.0), (3.0, 6.0), (4.0, 6.0)],
+        ),
+        // Keys at 1 and 3: value 0 with out-tangent 1, value 4 with in-tangent -1 (worked out in the sampler's
+        // unit test): 2.5 at t = 2 and 1.0 at t = 1.5.
+        (
+            "CUBICSPLINE",
+            vec![1.0, 3.0],
+            vec![
+                9.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 4.0, 0.0, 0.0, 9.0, 0.0, 0.0,
+            ],
+            vec![(1.0, 0.0), (1.5, 1.0), (2.0, 2.5), (3.0, 4.0)],
+        ),
+    ];
+    for (interpolation, times, values, expect) in cases {
+        let mut b = lit_quad();
+        b.animate("a", 1, "translation", interpolation, &times, &values);
+        let (_dir, path) = common::write_temp(&b, "moving.gltf");
+        for (t, x) in expect {
+            let scene = posed(&path, t, None);
+            let got = translation_of(&scene, 1);
+            assert!(
+                close(got, Vec3::new(x, 0.0, 0.0)),
+                "{interpolation} at t = {t}: {got}, expected x = {x}"
+            );
+        }
+    }
+}
+
+/// Catches: rotations lerped instead of slerped, the long way round when keys flip sign, and scale or rotation
+/// replacing the node's other TRS parts.
+#[test]
+fn rotation_and_scale_channels_compose_with_the_nodes_own_translation() {
+    let mut b = lit_quad();
+    b.transform_last_node(json!({ "translation": [0.0, 1.0, 0.0] }));
+    let end = -Quat::from_rotation_y(std::f32::consts::FRAC_PI_2); // the same rotation as +q, sign flipped
+    let mut rotations = Quat::IDENTITY.to_array().to_vec();
+    rotations.extend(end.to_array());
+    b.animate("a", 1, "rotation", "LINEAR", &[0.0, 1.0], &rotations);
+    b.animate("a", 1, "scale", "LINEAR", &[0.0, 1.0], &[1.0, 1.0, 1.0, 3.0, 3.0, 3.0]);
+    let (_dir, path) = common::write_temp(&b, "turning.gltf");
+    let scene = posed(&path, 0.25, None);
+    let m = scene.instances[1].world_from_object;
+    // At u = 0.25: 22.5 degrees about +y (a lerp would give 26.6), scale 1.5, translation kept.
+    let x = m.transform_vector3(Vec3::X);
+    let want = Quat::from_rotation_y(22.5f32.to_radians()) * Vec3::X * 1.5;
+    assert!(close(x, want), "x axis {x}, expected {want}");
+    assert!(close(translation_of(&scene, 1), Vec3::Y));
+}
+
+/// Catches: a camera node's animation ignored, or the camera taken from the rest pose.
+#[test]
+fn an_animated_camera_moves_with_its_node() {
+    let mut b = lit_quad();
+    b.camera([0.0, 1.0, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 40.0);
+    let cam = b.last_node();
+    b.animate(
+        "dolly",
+        cam,
+        "translation",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 1.0, 5.0, 0.0, 1.0, 1.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "dolly.gltf");
+    let scene = posed(&path, 1.0, None);
+    let origin = scene.camera.unwrap().origin();
+    assert!(close(origin, Vec3::new(0.0, 1.0, 3.0)), "{origin}");
+}
+
+fn vertices(scene: &Scene) -> Vec<Vec3> {
+    scene.flatten().positions().iter().flatten().copied().collect()
+}
+
+/// Catches: morph weights not read, not animated, or applied without the weight.
+#[test]
+fn morph_target_weights_displace_vertices_by_their_weight() {
+    let mut b = lit_quad();
+    b.add_morph_target(&[[0.0; 3], [0.0; 3], [0.0, 2.0, 0.0], [0.0; 3]], &[0.25]);
+    let (_dir, still) = common::write_temp(&b, "still.gltf");
+    // Without animation the mesh's default weight holds: the corner (0.5, 0, 0.5) is up by 0.25 * 2.
+    let scene = posed(&still, 0.0, None);
+    assert!(
+        vertices(&scene).iter().any(|v| close(*v, Vec3::new(0.5, 0.5, 0.5))),
+        "{:?}",
+        vertices(&scene)
+    );
+    b.animate("m", 1, "weights", "LINEAR", &[0.0, 1.0], &[0.0, 1.0]);
+    let (_dir2, moving) = common::write_temp(&b, "morph.gltf");
+    let scene = posed(&moving, 0.75, None);
+    assert!(
+        vertices(&scene).iter().any(|v| close(*v, Vec3::new(0.5, 1.5, 0.5))),
+        "{:?}",
+        vertices(&scene)
+    );
+    let scene = posed(&moving, 0.0, None);
+    // Weight 0 at t = 0: every vertex is the quad's (y = 0) or the lamp's (y = 3).
+    assert!(
+        vertices(&scene).iter().all(|v| v.y == 0.0 || v.y == 3.0),
+        "{:?}",
+        vertices(&scene)
+    );
+}
+
+/// A two-bone bar: vertices at y = 0 (bone 0), y = 1 (half each) and y = 2 (bone 1, jointed at y = 1), its upper
+/// bone turned 90 degrees about +z at t = 1.
+fn two_bone_bar() -> GltfBuilder {
+    let mut b = lit_quad();
+    let yellow = b.material("yellow", [0.8, 0.6, 0.1], [0.0; 3], false);
+    let positions = [
+        [0.1, 0.0, 0.0],
+        [-0.1, 0.0, 0.0],
+        [0.1, 1.0, 0.0],
+        [-0.1, 1.0, 0.0],
+        [0.1, 2.0, 0.0],
+        [-0.1, 2.0, 0.0],
+    ];
+    b.mesh("bar", &positions, &[0, 2, 1, 1, 2, 3, 2, 4, 3, 3, 4, 5], yellow);
+    // The skinned node's own transform must be ignored (glTF): move it far away to catch it being applied.
+    b.transform_last_node(json!({ "translation": [100.0, 0.0, 0.0] }));
+    let root = b.node("bone 0", json!({}));
+    let upper = b.node("bone 1", json!({ "translation": [0.0, 1.0, 0.0] }));
+    b.add_child(root, upper);
+    let joints = [
+        [0, 0, 0, 0],
+        [0, 0, 0, 0],
+        [0, 1, 0, 0],
+        [0, 1, 0, 0],
+        [1, 0, 0, 0],
+        [1, 0, 0, 0],
+    ];
+    let weights = [
+        [1.0, 0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0, 0.0],
+        [0.5, 0.5, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+    ];
+    let ibm = [
+        glam::Mat4::IDENTITY.to_cols_array(),
+        glam::Mat4::from_translation(-Vec3::Y).to_cols_array(),
+    ];
+    b.skin_last_mesh(&[root, upper], &ibm, &joints, &weights);
+    let mut keys = Quat::IDENTITY.to_array().to_vec();
+    keys.extend(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2).to_array());
+    b.animate("bend", upper, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+    b
+}
+
+/// Catches: joints' world transforms or inverse bind matrices left out, weights not blended, the skinned node's
+/// transform applied, the skin read from JOINTS as weights or the other way round.
+#[test]
+fn a_two_bone_skin_moves_vertices_by_their_blended_joints() {
+    let (_dir, path) = common::write_temp(&two_bone_bar(), "skin.gltf");
+    let at_rest = vertices(&posed(&path, 0.0, None));
+    for v in [[0.1, 0.0, 0.0], [-0.1, 1.0, 0.0], [0.1, 2.0, 0.0]] {
+        assert!(
+            at_rest.iter().any(|p| close(*p, Vec3::from(v))),
+            "{v:?} missing at rest: {at_rest:?}"
+        );
+    }
+    // At t = 1, bone 1 is T(0, 1, 0) Rz(90): its vertices, taken back by the inverse bind T(0, -1, 0), turn about
+    // (0, 1, 0). (0.1, 2, 0) -> (0.1, 1, 0) -> (-1, 0.1, 0) -> (-1, 1.1, 0). The middle vertex (0.1, 1, 0) goes to
+    // (0.1, 1, 0) under bone 0 and to (0, 1.1, 0) under bone 1: half of each is (0.05, 1.05, 0).
+    let bent = vertices(&posed(&path, 1.0, None));
+    for v in [
+        [0.1, 0.0, 0.0],
+        [-1.0, 1.1, 0.0],
+        [-1.0, 0.9, 0.0],
+        [0.05, 1.05, 0.0],
+        [-0.05, 0.95, 0.0],
+    ] {
+        assert!(
+            bent.iter().any(|p| close(*p, Vec3::from(v))),
+            "{v:?} missing when bent: {bent:?}"
+        );
+    }
+}
+
+/// Catches: --animation picking the wrong one, or playing the others' channels too.
+#[test]
+fn one_animation_plays_alone_when_picked() {
+    let mut b = lit_quad();
+    b.animate(
+        "right",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+    );
+    b.animate(
+        "up",
+        0,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "two.gltf");
+    let both = posed(&path, 1.0, None);
+    assert!(close(translation_of(&both, 1), Vec3::X) && close(translation_of(&both, 0), Vec3::Y));
+    let up = load(&path, None).unwrap().rig.find_animation("up").unwrap();
+    let only_up = posed(&path, 1.0, Some(up));
+    assert!(close(translation_of(&only_up, 1), Vec3::ZERO) && close(translation_of(&only_up, 0), Vec3::Y));
+    let scene = load(&path, None).unwrap();
+    assert_eq!(scene.rig.find_animation("0"), Ok(0));
+    let err = scene.rig.find_animation("sideways").unwrap_err();
+    assert!(err.contains("0 'right', 1 'up'"), "{err}");
+}
+
+/// Catches: a malformed channel refusing the whole scene, or a bad one played anyway.
+#[test]
+fn a_channel_that_cannot_play_is_dropped_with_a_warning() {
+    let mut b = lit_quad();
+    b.animate(
+        "bad",
+        1,
+        "translation",
+        "LINEAR",
+        &[1.0, 1.0],
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "bad.gltf");
+    let scene = load(&path, None).unwrap();
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("strictly increasing")),
+        "{:?}",
+        scene.warnings
+    );
+    assert!(scene.rig.animations[0].channels.is_empty());
+}
+
+fn pathwave(args: &[&str]) -> std::process::Output {
+    common::pathwave_cli()
+        .args(args)
+        .output()
+        .expect("the pathwave binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = pathwave(args);
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{args:?} failed: {err}");
+    err
+}
+
+/// Catches: --time not reaching the render, or placing the node anywhere but where a static file at that pose
+/// puts it (byte for byte, so nothing else of the file changes with time).
+#[test]
+fn a_render_at_a_time_is_the_static_scene_at_that_pose() {
+    let mut moving = lit_quad();
+    moving.camera([0.0, 2.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    // The baked file: the same scene, the quad's node where the animation has it at t = 0.5.
+    let mut baked: serde_json::Value = serde_json::from_str(&moving.to_json()).unwrap();
+    baked["nodes"][1]["translation"] = json!([0.25, 0.0, -0.125]);
+    moving.animate(
+        "a",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 0.5, 0.0, -0.25],
+    );
+    let (dir, moving_path) = common::write_temp(&moving, "moving.gltf");
+    let baked_path = dir.path().join("baked.gltf");
+    std::fs::write(&baked_path, baked.to_string()).unwrap();
+    let out = |n: &str| dir.path().join(n).display().to_string();
+    let common_args = ["--size", "32x24", "--spp", "4"];
+    ok(&[
+        &[
+            "render",
+            moving_path.to_str().unwrap(),
+            "-o",
+            &out("t.exr"),
+            "--time",
+            "0.5",
+        ][..],
+        &common_args,
+    ]
+    .concat());
+    ok(&[
+        &["render", baked_path.to_str().unwrap(), "-o", &out("b.exr")][..],
+        &common_args,
+    ]
+    .concat());
+    ok(&[
+        &["render", moving_path.to_str().unwrap(), "-o", &out("t0.exr")][..],
+        &common_args,
+    ]
+    .concat());
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_eq!(
+        read("t.exr"),
+        read("b.exr"),
+        "--time 0.5 differs from the scene baked at t = 0.5"
+    );
+    assert_ne!(read("t.exr"), read("t0.exr"), "the quad did not move");
+}
+
+/// Catches: frame k rendered at any time but k / fps, frames sharing state that changes their bytes (the
+/// renderer is reused between frames), names numbered wrongly, --resume re-rendering finished frames or skipping
+/// missing ones.
+#[test]
+fn frames_are_single_renders_at_k_over_fps_and_resume_renders_only_missing_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scenes_dir().join("animated.gltf");
+    let scene = scene.to_str().unwrap();
+    let out = |n: &str| dir.path().join(n).display().to_string();
+    let size = ["--size", "40x30", "--spp", "4"];
+    ok(&[
+        &[
+            "render",
+            scene,
+            "--frames",
+            "1..3",
+            "--fps",
+            "4",
+            "-o",
+            &out("f.###.exr"),
+            "-o",
+            &out("f.###.png"),
+        ][..],
+        &size,
+    ]
+    .concat());
+    for (k, t) in [(1, "0.25"), (2, "0.5"), (3, "0.75")] {
+        ok(&[
+            &["render", scene, "--time", t, "-o", &out(&format!("single{k}.exr"))][..],
+            &size,
+        ]
+        .concat());
+        let frame = std::fs::read(dir.path().join(format!("f.{k:03}.exr"))).unwrap();
+        let single = std::fs::read(dir.path().join(format!("single{k}.exr"))).unwrap();
+        assert!(frame == single, "frame {k} differs from a render at --time {t}");
+        assert!(dir.path().join(format!("f.{k:03}.png")).exists());
+    }
+    let frames: Vec<Vec<u8>> = (1..=3)
+        .map(|k| std::fs::read(dir.path().join(format!("f.{k:03}.exr"))).unwrap())
+        .collect();
+    assert!(
+        frames[0] != frames[1] && frames[1] != frames[2],
+        "the animation did not move between frames"
+    );
+    std::fs::remove_file(dir.path().join("f.002.png")).unwrap();
+    let log = ok(&[
+        &[
+            "render",
+            scene,
+            "--frames",
+            "1..3",
+            "--fps",
+            "4",
+            "--resume",
+            "-o",
+            &out("f.###.exr"),
+            "-o",
+            &out("f.###.png"),
+        ][..],
+        &size,
+    ]
+    .concat());
+    assert!(log.contains("1 rendered, 2 already there"), "{log}");
+    assert_eq!(std::fs::read(dir.path().join("f.002.exr")).unwrap(), frames[1]);
+}
+
+#[test]
+fn bad_animation_options_are_refused_with_the_option_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scenes_dir().join("animated.gltf");
+    let scene = scene.to_str().unwrap();
+    let out = dir.path().join("x.png").display().to_string();
+    for (args, needle) in [
+        (vec!["--animation", "nope"], "'blink', 1 'move'"),
+        (vec!["--time", "NaN"], "--time"),
+        (vec!["--time", "1e30"], "--time"),
+        (vec!["--frames", "0..3"], "run of #"),
+        (vec!["--frames", "3..1"], "--frames"),
+        (vec!["--frames", "0..2", "--fps", "0"], "--fps"),
+        (vec!["--frames", "0..2", "--time", "1"], "--time"),
+        (vec!["--fps", "30"], "--frames"),
+    ] {
+        let o = pathwave(&[&["render", scene, "-o", &out, "--size", "8x8", "--spp", "1"][..], &args].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(needle) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+        assert!(!Path::new(&out).exists());
+    }
+}
+
+#[test]
+fn info_describes_animations_skins_and_morph_targets() {
+    let o = pathwave(&["info", common::scenes_dir().join("animated.gltf").to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    assert!(
+        text.contains("1 skins, 1 skinned meshes, 1 meshes with morph targets"),
+        "{text}"
+    );
+    assert!(
+        text.contains("animation   1 'move': 6 channels, keys from 0 s to 2 s"),
+        "{text}"
+    );
+}
