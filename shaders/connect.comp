@@ -9,6 +9,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= counters.queue_count[QUEUE_SHADOW]) return;
     uint path = queues[QUEUE_SHADOW * frame.path_capacity + i];
+    motion_begin(path_pixel(path), path_sample(path));
     vec4 o = path_get(PATH_SHADOW_ORIGIN, path);
     vec3 d = path_get(PATH_SHADOW_DIR, path).xyz;
     uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_SHADOW_ALPHA);

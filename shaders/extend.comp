@@ -10,6 +10,7 @@ void main() {
     uint cur = frame.bounce & 1u;
     if (i >= counters.queue_count[cur]) return;
     uint path = queues[cur * frame.path_capacity + i];
+    motion_begin(path_pixel(path), path_sample(path));
     vec3 o = path_get(PATH_ORIGIN, path).xyz;
     vec3 d = path_get(PATH_DIR, path).xyz;
     uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_ALPHA);

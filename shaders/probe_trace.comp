@@ -11,6 +11,7 @@ void main() {
     uint k = gl_GlobalInvocationID.x;
     if (k >= frame.path_count) return;
     TraceRecord r = records[k];
+    motion_time = r.time;
     Hit h = trace(r.origin, r.dir, r.tmin, r.tmax, probe_mode() == PROBE_ANY_HIT, 0u);
     records[k].t = h.t;
     records[k].tri = h.tri;

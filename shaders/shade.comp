@@ -23,6 +23,7 @@ void main() {
     uint cur = frame.bounce & 1u;
     if (i >= counters.queue_count[cur]) return;
     uint path = queues[cur * frame.path_capacity + i];
+    motion_begin(path_pixel(path), path_sample(path));
 
     PathVertex v;
     v.origin = path_get(PATH_ORIGIN, path);

@@ -131,3 +131,8 @@ pub fn parse_frames(s: &str) -> Result<(u32, u32), String> {
     }
     Ok((first, last))
 }
+
+/// Seconds the shutter is open: 0 (an instant) to an hour.
+pub fn parse_shutter(s: &str) -> Result<f32, String> {
+    number(s, 0.0, 3600.0, false)
+}

@@ -25,28 +25,31 @@ pub const BINDING_TRI_TANGENTS: u32 = 16;
 pub const BINDING_TRI_COLORS: u32 = 17;
 /// The tone map's output: packed 8-bit display pixels (tonemap.comp).
 pub const BINDING_TONEMAP_OUT: u32 = 18;
+/// Motion over the shutter (FEATURE_MOTION): `MotionKey` records, the camera's keys and then every triangle's after
+/// its first; a stand-in where the scene does not move.
+pub const BINDING_MOTION: u32 = 19;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 19;
-pub const BINDING_NODE_TEXELS: u32 = 19;
-pub const BINDING_TRI_TEXELS: u32 = 20;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 21;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 22;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 23;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 24;
+pub const BINDING_FIRST_TEXEL: u32 = 20;
+pub const BINDING_NODE_TEXELS: u32 = 20;
+pub const BINDING_TRI_TEXELS: u32 = 21;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 22;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 23;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 24;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 25;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 25;
+pub const BINDING_IMAGE_TEXELS: u32 = 26;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 26;
+pub const BINDING_PATH_TEXELS: u32 = 27;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 27;
+pub const BINDING_MATERIAL_TEXELS: u32 = 28;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 28;
-pub const BINDING_COUNT: u32 = 29;
+pub const BINDING_LIGHT_TEXELS: u32 = 29;
+pub const BINDING_COUNT: u32 = 30;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -95,6 +98,9 @@ pub const FLAG_VERTEX_COLORS: u32 = 4;
 /// A fused pass (follow.comp): each pixel's running film sums wait in its row-0 slots of PATH_RADIANCE (sum) and
 /// PATH_THROUGHPUT (sum of squares), and accumulate copies them to the film unless the pass was cut short.
 pub const FLAG_FUSED_SUMS: u32 = 8;
+/// The camera is the scene's own and moves over the shutter: camera rays take its keys from the motion buffer
+/// instead of the frame's camera (bits 4 and 5 are the estimator's).
+pub const FLAG_CAMERA_MOTION: u32 = 64;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -119,6 +125,9 @@ pub const FEATURE_LENS: u32 = 32;
 /// memory. Cleared, it lives in REGISTER_STACK registers. Unlike the other bits this one is the BVH's, so the
 /// probe_trace kernel takes it from the scene too and the BVH tests check the traversal the render stages run.
 pub const FEATURE_DEEP_STACK: u32 = 64;
+/// Something moves while the shutter is open (--shutter above 0 on an animated scene): rays carry a time, and
+/// traversal, shading, light sampling and the camera interpolate between the MOTION_SEGMENTS + 1 keys.
+pub const FEATURE_MOTION: u32 = 128;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
 
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.
@@ -184,6 +193,17 @@ pub const DIM_RR: u32 = 7;
 /// Stochastic transparency (alphaMode BLEND) of extension and shadow rays.
 pub const DIM_ALPHA: u32 = 8;
 pub const DIM_SHADOW_ALPHA: u32 = 9;
+/// The path's time in the shutter (x), drawn once per camera sample.
+pub const DIM_TIME: u32 = 10;
+
+/// Segments the shutter is cut into for motion: transforms (and skinned or morphed vertices) are evaluated at
+/// MOTION_SEGMENTS + 1 evenly spaced times, vertices move linearly between them. Four keep a quarter turn within the
+/// shutter to 0.5 % of its radius (a chord of 22.5 degrees), and linear motion exact.
+pub const MOTION_SEGMENTS: u32 = 4;
+/// MotionKey records of the camera at the start of the motion buffer, one per key (MOTION_SEGMENTS + 1); triangle
+/// t's key k (1 to MOTION_SEGMENTS; key 0 is the triangle buffers') follows at MOTION_CAMERA_KEYS + t *
+/// MOTION_SEGMENTS + k - 1.
+pub const MOTION_CAMERA_KEYS: u32 = 5;
 
 /// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue; each queue holds a path index (one
 /// u32) per path the path state holds.

@@ -100,6 +100,20 @@ pub struct TriVerts {
     pub e2: [f32; 4],
 }
 
+/// 96 bytes: one key of a moving triangle, as TriVerts and TriShading hold key 0: vertex 0, the two edges and the
+/// three shading normals (every w 0). A camera key uses the same record: origin in v0, right, up and forward in e1,
+/// e2 and n0. See `MotionKey` in layout.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct MotionKey {
+    pub v0: [f32; 4],
+    pub e1: [f32; 4],
+    pub e2: [f32; 4],
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+}
+
 /// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -250,6 +264,8 @@ const _: () = assert!(std::mem::size_of::<ToneMap>() == 32);
 const _: () = assert!(std::mem::size_of::<BvhNode>() == 48);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
+const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
+const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
@@ -342,7 +358,8 @@ impl Frame {
     }
 }
 
-/// 48 bytes: probe_trace's ray and the hit traversal found (see `TraceRecord` in layout.glsl).
+/// 64 bytes: probe_trace's ray, with its time in the shutter, and the hit traversal found (see `TraceRecord` in
+/// layout.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TraceRecord {
@@ -350,6 +367,10 @@ pub struct TraceRecord {
     pub tmin: f32,
     pub dir: [f32; 3],
     pub tmax: f32,
+    pub time: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
     pub t: f32,
     pub tri: u32,
     pub uv: [f32; 2],
@@ -386,6 +407,6 @@ pub struct EnvRecord {
     pub pad0: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<TraceRecord>() == 48);
+const _: () = assert!(std::mem::size_of::<TraceRecord>() == 64);
 const _: () = assert!(std::mem::size_of::<BsdfRecord>() == 96);
 const _: () = assert!(std::mem::size_of::<EnvRecord>() == 48);

@@ -160,6 +160,10 @@ struct SceneArgs {
     /// The animation that plays, by index or by name (default: every channel of the file, as viewers play them).
     #[arg(long)]
     animation: Option<String>,
+    /// Seconds the shutter stays open from --time (or each frame's time): what moves meanwhile (the camera, nodes,
+    /// skinned and morphed vertices) is blurred. 0, the default, is an instant and costs nothing.
+    #[arg(long, default_value = "0", value_parser = parse_shutter, allow_hyphen_values = true)]
+    shutter: f32,
     #[command(flatten)]
     env: EnvArgs,
     #[command(flatten)]
@@ -176,13 +180,20 @@ impl SceneArgs {
     /// `load`, at `time` rather than --time's.
     fn load_at(&self, time: f32) -> Result<scene::Scene> {
         let mut scene = self.limits.load(&self.scene, self.camera)?;
-        let pose = self.pose_time(&scene, time)?;
-        if scene.rig.animated() && pose != scene.rig.posed {
-            scene.pose(pose)?;
-            scene.check_host_memory(self.limits.max_memory())?;
-        }
+        self.pose(&mut scene, time)?;
         scene.environment = self.env.environment(self.limits.max_texture_pixels)?;
         Ok(scene)
+    }
+
+    /// Poses `scene` at `time` with --animation and --shutter, if that changes it; refused if the pose would not
+    /// fit the host budget.
+    fn pose(&self, scene: &mut scene::Scene, time: f32) -> Result<()> {
+        let pose = self.pose_time(scene, time)?;
+        if scene.rig.animated() && (pose != scene.rig.posed || self.shutter > 0.0) {
+            scene.pose_shutter(pose, self.shutter)?;
+            scene.check_host_memory(self.limits.max_memory())?;
+        }
+        Ok(())
     }
 
     /// The pose `--animation` and `time` ask for; a time on a file without animations is warned about.
@@ -196,9 +207,9 @@ impl SceneArgs {
             ),
             None => None,
         };
-        if self.time.is_some() && !scene.rig.animated() {
+        if (self.time.is_some() || self.shutter > 0.0) && !scene.rig.animated() {
             eprintln!(
-                "warning: {}: the file has no animations, so --time changes nothing",
+                "warning: {}: the file has no animations, so --time and --shutter change nothing",
                 self.scene.display()
             );
         }
@@ -426,16 +437,17 @@ fn render_frames(
             args.common.scene.display()
         );
     }
+    // The scene came posed at the first frame's time.
+    let mut posed_at = shots[0].time;
     for (i, shot) in shots.iter().enumerate() {
         if args.resume && shot.outputs.iter().all(|o| o.exists()) {
             skipped += 1;
             continue;
         }
-        let pose = args.common.pose_time(scene, shot.time)?;
-        if scene.rig.animated() && pose != scene.rig.posed {
-            scene.pose(pose)?;
-            scene.check_host_memory(args.common.limits.max_memory())?;
+        if scene.rig.animated() && shot.time != posed_at {
+            args.common.pose(scene, shot.time)?;
             renderer.set_scene(scene)?;
+            posed_at = shot.time;
         }
         let label = format!("frame {} ({}/{})", shot.frame.unwrap_or(0), i + 1, shots.len());
         let written = render_and_write(renderer, settings, args, shot, Instant::now());

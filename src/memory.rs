@@ -6,6 +6,9 @@ use crate::scene::Scene;
 /// Host bytes a flattened triangle costs from the soup to the packed scene (world-space soup, BVH build, packed
 /// arrays, light table): 330 measured on 2.5 M emissive triangles (`pathwave info`), rounded up.
 pub const HOST_BYTES_PER_TRIANGLE: u64 = 400;
+/// And per later key of the motion over the shutter: its placed vertices and normals (72 bytes) and its device
+/// record (96), rounded up.
+pub const HOST_BYTES_PER_MOTION_KEY: u64 = 176;
 
 /// The budget when none is given: half of MemAvailable, at most 8 GiB (8 GiB when /proc/meminfo cannot be read).
 pub fn default_max_memory() -> u64 {
@@ -114,7 +117,9 @@ impl Scene {
     /// of it is allocated.
     pub fn check_host_memory(&self, limit: u64) -> Result<(), Error> {
         let triangles = self.flattened_triangle_bound();
-        let need = triangles.saturating_mul(HOST_BYTES_PER_TRIANGLE);
+        let keys = self.motion.as_ref().map_or(0, |m| m.keys.len() as u64);
+        let per_triangle = HOST_BYTES_PER_TRIANGLE + keys * HOST_BYTES_PER_MOTION_KEY;
+        let need = triangles.saturating_mul(per_triangle);
         if need <= limit {
             return Ok(());
         }
@@ -122,7 +127,7 @@ impl Scene {
             path: self.path.clone(),
             message: format!(
                 "rendering it would need about {} of host memory ({triangles} triangles once its {} instances are \
-                 placed, about {HOST_BYTES_PER_TRIANGLE} bytes each), over the limit of {} (--max-memory)",
+                 placed, about {per_triangle} bytes each), over the limit of {} (--max-memory)",
                 human(need),
                 self.instances.len(),
                 human(limit)

@@ -1,7 +1,7 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
-    BsdfRecord, BvhNode, Counters, EnvRecord, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot,
-    ToneMap, TraceRecord, TriColors, TriShading, TriTangents, TriTexcoords, TriVerts,
+    BsdfRecord, BvhNode, Counters, EnvRecord, Frame, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey,
+    TextureSlot, ToneMap, TraceRecord, TriColors, TriShading, TriTangents, TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
@@ -55,10 +55,11 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriTexcoords => "TriTexcoords", [t0, t1, t2]),
         mirror!(TriTangents => "TriTangents", [t0, t1, t2]),
         mirror!(TriColors => "TriColors", [c0, c1, c2]),
+        mirror!(MotionKey => "MotionKey", [v0, e1, e2, n0, n1, n2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite]),
-        mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, t, tri, uv]),
+        mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, pad0, pad1, pad2, t, tri, uv]),
         mirror!(BsdfRecord => "BsdfRecord", [wo, material, x, front, wi, pdf, weight, flags, eval, pdf_wi, eval_reverse, pad0]),
         mirror!(EnvRecord => "EnvRecord", [x, pdf, dir, pdf_dir, radiance, pad0]),
         mirror!(Frame => "Frame", [

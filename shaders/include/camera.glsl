@@ -19,17 +19,30 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
     vec2 j = pixel_jitter(pixel, s);
     float tan_half = frame_tan_half_fov();
     float aspect = frame_aspect();
+    vec3 right = frame.cam_right.xyz, up = frame.cam_up.xyz, forward = frame.cam_forward.xyz;
+    origin = frame.cam_origin.xyz;
+    if (scene_has(FEATURE_MOTION) && (frame.flags & FLAG_CAMERA_MOTION) != 0u) {
+        // The scene's camera at the ray's time: between its keys, the basis renormalised (a turning camera's lerped
+        // axes are a little short).
+        uint k;
+        float f;
+        motion_segment(k, f);
+        MotionKey a = motion_keys[k], b = motion_keys[k + 1u];
+        origin = toward(a.v0.xyz, b.v0.xyz, f);
+        right = normalize(toward(a.e1.xyz, b.e1.xyz, f));
+        up = normalize(toward(a.e2.xyz, b.e2.xyz, f));
+        forward = normalize(toward(a.n0.xyz, b.n0.xyz, f));
+    }
     // Row 0 is the top of the image.
     float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * tan_half * aspect;
     float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * tan_half;
-    d = normalize(sx * frame.cam_right.xyz + sy * frame.cam_up.xyz + frame.cam_forward.xyz);
-    origin = frame.cam_origin.xyz;
+    d = normalize(sx * right + sy * up + forward);
     float aperture = frame_aperture();
     if (scene_has(FEATURE_LENS) && aperture > 0.0) {
         // Thin lens: every ray through the lens meets the pinhole ray on the plane of focus.
-        vec3 focus = origin + d * (frame_focus_distance() / dot(d, frame.cam_forward.xyz));
+        vec3 focus = origin + d * (frame_focus_distance() / dot(d, forward));
         vec2 lens = aperture * sample_concentric_disk(rand2(pixel, s, 0u, DIM_LENS));
-        origin += lens.x * frame.cam_right.xyz + lens.y * frame.cam_up.xyz;
+        origin += lens.x * right + lens.y * up;
         d = normalize(focus - origin);
     }
 }
@@ -45,6 +58,7 @@ struct PathVertex {
 // Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
 // counted like a delta bounce.
 PathVertex start_path(uvec2 xy, uint pixel, uint s) {
+    motion_begin(pixel, s);
     PathVertex v;
     camera_ray(xy, pixel, s, v.origin.xyz, v.dir);
     v.origin.w = 0.0;

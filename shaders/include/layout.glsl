@@ -36,6 +36,17 @@ struct TriShading {
     vec4 n2;
 };
 
+// 96 bytes: one key of a moving triangle (vertex 0, the two edges, the three shading normals; every w 0), or of the
+// camera (origin in v0, right, up and forward in e1, e2 and n0). Key 0 of a triangle is its TriVerts and TriShading.
+struct MotionKey {
+    vec4 v0;
+    vec4 e1;
+    vec4 e2;
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+
 // 32 bytes: a material's use of a texture. The texture is sampled at (dot(u.xyz, vec3(uv, 1)), dot(v.xyz, vec3(uv, 1)))
 // (KHR_texture_transform as an affine map); u.w: texture index (uint bits, TEXTURE_NONE if unused), v.w: TEXCOORD set.
 struct TextureSlot {
@@ -183,12 +194,17 @@ uint film_add(inout vec4 sum, inout vec4 sum_sq, vec3 l) {
 // The probe kernels' records (one per invocation, inputs then outputs) live at BINDING_PROBE, each kernel declaring
 // the buffer with its own record type; the records are here so tests/layout.rs checks them against src/layout.rs.
 
-// 48 bytes: probe_trace's ray and the hit traversal found (t, tri NO_HIT on a miss, barycentrics).
+// 64 bytes: probe_trace's ray (with its time in the shutter, for moving scenes) and the hit traversal found (t, tri
+// NO_HIT on a miss, barycentrics).
 struct TraceRecord {
     vec3 origin;
     float tmin;
     vec3 dir;
     float tmax;
+    float time;
+    uint pad0;
+    uint pad1;
+    uint pad2;
     float t;
     uint tri;
     vec2 uv;
@@ -242,6 +258,7 @@ layout(std430, set = 0, binding = BINDING_TEXELS) readonly buffer Texels { uint 
 layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexcoordsBuf { TriTexcoords tri_texcoords[]; };
 layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
 layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
+layout(std430, set = 0, binding = BINDING_MOTION) readonly buffer MotionBuf { MotionKey motion_keys[]; };
 
 // Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.
@@ -280,8 +297,8 @@ BvhNode load_node(uint i) {
     return BvhNode(texelFetch(node_texels, int(3u * i)), texelFetch(node_texels, int(3u * i + 1u)),
                    texelFetch(node_texels, int(3u * i + 2u)));
 }
-TriVerts load_tri_verts(uint i) { return TriVerts(FETCH3(tri_texels, i)); }
-TriShading load_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texels, i)); }
+TriVerts fetch_tri_verts(uint i) { return TriVerts(FETCH3(tri_texels, i)); }
+TriShading fetch_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texels, i)); }
 TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoord_texels, i)); }
 TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_texels, i)); }
 TriColors load_tri_colors(uint i) { return TriColors(FETCH3(tri_color_texels, i)); }
@@ -290,13 +307,77 @@ uint load_image_texel(uint i) { return texelFetch(image_texels, int(i)).x; }
 Light load_light(uint i) { return lights[i]; }
 Material load_material(uint i) { return materials[i]; }
 BvhNode load_node(uint i) { return nodes[i]; }
-TriVerts load_tri_verts(uint i) { return tri_verts[i]; }
-TriShading load_tri_shading(uint i) { return tri_shading[i]; }
+TriVerts fetch_tri_verts(uint i) { return tri_verts[i]; }
+TriShading fetch_tri_shading(uint i) { return tri_shading[i]; }
 TriTexcoords load_tri_texcoords(uint i) { return tri_texcoords[i]; }
 TriTangents load_tri_tangents(uint i) { return tri_tangents[i]; }
 TriColors load_tri_colors(uint i) { return tri_colors[i]; }
 uint load_image_texel(uint i) { return texels[i]; }
 #endif
+
+// The ray's time in the shutter, in [0, 1): one per camera sample (motion_begin in rng.glsl), for every ray of its
+// path; 0 where nothing moves.
+float motion_time = 0.0;
+
+// The segment of the shutter holding motion_time, and how far into it the time is.
+void motion_segment(out uint k, out float f) {
+    float x = motion_time * float(MOTION_SEGMENTS);
+    k = min(uint(x), MOTION_SEGMENTS - 1u);
+    f = x - float(k);
+}
+
+MotionKey motion_key(uint tri, uint k) { return motion_keys[MOTION_CAMERA_KEYS + tri * MOTION_SEGMENTS + k - 1u]; }
+
+// a + (b - a) f: exactly a where a key repeats (a static triangle in a moving scene), unlike mix.
+vec3 toward(vec3 a, vec3 b, float f) { return a + (b - a) * f; }
+
+// Triangle i at motion_time: its keys on either side, linearly between them (its w's, which do not move, from key 0).
+TriVerts load_tri_verts(uint i) {
+    TriVerts tv = fetch_tri_verts(i);
+    if (scene_has(FEATURE_MOTION)) {
+        uint k;
+        float f;
+        motion_segment(k, f);
+        MotionKey b = motion_key(i, k + 1u);
+        vec3 v0 = tv.v0.xyz, e1 = tv.e1.xyz, e2 = tv.e2.xyz;
+        if (k > 0u) {
+            MotionKey a = motion_key(i, k);
+            v0 = a.v0.xyz;
+            e1 = a.e1.xyz;
+            e2 = a.e2.xyz;
+        }
+        tv.v0.xyz = toward(v0, b.v0.xyz, f);
+        tv.e1.xyz = toward(e1, b.e1.xyz, f);
+        tv.e2.xyz = toward(e2, b.e2.xyz, f);
+    }
+    return tv;
+}
+
+// Triangle i's shading data at motion_time: normals between its keys, its area then, and the light-sampling density
+// per unit area for that area (n0.w holds it for the mean area n1.w that light selection used).
+TriShading load_tri_shading(uint i) {
+    TriShading ts = fetch_tri_shading(i);
+    if (scene_has(FEATURE_MOTION)) {
+        uint k;
+        float f;
+        motion_segment(k, f);
+        MotionKey b = motion_key(i, k + 1u);
+        vec3 n0 = ts.n0.xyz, n1 = ts.n1.xyz, n2 = ts.n2.xyz;
+        if (k > 0u) {
+            MotionKey a = motion_key(i, k);
+            n0 = a.n0.xyz;
+            n1 = a.n1.xyz;
+            n2 = a.n2.xyz;
+        }
+        TriVerts tv = load_tri_verts(i);
+        float area = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
+        ts.n0 = vec4(toward(n0, b.n0.xyz, f), area > 0.0 ? ts.n0.w * ts.n1.w / area : 0.0);
+        ts.n1 = vec4(toward(n1, b.n1.xyz, f), area);
+        ts.n2.xyz = toward(n2, b.n2.xyz, f);
+    }
+    return ts;
+}
+
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }
 uint frame_estimator() { return (frame.flags >> ESTIMATOR_SHIFT) & 3u; }

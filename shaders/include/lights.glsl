@@ -98,7 +98,10 @@ LightSample sample_light(vec3 p, vec2 u) {
 #else
     ls.radiance = lm.emission.rgb;
 #endif
-    ls.pdf = l.prob / l.area * dist2 / abs(cos_l);
+    // A moving emitter's area at the ray's time (the table's is its mean over the shutter, for the pick).
+    float area = scene_has(FEATURE_MOTION) ? 0.5 * length(cross(lv.e1.xyz, lv.e2.xyz)) : l.area;
+    if (scene_has(FEATURE_MOTION) && !(area > 0.0)) return ls;
+    ls.pdf = l.prob / area * dist2 / abs(cos_l);
     return ls;
 }
 

@@ -53,6 +53,12 @@ vec2 rand2(uint pixel, uint sample_index, uint bounce, uint dim) {
     return vec2(uvec2(x, y) >> 8u) * (1.0 / 16777216.0);
 }
 
+// Sets the time of sample s of pixel in the shutter (motion_time), stratified over the pixel's samples like the
+// other dimensions. Every stage that traces or shades a path calls it first; it costs nothing where nothing moves.
+void motion_begin(uint pixel, uint sample_index) {
+    if (scene_has(FEATURE_MOTION)) motion_time = rand2(pixel, sample_index, 0u, DIM_TIME).x;
+}
+
 // A hash of (pixel, sample, bounce, dimension): a ray's key for stochastic transparency (alpha_stops in surface.glsl).
 uint ray_key(uint pixel, uint sample_index, uint bounce, uint dim) {
     return pcg4d(uvec4(pixel, sample_index, (bounce << 8u) | dim, frame.seed)).x;

@@ -125,12 +125,25 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
 
 /// `build` on at most `threads` threads (the result does not depend on it; tests check that).
 pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
-    let n = triangles.len();
+    build_over(triangles.len(), |i| triangles[i].into_iter(), threads)
+}
+
+/// Builds over moving triangles: triangle i is `keys[k][i]` at key k and moves linearly between keys, so it stays
+/// inside the box of all its keys' vertices, which is the box the tree holds it in. Triangles are ordered as in
+/// every key (all of the same length).
+pub fn build_moving(keys: &[&[[Vec3; 3]]]) -> Bvh {
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    let n = keys.first().map_or(0, |k| k.len());
+    build_over(n, |i| keys.iter().flat_map(move |k| k[i]), threads)
+}
+
+/// The build over `n` triangles, triangle i bounded by the points `points(i)` yields.
+fn build_over<I: Iterator<Item = Vec3>>(n: usize, points: impl Fn(usize) -> I, threads: usize) -> Bvh {
     let mut boxes = Vec::with_capacity(n);
     let mut centroids = Vec::with_capacity(n);
-    for t in triangles {
+    for i in 0..n {
         let mut b = Aabb::EMPTY;
-        t.iter().for_each(|v| b.grow(*v));
+        points(i).for_each(|v| b.grow(v));
         boxes.push(b);
         centroids.push((b.lo + b.hi) * 0.5);
     }

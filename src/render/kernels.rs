@@ -1,6 +1,6 @@
 //! The compute kernels: the `Stage` enum, each stage's compiled variants (`Kernel`), and the pipelines built for
 //! them on demand, handed out as typed handles so a pass can only dispatch what it built.
-use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK};
+use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK, FEATURE_MOTION};
 use crate::error::Error;
 use crate::layout::Frame;
 use crate::variants::STAGE_VARIANTS;
@@ -102,6 +102,10 @@ impl Stage {
         !self.renders() && self != Stage::Tonemap
     }
 }
+
+/// The feature bits scene-independent stages take from the scene rather than all set: the BVH's stack depth (so the
+/// BVH tests check the traversal the render stages run) and motion (whose buffer only a moving scene fills).
+const SCENE_OWNED: u32 = FEATURE_DEEP_STACK | FEATURE_MOTION;
 
 /// The preprocessor defines a variant is compiled with (src/variants.rs), as bits.
 const ALPHA_TEST: u8 = 1;
@@ -309,7 +313,7 @@ impl Kernels {
             .get(&kernel)
             .ok_or_else(|| Error::Vulkan(format!("no SPIR-V for kernel {}", kernel.name())))?;
         let features = if kernel.stage.scene_independent() {
-            (FEATURES_ALL & !FEATURE_DEEP_STACK) | (self.features & FEATURE_DEEP_STACK)
+            (FEATURES_ALL & !SCENE_OWNED) | (self.features & SCENE_OWNED)
         } else {
             self.features
         };

@@ -94,6 +94,8 @@ pub struct Renderer {
     /// The camera's distance to the scene's centre along its view direction: the focus when none is given.
     default_focus: f32,
     camera: Camera,
+    /// The scene's own camera at the shutter's opening: while renders use it, a moving one follows its keys.
+    scene_camera: Option<Camera>,
     pub warnings: Vec<String>,
     ctx: Context,
 }
@@ -150,6 +152,7 @@ impl Renderer {
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
             default_focus: uploaded.default_focus,
             camera: uploaded.camera,
+            scene_camera: scene.camera,
             warnings: uploaded.warnings,
             ctx,
         };
@@ -164,18 +167,15 @@ impl Renderer {
     pub fn set_scene(&mut self, scene: &Scene) -> Result<(), Error> {
         // Uploaded before the old scene goes, so that a scene refused leaves the renderer as it was. No pass is in
         // flight between calls, and every pass binds the scene's buffers again.
-        let features = self.scene.features;
         let uploaded = Uploaded::new(&self.ctx, scene, &self.options)?;
         self.scene = uploaded.gpu;
-        if self.scene.features != features {
-            self.kernels.set_features(self.scene.features);
-        }
         self.bvh_reads = uploaded.bvh_reads;
         let env = scene.environment.as_ref();
         self.env_size = env.map(|e| (e.width, e.height)).unwrap_or((0, 0));
         self.env_rotation = env.map(|e| e.rotation).unwrap_or(0.0);
         self.default_focus = uploaded.default_focus;
         self.camera = uploaded.camera;
+        self.scene_camera = scene.camera;
         for w in uploaded.warnings {
             if !self.warnings.contains(&w) {
                 self.warnings.push(w);

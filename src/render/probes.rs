@@ -41,7 +41,12 @@ pub struct BsdfProbe {
 impl Renderer {
     /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
     pub fn probe_trace(&mut self, rays: &[Ray], any_hit: bool) -> Result<Vec<TraceHit>, Error> {
-        Ok(self.trace_timed(rays, any_hit, 1)?.0)
+        self.probe_trace_at(rays, any_hit, 0.0)
+    }
+
+    /// `probe_trace` at `time` in the shutter, in [0, 1) (moving scenes: the triangles between their keys).
+    pub fn probe_trace_at(&mut self, rays: &[Ray], any_hit: bool, time: f32) -> Result<Vec<TraceHit>, Error> {
+        Ok(self.trace_records(rays, any_hit, time, 1)?.0)
     }
 
     /// Traces `rays` `repeats` times after one upload; returns the hits and each dispatch's wall time. The bench's
@@ -52,6 +57,16 @@ impl Renderer {
         any_hit: bool,
         repeats: u32,
     ) -> Result<(Vec<TraceHit>, Vec<Duration>), Error> {
+        self.trace_records(rays, any_hit, 0.0, repeats)
+    }
+
+    fn trace_records(
+        &mut self,
+        rays: &[Ray],
+        any_hit: bool,
+        time: f32,
+        repeats: u32,
+    ) -> Result<(Vec<TraceHit>, Vec<Duration>), Error> {
         let records: Vec<TraceRecord> = rays
             .iter()
             .map(|r| TraceRecord {
@@ -59,6 +74,7 @@ impl Renderer {
                 tmin: r.tmin,
                 dir: r.dir.to_array(),
                 tmax: r.tmax,
+                time,
                 ..Default::default()
             })
             .collect();

@@ -255,7 +255,11 @@ impl Renderer {
             flags: s.estimator.code() << ESTIMATOR_SHIFT
                 | flag(s.energy_compensation, FLAG_ENERGY_COMPENSATION)
                 | flag(s.hide_environment, FLAG_HIDE_ENV)
-                | flag(self.scene.vertex_colors, FLAG_VERTEX_COLORS),
+                | flag(self.scene.vertex_colors, FLAG_VERTEX_COLORS)
+                | flag(
+                    self.scene.camera_moves && self.scene_camera == Some(self.camera),
+                    FLAG_CAMERA_MOTION,
+                ),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)

@@ -9,8 +9,8 @@ pub mod texture;
 
 pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, MAX_FILE_BYTES, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
-pub use rig::{JointSet, MorphTarget, PoseTime, Rig};
-pub use soup::{TriangleSoup, WorldTriangle};
+pub use rig::{JointSet, MorphTarget, Motion, PoseTime, Rig};
+pub use soup::{soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -245,6 +245,8 @@ pub struct Scene {
     pub images: Vec<Image>,
     /// The node hierarchy, animations and skins `pose` places the scene from.
     pub rig: Rig,
+    /// What moves while the shutter is open (`pose_shutter`); None for a still image.
+    pub motion: Option<rig::Motion>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

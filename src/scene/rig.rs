@@ -117,10 +117,57 @@ impl Scene {
     /// skinned and morphed meshes, cameras and lights, replacing those of the previous pose. Nodes no channel drives
     /// keep the file's transform. Fails only on a camera whose animated transform has no view.
     pub fn pose(&mut self, pose: PoseTime) -> Result<(), Error> {
+        self.motion = None;
         // A scene built in code (tests, benchmarks) has no nodes: its instances are what it is.
         if self.rig.nodes.is_empty() {
             return Ok(());
         }
+        let placed = self.place(pose)?;
+        self.meshes.truncate(self.rig.file_meshes);
+        self.meshes.extend(placed.meshes);
+        self.instances = placed.instances;
+        self.punctual = placed.punctual;
+        self.camera_count = placed.camera_count;
+        self.camera = placed.camera;
+        self.rig.posed = pose;
+        Ok(())
+    }
+
+    /// `pose` at the shutter's opening, `pose.time`, and the keys of the motion while it is open for `shutter`
+    /// seconds: the scene placed at MOTION_SEGMENTS more evenly spaced times up to `pose.time + shutter`. A scene
+    /// that does not move over that time gets no motion, and renders as a still one (at no cost).
+    pub fn pose_shutter(&mut self, pose: PoseTime, shutter: f32) -> Result<(), Error> {
+        self.pose(pose)?;
+        if shutter <= 0.0 || !self.rig.animated() {
+            return Ok(());
+        }
+        let segments = crate::constants::MOTION_SEGMENTS;
+        let mut keys = Vec::with_capacity(segments as usize);
+        for k in 1..=segments {
+            let time = pose.time + shutter * k as f32 / segments as f32;
+            keys.push(self.place(PoseTime { time, ..pose })?);
+        }
+        let moves = keys.iter().any(|key| {
+            key.instances != self.instances
+                || key.camera != self.camera
+                || key.meshes[..] != self.meshes[self.rig.file_meshes..]
+        });
+        if moves {
+            self.motion = Some(Motion { shutter, keys });
+        }
+        Ok(())
+    }
+
+    /// The mesh instance `i` of motion key `key` places (key 0: the scene's own).
+    pub fn key_mesh(&self, key: usize, mesh: usize) -> &Mesh {
+        match (key, &self.motion) {
+            (k, Some(m)) if k > 0 && mesh >= self.rig.file_meshes => &m.keys[k - 1].meshes[mesh - self.rig.file_meshes],
+            _ => &self.meshes[mesh],
+        }
+    }
+
+    /// The scene as `pose` places it, without changing it.
+    fn place(&self, pose: PoseTime) -> Result<Placed, Error> {
         let rig = &self.rig;
         let mut trs: Vec<Option<Trs>> = vec![None; rig.nodes.len()];
         let mut weights: Vec<Option<Vec<f32>>> = vec![None; rig.nodes.len()];
@@ -214,20 +261,20 @@ impl Scene {
                 world_from_object: if skin.is_some() { Mat4::IDENTITY } else { w },
             });
         }
-        self.meshes.truncate(file_meshes);
-        self.meshes.extend(posed_meshes);
-        self.instances = instances;
-        self.punctual = punctual;
-        self.camera_count = cameras.len();
-        self.camera = match self.rig.camera_choice {
+        let camera = match self.rig.camera_choice {
             None => cameras.first().copied(),
             Some(i) => Some(*cameras.get(i).ok_or_else(|| Error::Scene {
                 path: self.path.clone(),
                 message: format!("--camera {i}: the file has {} perspective camera(s)", cameras.len()),
             })?),
         };
-        self.rig.posed = pose;
-        Ok(())
+        Ok(Placed {
+            instances,
+            meshes: posed_meshes,
+            camera,
+            camera_count: cameras.len(),
+            punctual,
+        })
     }
 
     fn pose_err(&self, pose: PoseTime, message: String) -> Error {
@@ -319,6 +366,27 @@ fn skin_primitive(p: &mut Primitive, joints: &[Mat4]) {
             tri.swap(1, 2);
         }
     }
+}
+
+/// The scene placed at one time: its instances, the skinned and morphed meshes they place (indexed from
+/// `Rig::file_meshes` on), the camera and the lights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Placed {
+    pub instances: Vec<Instance>,
+    pub meshes: Vec<Mesh>,
+    pub camera: Option<Camera>,
+    pub camera_count: usize,
+    pub punctual: Vec<PunctualLight>,
+}
+
+/// The scene while the shutter is open: placed again at MOTION_SEGMENTS evenly spaced times after the scene's own
+/// (key 0), up to the shutter's closing. Every key places the same instances of the same meshes in the same order;
+/// only transforms, deformed vertices and the camera differ. Punctual lights stay where key 0 has them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Motion {
+    /// Seconds the shutter is open.
+    pub shutter: f32,
+    pub keys: Vec<Placed>,
 }
 
 /// One morph target's displacements of a primitive's vertices (each as long as its positions where present).

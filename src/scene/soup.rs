@@ -107,6 +107,11 @@ impl TriangleSoup {
     }
 }
 
+/// The box around `triangles` (inverted, +inf to -inf, when there is none).
+pub fn soup_bounds(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    bounds(triangles.iter().copied())
+}
+
 pub(super) fn bounds(triangles: impl Iterator<Item = [Vec3; 3]>) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -137,16 +142,70 @@ impl Placement {
         }
     }
 
+    /// The triangle's vertex indices in front-face order.
+    fn corners(&self, [a, b, c]: [u32; 3]) -> [u32; 3] {
+        if self.flip {
+            [a, c, b]
+        } else {
+            [a, b, c]
+        }
+    }
+
+    /// The world-space vertices of corners `abc`.
+    fn positions(&self, positions: &[Vec3], abc: [u32; 3]) -> [Vec3; 3] {
+        abc.map(|i| self.world.transform_point3(positions[i as usize]))
+    }
+
     /// The triangle's vertex indices in front-face order, its world-space vertices and its face normal, or `None`
     /// when it is degenerate in world space (no area: it can be neither hit nor emit).
-    fn triangle(&self, positions: &[Vec3], [a, b, c]: [u32; 3]) -> Option<([u32; 3], [Vec3; 3], Vec3)> {
-        let abc = if self.flip { [a, c, b] } else { [a, b, c] };
-        let v = abc.map(|i| self.world.transform_point3(positions[i as usize]));
-        let face = (v[1] - v[0]).cross(v[2] - v[0]);
-        if face.length_squared() == 0.0 || !face.is_finite() {
-            return None;
+    fn triangle(&self, positions: &[Vec3], tri: [u32; 3]) -> Option<([u32; 3], [Vec3; 3], Vec3)> {
+        let abc = self.corners(tri);
+        let v = self.positions(positions, abc);
+        Some((abc, v, face_normal(v)?))
+    }
+
+    /// World-space shading normals of corners `abc`, the face normal where the primitive has none (or one that
+    /// does not survive the transform).
+    fn normals(&self, p: &Primitive, abc: [u32; 3], face_n: Vec3) -> [Vec3; 3] {
+        match &p.normals {
+            Some(ns) => abc.map(|i| {
+                let n = self.normal_matrix * ns[i as usize];
+                if n.is_finite() && n.length_squared() > 0.0 {
+                    n.normalize()
+                } else {
+                    face_n
+                }
+            }),
+            None => [face_n; 3],
         }
-        Some((abc, v, face.normalize()))
+    }
+
+    /// The placed triangle with its shading data, given its corners, world-space vertices and face normal.
+    fn world_triangle(&self, p: &Primitive, abc: [u32; 3], positions: [Vec3; 3], face_n: Vec3) -> WorldTriangle {
+        let normals = self.normals(p, abc, face_n);
+        let uv = |set: usize, i: u32| p.texcoords[set].as_ref().map_or(Vec2::ZERO, |u| u[i as usize]);
+        let texcoords = abc.map(|i| {
+            let (t0, t1) = (uv(0, i), uv(1, i));
+            Vec4::new(t0.x, t0.y, t1.x, t1.y)
+        });
+        let tangents = match &p.tangents {
+            // A mirroring transform flips the bitangent relative to cross(normal, tangent).
+            Some(ts) => abc.map(|i| {
+                let t = ts[i as usize];
+                let tw = (Mat3::from_mat4(self.world) * t.truncate()).normalize_or_zero();
+                let sign = if (t.w < 0.0) != self.flip { -1.0 } else { 1.0 };
+                tw.extend(sign)
+            }),
+            None => [Vec4::ZERO; 3],
+        };
+        WorldTriangle {
+            positions,
+            normals,
+            texcoords,
+            tangents,
+            colors: p.colors.as_ref().map(|c| abc.map(|i| c[i as usize])),
+            material: p.material,
+        }
     }
 
     fn push_primitive(&self, p: &Primitive, soup: &mut TriangleSoup) {
@@ -154,42 +213,25 @@ impl Placement {
             let Some((abc, positions, face_n)) = self.triangle(&p.positions, tri) else {
                 continue;
             };
-            let normals = match &p.normals {
-                Some(ns) => abc.map(|i| {
-                    let n = self.normal_matrix * ns[i as usize];
-                    if n.is_finite() && n.length_squared() > 0.0 {
-                        n.normalize()
-                    } else {
-                        face_n
-                    }
-                }),
-                None => [face_n; 3],
-            };
-            let uv = |set: usize, i: u32| p.texcoords[set].as_ref().map_or(Vec2::ZERO, |u| u[i as usize]);
-            let texcoords = abc.map(|i| {
-                let (t0, t1) = (uv(0, i), uv(1, i));
-                Vec4::new(t0.x, t0.y, t1.x, t1.y)
-            });
-            let tangents = match &p.tangents {
-                // A mirroring transform flips the bitangent relative to cross(normal, tangent).
-                Some(ts) => abc.map(|i| {
-                    let t = ts[i as usize];
-                    let tw = (Mat3::from_mat4(self.world) * t.truncate()).normalize_or_zero();
-                    let sign = if (t.w < 0.0) != self.flip { -1.0 } else { 1.0 };
-                    tw.extend(sign)
-                }),
-                None => [Vec4::ZERO; 3],
-            };
-            soup.push(WorldTriangle {
-                positions,
-                normals,
-                texcoords,
-                tangents,
-                colors: p.colors.as_ref().map(|c| abc.map(|i| c[i as usize])),
-                material: p.material,
-            });
+            soup.push(self.world_triangle(p, abc, positions, face_n));
         }
     }
+}
+
+/// The unit normal of a counter-clockwise triangle, or None when it has no area (or is not finite).
+fn face_normal(v: [Vec3; 3]) -> Option<Vec3> {
+    let face = (v[1] - v[0]).cross(v[2] - v[0]);
+    if face.length_squared() == 0.0 || !face.is_finite() {
+        return None;
+    }
+    Some(face.normalize())
+}
+
+/// One triangle at one key of the motion: world-space vertices and shading normals.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KeyTriangle {
+    pub positions: [Vec3; 3],
+    pub normals: [Vec3; 3],
 }
 
 impl Scene {
@@ -213,6 +255,73 @@ impl Scene {
             })?;
         self.flatten_into(&mut soup);
         Ok(soup)
+    }
+
+    /// `try_flatten` over the shutter: the soup at key 0 (the shutter's opening) and, for each later key of
+    /// `Scene::motion`, every soup triangle's vertices and normals there, index for index (None without motion).
+    /// Every key places the same triangles: one is dropped only when it has no area at any key, and one without
+    /// area at key 0 takes the normals of the first key where it has some.
+    #[allow(clippy::type_complexity)]
+    pub fn try_flatten_motion(&self) -> Result<(TriangleSoup, Option<Vec<Vec<KeyTriangle>>>), Error> {
+        let Some(motion) = &self.motion else {
+            return Ok((self.try_flatten()?, None));
+        };
+        let n = self.flattened_triangle_bound();
+        let oom = || Error::Scene {
+            path: self.path.clone(),
+            message: format!("out of host memory placing its {n} triangles at every key of the motion"),
+        };
+        let mut soup = usize::try_from(n)
+            .ok()
+            .and_then(|n| TriangleSoup::try_with_capacity(n).ok())
+            .ok_or_else(oom)?;
+        let mut keys: Vec<Vec<KeyTriangle>> = Vec::new();
+        for _ in &motion.keys {
+            let mut v = Vec::new();
+            v.try_reserve_exact(n as usize).map_err(|_| oom())?;
+            keys.push(v);
+        }
+        let key_count = motion.keys.len() + 1;
+        for (i, instance) in self.instances.iter().enumerate() {
+            let placements: Vec<Placement> = (0..key_count)
+                .map(|k| match k {
+                    0 => Placement::new(instance.world_from_object),
+                    k => Placement::new(motion.keys[k - 1].instances[i].world_from_object),
+                })
+                .collect();
+            let meshes: Vec<&super::Mesh> = (0..key_count)
+                .map(|k| match k {
+                    0 => &self.meshes[instance.mesh],
+                    k => self.key_mesh(k, motion.keys[k - 1].instances[i].mesh),
+                })
+                .collect();
+            for (pi, p) in meshes[0].primitives.iter().enumerate() {
+                let first = soup.len();
+                for &tri in &p.triangles {
+                    // Key 0's winding for every key, so that the corners correspond.
+                    let abc = placements[0].corners(tri);
+                    let at: Vec<[Vec3; 3]> = (0..key_count)
+                        .map(|k| placements[k].positions(&meshes[k].primitives[pi].positions, abc))
+                        .collect();
+                    let faces: Vec<Option<Vec3>> = at.iter().map(|v| face_normal(*v)).collect();
+                    let Some(some_face) = faces.iter().flatten().next().copied() else {
+                        continue;
+                    };
+                    soup.push(placements[0].world_triangle(p, abc, at[0], faces[0].unwrap_or(some_face)));
+                    for k in 1..key_count {
+                        let pk = &meshes[k].primitives[pi];
+                        keys[k - 1].push(KeyTriangle {
+                            positions: at[k],
+                            normals: placements[k].normals(pk, abc, faces[k].unwrap_or(some_face)),
+                        });
+                    }
+                }
+                if let (Some(r), None) = (self.materials[p.material as usize].normal_texture, &p.tangents) {
+                    soup.generate_tangents(first, r.tex_coord as usize);
+                }
+            }
+        }
+        Ok((soup, Some(keys)))
     }
 
     fn flatten_into(&self, soup: &mut TriangleSoup) {

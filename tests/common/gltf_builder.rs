@@ -340,6 +340,13 @@ impl GltfBuilder {
         node["skin"] = json!(self.skins.len() - 1);
     }
 
+    /// Sets node `i`'s glTF fields (e.g. its `translation`).
+    pub fn transform_node(&mut self, i: usize, fields: Value) {
+        for (k, v) in fields.as_object().unwrap() {
+            self.nodes[i][k] = v.clone();
+        }
+    }
+
     /// Sets the last node's glTF transform fields (`translation`, `rotation`, `scale` or `matrix`).
     pub fn transform_last_node(&mut self, transform: Value) {
         let node = self.nodes.last_mut().unwrap();

@@ -37,7 +37,7 @@ enum Reads {
 struct SceneBinding(&'static str, u32, Option<u32>, Reads);
 
 /// Every scene buffer, in upload order: the one list binding, upload, views and limits come from.
-const SCENE_BINDINGS: [SceneBinding; 12] = [
+const SCENE_BINDINGS: [SceneBinding; 13] = [
     SceneBinding("bvh nodes", BINDING_NODES, Some(BINDING_NODE_TEXELS), Reads::Viewed),
     SceneBinding(
         "triangle vertices",
@@ -79,6 +79,7 @@ const SCENE_BINDINGS: [SceneBinding; 12] = [
     SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
     SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
     SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
+    SceneBinding("motion keys", BINDING_MOTION, None, Reads::Storage),
     SceneBinding(
         "texture texels",
         BINDING_TEXELS,
@@ -104,6 +105,7 @@ impl PackedScene {
             BINDING_PUNCTUAL => bytes(&self.punctual),
             BINDING_TEXTURES => bytes(&self.textures),
             BINDING_TEXELS => bytes(&self.texels),
+            BINDING_MOTION => bytes(&self.motion),
             _ => unreachable!("binding {binding} is no scene buffer"),
         }
     }
@@ -155,6 +157,8 @@ pub struct GpuScene {
     /// Some material has a texture or alpha, or some mesh has COLOR_0: shading runs the textured variant.
     pub textured: bool,
     pub vertex_colors: bool,
+    /// The scene's own camera moves over the shutter (FLAG_CAMERA_MOTION, when the renders use that camera).
+    pub camera_moves: bool,
     /// How long building the BVH took.
     pub bvh_build: std::time::Duration,
 }
@@ -240,6 +244,7 @@ impl GpuScene {
             alpha_tested,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),
             vertex_colors: !packed.tri_colors.is_empty(),
+            camera_moves: packed.camera_moves,
             bvh_build: packed.bvh_build,
         })
     }

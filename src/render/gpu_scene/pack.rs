@@ -3,10 +3,10 @@ use crate::bvh::{self, Bvh};
 use crate::constants::*;
 use crate::error::Error;
 use crate::layout::{
-    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, TextureSlot, TriColors, TriShading, TriTangents, TriTexcoords,
-    TriVerts,
+    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey, TextureSlot, TriColors, TriShading, TriTangents,
+    TriTexcoords, TriVerts,
 };
-use crate::scene::{AlphaMode, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap};
+use crate::scene::{AlphaMode, Camera, KeyTriangle, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -35,6 +35,11 @@ pub struct PackedScene {
     pub tri_tangents: Vec<TriTangents>,
     /// Empty when no mesh has COLOR_0.
     pub tri_colors: Vec<TriColors>,
+    /// The camera's keys and every triangle's keys after the first, in BVH order (see BINDING_MOTION); empty when
+    /// nothing moves.
+    pub motion: Vec<MotionKey>,
+    /// The scene's own camera moves over the shutter (its keys in `motion` are the ones to use).
+    pub camera_moves: bool,
 }
 
 impl PackedScene {
@@ -68,6 +73,9 @@ impl PackedScene {
         if self.bvh.stats.max_waiting > REGISTER_STACK {
             bits |= FEATURE_DEEP_STACK;
         }
+        if !self.motion.is_empty() {
+            bits |= FEATURE_MOTION;
+        }
         bits
     }
 }
@@ -91,12 +99,16 @@ pub fn mean_emission(scene: &Scene, m: &Material) -> glam::Vec3 {
 
 /// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
 pub fn emitted_power(scene: &Scene, soup: &TriangleSoup, tri: usize) -> f64 {
+    let [a, b, c] = soup.positions()[tri];
+    emitted_power_of_area(scene, soup, tri, 0.5 * (b - a).cross(c - a).length())
+}
+
+/// `emitted_power` of the triangle's material over `area`.
+fn emitted_power_of_area(scene: &Scene, soup: &TriangleSoup, tri: usize, area: f32) -> f64 {
     let m = &scene.materials[soup.material()[tri] as usize];
     let e = mean_emission(scene, m);
-    let [a, b, c] = soup.positions()[tri];
-    let area = 0.5 * (b - a).cross(c - a).length() as f64;
     let sides = if m.double_sided { 2.0 } else { 1.0 };
-    (e.x + e.y + e.z) as f64 / 3.0 * area * std::f64::consts::PI * sides
+    (e.x + e.y + e.z) as f64 / 3.0 * area as f64 * std::f64::consts::PI * sides
 }
 
 fn slot(r: Option<TextureRef>) -> TextureSlot {
@@ -186,7 +198,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
 /// The scene packed for the device. The big arrays (the soup, the packed triangles) are reserved fallibly, so a
 /// host out of memory is an error naming the scene rather than an abort.
 pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
-    let soup = scene.try_flatten()?;
+    let (soup, keys) = scene.try_flatten_motion()?;
     // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
     // give it an error here; memory that runs out during the build (taken by another process) still aborts.
     if Vec::<u8>::new()
@@ -198,14 +210,32 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
             message: format!("out of host memory building the BVH of its {} triangles", soup.len()),
         });
     }
+    let key_positions: Vec<Vec<[glam::Vec3; 3]>> = (keys.iter().flatten())
+        .map(|k| k.iter().map(|t| t.positions).collect())
+        .collect();
     let start = std::time::Instant::now();
-    let bvh = bvh::build(soup.positions());
+    let bvh = match keys {
+        None => bvh::build(soup.positions()),
+        Some(_) => {
+            let mut all: Vec<&[[glam::Vec3; 3]]> = vec![soup.positions()];
+            all.extend(key_positions.iter().map(Vec::as_slice));
+            bvh::build_moving(&all)
+        }
+    };
     let bvh_build = start.elapsed();
-    let mut t = pack_triangles(scene, &soup, &bvh.order).ok_or_else(|| Error::Scene {
+    let mut t = pack_triangles(scene, &soup, keys.as_deref(), &bvh.order).ok_or_else(|| Error::Scene {
         path: scene.path.clone(),
         message: format!("out of host memory packing its {} triangles", soup.len()),
     })?;
-    let bounds = (!soup.is_empty()).then(|| soup.bounds());
+    let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
+    for k in &key_positions {
+        let (lo, hi) = crate::scene::soup_bounds(k);
+        bounds = bounds.map(|(a, b)| (a.min(lo), b.max(hi)));
+    }
+    let (motion, camera_moves) = match keys.is_some() {
+        true => motion_records(scene, std::mem::take(&mut t.motion)),
+        false => (Vec::new(), false),
+    };
     let radius = bounds.map_or(1.0, |(lo, hi)| ((hi - lo).length() * 0.5).max(1e-3));
     let mut emitters = std::mem::take(&mut t.emitters);
     let punctual = pack_punctual(scene, radius, &mut emitters);
@@ -235,11 +265,42 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
         tri_texcoords: t.tri_texcoords,
         tri_tangents: t.tri_tangents,
         tri_colors: t.tri_colors,
+        motion,
+        camera_moves,
     })
+}
+
+/// The motion buffer: the camera's key records first (zeros when the scene has no camera of its own), then the
+/// triangles' keys `pack_triangles` made.
+fn motion_records(scene: &Scene, triangles: Vec<MotionKey>) -> (Vec<MotionKey>, bool) {
+    let cameras: Vec<Option<Camera>> = std::iter::once(scene.camera)
+        .chain(scene.motion.iter().flat_map(|m| m.keys.iter().map(|k| k.camera)))
+        .collect();
+    let camera_moves = cameras.iter().all(Option::is_some) && cameras.windows(2).any(|w| w[0] != w[1]);
+    let mut records = Vec::with_capacity(MOTION_CAMERA_KEYS as usize + triangles.len());
+    for c in &cameras {
+        records.push(match c {
+            Some(c) => {
+                let (right, up, forward) = c.basis();
+                MotionKey {
+                    v0: v4(c.origin(), 0.0),
+                    e1: v4(right, 0.0),
+                    e2: v4(up, 0.0),
+                    n0: v4(forward, 0.0),
+                    ..Default::default()
+                }
+            }
+            None => MotionKey::default(),
+        });
+    }
+    records.extend(triangles);
+    (records, camera_moves)
 }
 
 /// The per-triangle buffers in BVH order, and the emissive triangles.
 struct PackedTriangles {
+    /// With motion, each triangle's keys after the first (MOTION_SEGMENTS records a triangle).
+    motion: Vec<MotionKey>,
     tri_verts: Vec<TriVerts>,
     tri_shading: Vec<TriShading>,
     tri_texcoords: Vec<TriTexcoords>,
@@ -257,7 +318,12 @@ fn try_vec<T>(n: usize) -> Option<Vec<T>> {
 
 /// The soup's triangles in `order` (the BVH's): texture coordinates only when some material has a texture,
 /// tangents only when some has a normal map, colours only when some mesh has COLOR_0.
-fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> Option<PackedTriangles> {
+fn pack_triangles(
+    scene: &Scene,
+    soup: &TriangleSoup,
+    keys: Option<&[Vec<KeyTriangle>]>,
+    order: &[u32],
+) -> Option<PackedTriangles> {
     let n = soup.len();
     let textured = scene
         .materials
@@ -271,6 +337,7 @@ fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> Option<P
         tri_tangents: try_vec(if normal_mapped { n } else { 0 })?,
         tri_colors: try_vec(soup.colors().len())?,
         emitters: Vec::new(),
+        motion: try_vec(keys.map_or(0, |k| k.len() * n))?,
     };
     for (slot, &orig) in order.iter().enumerate() {
         let orig = orig as usize;
@@ -295,13 +362,41 @@ fn pack_triangles(scene: &Scene, soup: &TriangleSoup, order: &[u32]) -> Option<P
             let [c0, c1, c2] = c.map(|v| v.to_array());
             t.tri_colors.push(TriColors { c0, c1, c2 });
         }
-        let area = 0.5 * (b - a).cross(c - a).length();
+        let mut area = 0.5 * (b - a).cross(c - a).length();
+        let mut p = emitted_power(scene, soup, orig);
+        if let Some(keys) = keys {
+            // A moving emitter is picked by its mean area over the keys (any area it has at some time), and the
+            // device divides by its area at the ray's time.
+            let mean = |f: &dyn Fn([glam::Vec3; 3]) -> f32| {
+                (f([a, b, c]) + keys.iter().map(|k| f(k[orig].positions)).sum::<f32>()) / (keys.len() + 1) as f32
+            };
+            let key0 = area;
+            area = mean(&|[a, b, c]| 0.5 * (b - a).cross(c - a).length());
+            if key0 > 0.0 {
+                p *= (area / key0) as f64;
+            } else if p == 0.0 && area > 0.0 {
+                p = emitted_power_of_area(scene, soup, orig, area);
+            }
+            for k in keys {
+                let KeyTriangle {
+                    positions: [a, b, c],
+                    normals: [n0, n1, n2],
+                } = k[orig];
+                t.motion.push(MotionKey {
+                    v0: v4(a, 0.0),
+                    e1: v4(b - a, 0.0),
+                    e2: v4(c - a, 0.0),
+                    n0: v4(n0, 0.0),
+                    n1: v4(n1, 0.0),
+                    n2: v4(n2, 0.0),
+                });
+            }
+        }
         t.tri_shading.push(TriShading {
             n0: v4(na, 0.0),
             n1: v4(nb, area),
             n2: v4(nc, 0.0),
         });
-        let p = emitted_power(scene, soup, orig);
         if p > 0.0 {
             t.emitters.push((slot as u32, p, area));
         }

@@ -1,0 +1,371 @@
+//! Motion blur against analytic images: an emissive quad seen straight on, with `max_depth` 0 (emission only), so a
+//! pixel's value is the fraction of its area and of the shutter time the quad covers it. Moved by its node, by a
+//! skin, by the camera and by a rotation; computed here by integrating that coverage, and compared pixel by pixel
+//! within statistical bounds. Also: the BVH of a moving scene against brute force at several times, both schedules
+//! the same bytes, and a shutter of 0 costing nothing.
+mod common;
+
+use common::gltf_builder::GltfBuilder;
+use glam::{Quat, Vec2, Vec3};
+use pathwave::scene::{load, PoseTime, Scene};
+use serde_json::json;
+use std::path::Path;
+
+const W: u32 = 48;
+const H: u32 = 16;
+const SPP: u32 = 256;
+/// The camera on +z at this distance looks at the plane z = 0 with this vertical field of view.
+const DISTANCE: f32 = 2.0;
+const YFOV_DEG: f32 = 30.0;
+
+/// Half the plane's extent the image sees, (x, y).
+fn half_extent() -> Vec2 {
+    let h = DISTANCE * (YFOV_DEG.to_radians() * 0.5).tan();
+    Vec2::new(h * W as f32 / H as f32, h)
+}
+
+/// Pixel (px, py)'s footprint on z = 0 (lo, hi): a pinhole's image of a plane facing it is affine.
+fn footprint(px: u32, py: u32) -> (Vec2, Vec2) {
+    let e = half_extent();
+    let x0 = -e.x + 2.0 * e.x * px as f32 / W as f32;
+    let x1 = -e.x + 2.0 * e.x * (px + 1) as f32 / W as f32;
+    let y1 = e.y - 2.0 * e.y * py as f32 / H as f32;
+    let y0 = e.y - 2.0 * e.y * (py + 1) as f32 / H as f32;
+    (Vec2::new(x0, y0), Vec2::new(x1, y1))
+}
+
+/// A unit-radiance quad of half size `half` about the origin on its own node (node 1) facing +z, and the camera
+/// (node 2) on +z; node 0 is nothing but a root the tests may use.
+fn emitter(half: Vec2) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    b.node("root", json!({}));
+    let light = b.material("light", [0.0; 3], [1.0; 3], false);
+    let (x, y) = (half.x, half.y);
+    b.quad(
+        "quad",
+        [[-x, -y, 0.0], [x, -y, 0.0], [x, y, 0.0], [-x, y, 0.0]],
+        light,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.camera([0.0, 0.0, DISTANCE], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], YFOV_DEG);
+    b
+}
+
+/// The image rendered with the shutter open over [0, 1] s.
+fn render_blurred(path: &Path) -> Vec<f32> {
+    let mut scene = load(path, None).unwrap_or_else(|e| panic!("{e}"));
+    scene.pose_shutter(PoseTime::default(), 1.0).unwrap();
+    assert!(scene.motion.is_some(), "the scene should move over the shutter");
+    let mut r = common::scene_renderer(&scene);
+    let settings = pathwave::RenderSettings {
+        max_depth: Some(0),
+        ..common::settings(W, H, SPP, 7)
+    };
+    common::render(&mut r, &settings).mean().iter().map(|p| p[1]).collect()
+}
+
+/// Each pixel's expected value: the mean over the pixel's footprint and the shutter of `covered(point, time)`,
+/// by the midpoint rule on a fine grid (its error is far below the statistical bounds).
+fn expected(covered: impl Fn(Vec2, f32) -> bool) -> Vec<f32> {
+    let (n, steps) = (12, 48);
+    let mut out = Vec::with_capacity((W * H) as usize);
+    for py in 0..H {
+        for px in 0..W {
+            let (lo, hi) = footprint(px, py);
+            let mut hits = 0u32;
+            for s in 0..steps {
+                let t = (s as f32 + 0.5) / steps as f32;
+                for i in 0..n {
+                    for j in 0..n {
+                        let f = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                        hits += covered(lo + (hi - lo) * f, t) as u32;
+                    }
+                }
+            }
+            out.push(hits as f32 / (n * n * steps) as f32);
+        }
+    }
+    out
+}
+
+/// Per pixel within five standard deviations of a mean of SPP independent coverage samples (the renderer's are
+/// stratified, so its error is smaller still), plus the grid's error; and the mean error over the image within 0.01,
+/// which a shutter too short or too long, or a blur in the wrong direction, exceeds many times over.
+fn assert_matches(what: &str, got: &[f32], want: &[f32]) {
+    let mut total = 0.0;
+    let mut blurred = 0;
+    for (i, (&g, &p)) in got.iter().zip(want).enumerate() {
+        let sigma = (p * (1.0 - p) / SPP as f32).sqrt();
+        let bound = 5.0 * sigma + 0.02;
+        assert!(
+            (g - p).abs() <= bound,
+            "{what}: pixel ({}, {}) is {g}, expected {p} within {bound}",
+            i as u32 % W,
+            i as u32 / W
+        );
+        total += (g - p).abs();
+        blurred += (p > 0.05 && p < 0.95) as u32;
+    }
+    let mean = total / got.len() as f32;
+    eprintln!("{what}: mean error {mean}, {blurred} pixels partly covered");
+    assert!(mean < 0.01, "{what}: mean error {mean}");
+    // The test means something only if the blur covers many pixels partly.
+    assert!(blurred >= 40, "{what}: only {blurred} pixels are partly covered");
+}
+
+const HALF: Vec2 = Vec2::new(0.25, 0.25);
+const START_X: f32 = -0.6;
+const TRAVEL: f32 = 0.8;
+
+fn inside_moving_quad(p: Vec2, t: f32) -> bool {
+    let c = Vec2::new(START_X + TRAVEL * t, 0.0);
+    (p - c).abs().cmple(HALF).all()
+}
+
+/// Catches: no blur, a blur of the wrong length or direction, times not uniform over the shutter, the BVH not
+/// holding the moving quad's path (pixels it crosses would stay black).
+#[test]
+fn a_node_moving_linearly_blurs_into_its_time_averaged_coverage() {
+    let mut b = emitter(HALF);
+    b.animate(
+        "move",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "moving.gltf");
+    assert_matches(
+        "node translation",
+        &render_blurred(&path),
+        &expected(inside_moving_quad),
+    );
+}
+
+/// Catches: the camera's keys ignored (a sharp quad), or applied in the wrong direction (the camera moving left
+/// moves the image of a still quad right).
+#[test]
+fn a_moving_camera_blurs_a_still_quad_the_other_way() {
+    let mut b = emitter(HALF);
+    // The quad sits where the moving one starts; the camera slides left, so the quad slides right in the image,
+    // just as the node moved it in the test above.
+    b.transform_node(1, json!({ "translation": [START_X, 0.0, 0.0] }));
+    b.animate(
+        "dolly",
+        2,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, DISTANCE, -TRAVEL, 0.0, DISTANCE],
+    );
+    let (_dir, path) = common::write_temp(&b, "dolly.gltf");
+    assert_matches(
+        "camera translation",
+        &render_blurred(&path),
+        &expected(inside_moving_quad),
+    );
+}
+
+/// Catches: skinned vertices taken at one time only, or their keys not reaching the device.
+#[test]
+fn a_skinned_quad_moved_by_its_two_bones_blurs_the_same_way() {
+    let mut b = emitter(HALF);
+    let quad = 1;
+    let bone0 = b.node("bone 0", json!({ "translation": [0.0, 0.0, 0.0] }));
+    let bone1 = b.node("bone 1", json!({ "translation": [0.0, 0.0, 0.0] }));
+    // Corners 0 and 1 follow bone 0, 2 and 3 half each: both bones move the same, so the quad moves rigidly; the
+    // skinned node's own transform (far away) must be ignored.
+    let joints = [[0, 0, 0, 0], [0, 0, 0, 0], [0, 1, 0, 0], [0, 1, 0, 0]];
+    let weights = [
+        [1.0, 0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0, 0.0],
+        [0.5, 0.5, 0.0, 0.0],
+    ];
+    let identity = glam::Mat4::IDENTITY.to_cols_array();
+    b.skin_last_mesh(&[bone0, bone1], &[identity, identity], &joints, &weights);
+    b.transform_node(quad, json!({ "translation": [50.0, 0.0, 0.0] }));
+    for bone in [bone0, bone1] {
+        b.animate(
+            "walk",
+            bone,
+            "translation",
+            "LINEAR",
+            &[0.0, 1.0],
+            &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+        );
+    }
+    let (_dir, path) = common::write_temp(&b, "skinned.gltf");
+    assert_matches(
+        "skinned translation",
+        &render_blurred(&path),
+        &expected(inside_moving_quad),
+    );
+}
+
+/// Catches: rotations interpolated through the wrong keys or shrunk (the shutter is cut into segments, and the
+/// vertices between keys must stay on the quad's path to within the bound).
+#[test]
+fn a_rotating_quad_blurs_into_its_swept_coverage() {
+    let half = Vec2::new(0.45, 0.08);
+    let mut b = emitter(half);
+    let turn = 40f32.to_radians();
+    let keys: Vec<f32> = [0.0, turn]
+        .iter()
+        .flat_map(|&a| Quat::from_rotation_z(a).to_array())
+        .collect();
+    b.animate("spin", 1, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+    let (_dir, path) = common::write_temp(&b, "spin.gltf");
+    let want = expected(|p, t| {
+        // Back into the quad's frame at time t.
+        let q = glam::Mat2::from_angle(-turn * t) * p;
+        q.abs().cmple(half).all()
+    });
+    assert_matches("rotation", &render_blurred(&path), &want);
+}
+
+fn moving_scene() -> (tempfile::TempDir, std::path::PathBuf) {
+    let mut b = emitter(HALF);
+    b.animate(
+        "move",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+    );
+    b.animate(
+        "spin",
+        1,
+        "rotation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5f32.sin(), 0.5f32.cos()],
+    );
+    common::write_temp(&b, "moving.gltf")
+}
+
+/// Catches: the BVH's boxes not holding a triangle at every time of the shutter, or the device interpolating
+/// the keys differently from the host.
+#[test]
+fn moving_triangles_are_found_where_brute_force_finds_them_at_every_time() {
+    let (_dir, path) = moving_scene();
+    let mut scene = load(&path, None).unwrap();
+    scene.pose_shutter(PoseTime::default(), 1.0).unwrap();
+    let mut r = common::scene_renderer(&scene);
+    let mut rng = common::rng::Rng(11);
+    let rays: Vec<pathwave::bvh::Ray> = (0..2000)
+        .map(|_| {
+            let target = Vec3::new(rng.next() * 2.4 - 1.2, rng.next() * 0.8 - 0.4, 0.0);
+            let origin = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, 1.5);
+            pathwave::bvh::Ray {
+                origin,
+                dir: (target - origin).normalize(),
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect();
+    let segments = pathwave::constants::MOTION_SEGMENTS as f32;
+    for time in [0.0, 0.1, 0.25, 0.6, 0.999] {
+        // The triangles at `time` as the device should have them: keys on either side, linearly between.
+        let at = posed_triangles(&scene, time * segments);
+        let hits = r.probe_trace_at(&rays, false, time).unwrap();
+        let mut found = 0;
+        for (ray, hit) in rays.iter().zip(&hits) {
+            let want = nearest(&at, ray);
+            assert_eq!(
+                hit.tri != pathwave::constants::NO_HIT,
+                want.is_some(),
+                "time {time}, ray {ray:?}"
+            );
+            if let (Some(t), true) = (want, hit.tri != pathwave::constants::NO_HIT) {
+                assert!(
+                    (hit.t - t).abs() < 1e-4 * t.max(1.0),
+                    "time {time}: t {} against {t}",
+                    hit.t
+                );
+                found += 1;
+            }
+        }
+        assert!(found > 200, "time {time}: only {found} rays hit the quad");
+    }
+}
+
+/// Every world-space triangle at shutter position x (in segments), from the keys the scene holds.
+fn posed_triangles(scene: &Scene, x: f32) -> Vec<[Vec3; 3]> {
+    let (soup, keys) = scene.try_flatten_motion().unwrap();
+    let keys = keys.unwrap();
+    let k = (x as usize).min(keys.len() - 1);
+    let f = x - k as f32;
+    let key = |k: usize, i: usize| {
+        if k == 0 {
+            soup.positions()[i]
+        } else {
+            keys[k - 1][i].positions
+        }
+    };
+    (0..soup.len())
+        .map(|i| {
+            let (a, b) = (key(k, i), key(k + 1, i));
+            [0, 1, 2].map(|v| a[v] + (b[v] - a[v]) * f)
+        })
+        .collect()
+}
+
+fn nearest(tris: &[[Vec3; 3]], ray: &pathwave::bvh::Ray) -> Option<f32> {
+    tris.iter()
+        .filter_map(|t| {
+            let tv = pathwave::layout::TriVerts {
+                v0: t[0].extend(0.0).to_array(),
+                e1: (t[1] - t[0]).extend(0.0).to_array(),
+                e2: (t[2] - t[0]).extend(0.0).to_array(),
+            };
+            pathwave::bvh::intersect_triangle(&tv, ray.origin, ray.dir, ray.tmin, ray.tmax).map(|(t, _)| t)
+        })
+        .min_by(f32::total_cmp)
+}
+
+/// Catches: the wavefront and fused schedules giving moving scenes different times (their bytes would differ).
+#[test]
+fn both_schedules_give_the_same_bytes_on_a_moving_scene() {
+    let (_dir, path) = moving_scene();
+    let mut scene = load(&path, None).unwrap();
+    scene.pose_shutter(PoseTime::default(), 1.0).unwrap();
+    let mut r = common::scene_renderer(&scene);
+    let s = common::settings(W, H, 16, 3);
+    r.set_schedule(pathwave::Schedule::Wavefront);
+    let a = common::render(&mut r, &s);
+    r.set_schedule(pathwave::Schedule::Fused);
+    let b = common::render(&mut r, &s);
+    assert!(
+        a.sum == b.sum && a.sum_sq == b.sum_sq,
+        "the schedules differ on a moving scene"
+    );
+}
+
+/// Catches: a shutter of 0, or a shutter over which nothing moves, turning the motion code on.
+#[test]
+fn no_motion_costs_nothing() {
+    let (_dir, path) = moving_scene();
+    let mut scene = load(&path, None).unwrap();
+    scene.pose_shutter(PoseTime::default(), 0.0).unwrap();
+    assert!(scene.motion.is_none());
+    let features = pathwave::render::gpu_scene::pack(&scene).features();
+    assert_eq!(features & pathwave::constants::FEATURE_MOTION, 0);
+    // After the animation's end nothing moves, whatever the shutter.
+    scene
+        .pose_shutter(
+            PoseTime {
+                time: 2.0,
+                animation: None,
+            },
+            0.5,
+        )
+        .unwrap();
+    assert!(scene.motion.is_none());
+    scene.pose_shutter(PoseTime::default(), 0.5).unwrap();
+    let features = pathwave::render::gpu_scene::pack(&scene).features();
+    assert_ne!(features & pathwave::constants::FEATURE_MOTION, 0);
+}
