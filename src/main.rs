@@ -254,6 +254,9 @@ struct ViewArgs {
     /// Milliseconds per frame the adaptive sampler aims at.
     #[arg(long, default_value = "33", value_parser = positive)]
     frame_budget_ms: u32,
+    /// Start with the animation playing (space toggles it).
+    #[arg(long)]
+    play: bool,
 }
 
 #[derive(clap::Args)]
@@ -531,7 +534,15 @@ fn view(args: ViewArgs) -> Result<()> {
         output::check_writable(out)?;
     }
     let scene = args.common.load()?;
+    let animation = match &args.common.animation {
+        Some(a) => Some(scene.rig.find_animation(a).map_err(|e| anyhow::anyhow!(e))?),
+        None => None,
+    };
     let options = pathwave::viewer::ViewOptions {
+        time: args.common.time.unwrap_or(0.0),
+        animation,
+        shutter: args.common.shutter,
+        play: args.play,
         device: args.common.device.clone().unwrap_or_default(),
         settings: RenderSettings {
             width: args.size.0,

@@ -83,3 +83,27 @@ fn viewer_screenshot_is_the_headless_render() {
         mean(&headless.2)
     );
 }
+
+/// Catches: --play not advancing the animation, or a new pose per frame failing (set_scene between frames).
+#[test]
+fn the_viewer_plays_an_animation() {
+    if !xvfb_run() {
+        eprintln!("note: xvfb-run is not installed; the viewer test is skipped (bash ci/setup.sh installs it)");
+        return;
+    }
+    let scene = common::scenes_dir().join("animated.gltf");
+    let o = pathwave("xvfb-run")
+        .args(["-a", "-s", "-screen 0 640x480x24", env!("CARGO_BIN_EXE_pathwave"), "view"])
+        .arg(&scene)
+        .args(["--size", "64x48", "--frames", "8", "--play", "--shutter", "0.05"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "the viewer failed: {log}");
+    // "8 frames in 0.52 s (...) at 64x48: 1 spp, 0.40 M samples/s, t 0.43 s"
+    let t: f32 = log
+        .lines()
+        .find_map(|l| l.split(", t ").nth(1)?.split(' ').next()?.parse().ok())
+        .unwrap_or_else(|| panic!("no time in the viewer's summary: {log}"));
+    assert!(t > 0.0, "the animation did not advance: {log}");
+}

@@ -31,6 +31,12 @@ pub struct ViewOptions {
     pub screenshot: Option<PathBuf>,
     /// Time per frame the adaptive sampler aims at.
     pub budget: Duration,
+    /// The animation's time the scene was posed at, which animation plays (None: all) and the shutter.
+    pub time: f32,
+    pub animation: Option<usize>,
+    pub shutter: f32,
+    /// Start with the animation playing (space toggles it).
+    pub play: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -159,8 +165,38 @@ impl Orbit {
     }
 }
 
+/// The animation as the viewer plays it: where it is, and whether it runs.
+struct Playback {
+    /// The scene the renderer holds, posed at `time`.
+    scene: Scene,
+    time: f32,
+    playing: bool,
+    animation: Option<usize>,
+    shutter: f32,
+}
+
+impl Playback {
+    /// Moves on by `dt` seconds, looping over the animation's keys; true when the scene was posed anew.
+    fn advance(&mut self, dt: f32) -> Result<bool, Error> {
+        if !self.playing {
+            return Ok(false);
+        }
+        let (lo, hi) = self.scene.rig.range(self.animation);
+        let length = hi - lo;
+        let t = self.time + dt;
+        self.time = if length > 0.0 && t > hi { lo + (t - lo) % length } else { t };
+        let pose = crate::scene::PoseTime {
+            time: self.time,
+            animation: self.animation,
+        };
+        self.scene.pose_shutter(pose, self.shutter)?;
+        Ok(true)
+    }
+}
+
 // Field order is drop order: device objects before the renderer's device, the window after its surface.
 struct State {
+    playback: Playback,
     session: Session,
     swapchain: Swapchain,
     pixels: Buffer,
@@ -195,7 +231,7 @@ impl ApplicationHandler for App {
             return;
         }
         let Some(scene) = self.scene.take() else { return };
-        match State::new(event_loop, &scene, &self.options) {
+        match State::new(event_loop, scene, &self.options) {
             Ok(s) => self.state = Some(s),
             Err(e) => {
                 self.error = Some(e);
@@ -262,7 +298,7 @@ impl ApplicationHandler for App {
 }
 
 impl State {
-    fn new(event_loop: &ActiveEventLoop, scene: &Scene, options: &ViewOptions) -> Result<Self, Error> {
+    fn new(event_loop: &ActiveEventLoop, scene: Scene, options: &ViewOptions) -> Result<Self, Error> {
         use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
         let s = &options.settings;
         let attributes = Window::default_attributes()
@@ -277,7 +313,7 @@ impl State {
             window: window.window_handle().map_err(handle_err)?.as_raw(),
         };
         let ctx = Context::for_window(&options.device, Validation::from_env()?, handles)?;
-        let mut renderer = Renderer::with_context(scene, ctx)?;
+        let mut renderer = Renderer::with_context(&scene, ctx)?;
         for w in &renderer.warnings {
             eprintln!("warning: {}: {w}", scene.path.display());
         }
@@ -303,7 +339,17 @@ impl State {
         settings.focus_distance = Some(focus);
         let session = renderer.begin(&settings)?;
         let pixels = pixel_buffer(renderer.context(), swapchain.extent)?;
+        if options.play && !scene.rig.animated() {
+            eprintln!("warning: {}: the file has no animations to play", scene.path.display());
+        }
         Ok(State {
+            playback: Playback {
+                playing: options.play && scene.rig.animated(),
+                scene,
+                time: options.time,
+                animation: options.animation,
+                shutter: options.shutter,
+            },
             window,
             renderer,
             session,
@@ -376,6 +422,14 @@ impl State {
                 self.save(&path, true)?
             }
             KeyCode::KeyR => self.reset()?,
+            KeyCode::Space if self.playback.scene.rig.animated() => {
+                self.playback.playing = !self.playback.playing;
+                eprintln!(
+                    "animation {} at {:.3} s",
+                    if self.playback.playing { "playing" } else { "paused" },
+                    self.playback.time
+                );
+            }
             KeyCode::KeyT => {
                 self.curve = self.curve.next();
                 eprintln!("tone curve: {:?}", self.curve);
@@ -440,6 +494,11 @@ impl State {
         let dt = (now - self.last_frame).as_secs_f32().min(0.1);
         self.last_frame = now;
         self.reload_shaders()?;
+        if self.playback.advance(dt)? {
+            // The new pose keeps the device and pipelines; the accumulation starts again from it.
+            self.renderer.set_scene(&self.playback.scene)?;
+            self.reset()?;
+        }
         if !self.held.is_empty() {
             let mut v = Vec3::ZERO;
             for k in &self.held {
@@ -486,8 +545,16 @@ impl State {
         self.frames += 1;
         self.frame_ms = 0.9 * self.frame_ms + 0.1 * now.elapsed().as_secs_f32() * 1e3;
         let rate = self.session.samples_per_sec();
+        let clock = match (self.playback.scene.rig.animated(), self.playback.playing) {
+            (false, _) => String::new(),
+            (true, playing) => format!(
+                ", t {:.2} s{}",
+                self.playback.time,
+                if playing { "" } else { " (paused)" }
+            ),
+        };
         self.window.set_title(&format!(
-            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}",
+            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}{clock}",
             self.session.done,
             rate * 1e-6,
             self.frame_ms,
@@ -498,7 +565,7 @@ impl State {
         if options.frames.is_some_and(|n| self.frames >= n) {
             let secs = self.started.elapsed().as_secs_f64();
             eprintln!(
-                "{} frames in {secs:.2} s ({:.1} frames/s) at {}x{}: {} spp, {:.2} M samples/s",
+                "{} frames in {secs:.2} s ({:.1} frames/s) at {}x{}: {} spp, {:.2} M samples/s{clock}",
                 self.frames,
                 self.frames as f64 / secs,
                 self.swapchain.extent[0],
