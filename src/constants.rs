@@ -49,7 +49,10 @@ pub const BINDING_PATH_TEXELS: u32 = 27;
 pub const BINDING_MATERIAL_TEXELS: u32 = 28;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
 pub const BINDING_LIGHT_TEXELS: u32 = 29;
-pub const BINDING_COUNT: u32 = 30;
+/// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
+/// reads them in its loop, where storage-buffer loads cost the most.
+pub const BINDING_MOTION_TEXELS: u32 = 30;
+pub const BINDING_COUNT: u32 = 31;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -204,6 +207,8 @@ pub const MOTION_SEGMENTS: u32 = 4;
 /// t's key k (1 to MOTION_SEGMENTS; key 0 is the triangle buffers') follows at MOTION_CAMERA_KEYS + t *
 /// MOTION_SEGMENTS + k - 1.
 pub const MOTION_CAMERA_KEYS: u32 = 5;
+/// 16-byte texels per MotionKey (96 bytes).
+pub const MOTION_KEY_TEXELS: u32 = 6;
 
 /// Queue slots: `ray_count[2]` ping-pong between bounces, then the shadow queue; each queue holds a path index (one
 /// u32) per path the path state holds.

@@ -27,7 +27,7 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
         uint k;
         float f;
         motion_segment(k, f);
-        MotionKey a = motion_keys[k], b = motion_keys[k + 1u];
+        MotionKey a = fetch_motion_key(k), b = fetch_motion_key(k + 1u);
         origin = toward(a.v0.xyz, b.v0.xyz, f);
         right = normalize(toward(a.e1.xyz, b.e1.xyz, f));
         up = normalize(toward(a.e2.xyz, b.e2.xyz, f));

@@ -272,6 +272,7 @@ layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_c
 layout(set = 0, binding = BINDING_IMAGE_TEXELS) uniform usamplerBuffer image_texels;
 layout(set = 0, binding = BINDING_MATERIAL_TEXELS) uniform usamplerBuffer material_texels;
 layout(set = 0, binding = BINDING_LIGHT_TEXELS) uniform usamplerBuffer light_texels;
+layout(set = 0, binding = BINDING_MOTION_TEXELS) uniform usamplerBuffer motion_texels;
 #define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
 #define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
 Light load_light(uint i) {
@@ -298,6 +299,11 @@ BvhNode load_node(uint i) {
                    texelFetch(node_texels, int(3u * i + 2u)));
 }
 TriVerts fetch_tri_verts(uint i) { return TriVerts(FETCH3(tri_texels, i)); }
+MotionKey fetch_motion_key(uint i) {
+    uint b = MOTION_KEY_TEXELS * i;
+    return MotionKey(FETCH(motion_texels, b), FETCH(motion_texels, b + 1u), FETCH(motion_texels, b + 2u),
+                     FETCH(motion_texels, b + 3u), FETCH(motion_texels, b + 4u), FETCH(motion_texels, b + 5u));
+}
 TriShading fetch_tri_shading(uint i) { return TriShading(FETCH3(tri_shading_texels, i)); }
 TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoord_texels, i)); }
 TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_texels, i)); }
@@ -308,6 +314,7 @@ Light load_light(uint i) { return lights[i]; }
 Material load_material(uint i) { return materials[i]; }
 BvhNode load_node(uint i) { return nodes[i]; }
 TriVerts fetch_tri_verts(uint i) { return tri_verts[i]; }
+MotionKey fetch_motion_key(uint i) { return motion_keys[i]; }
 TriShading fetch_tri_shading(uint i) { return tri_shading[i]; }
 TriTexcoords load_tri_texcoords(uint i) { return tri_texcoords[i]; }
 TriTangents load_tri_tangents(uint i) { return tri_tangents[i]; }
@@ -326,7 +333,7 @@ void motion_segment(out uint k, out float f) {
     f = x - float(k);
 }
 
-MotionKey motion_key(uint tri, uint k) { return motion_keys[MOTION_CAMERA_KEYS + tri * MOTION_SEGMENTS + k - 1u]; }
+MotionKey motion_key(uint tri, uint k) { return fetch_motion_key(MOTION_CAMERA_KEYS + tri * MOTION_SEGMENTS + k - 1u); }
 
 // a + (b - a) f: exactly a where a key repeats (a static triangle in a moving scene), unlike mix.
 vec3 toward(vec3 a, vec3 b, float f) { return a + (b - a) * f; }

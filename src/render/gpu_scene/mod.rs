@@ -79,7 +79,12 @@ const SCENE_BINDINGS: [SceneBinding; 13] = [
     SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
     SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
     SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
-    SceneBinding("motion keys", BINDING_MOTION, None, Reads::Storage),
+    SceneBinding(
+        "motion keys",
+        BINDING_MOTION,
+        Some(BINDING_MOTION_TEXELS),
+        Reads::Viewed,
+    ),
     SceneBinding(
         "texture texels",
         BINDING_TEXELS,
