@@ -93,7 +93,13 @@ fn the_viewer_plays_an_animation() {
     }
     let scene = common::scenes_dir().join("animated.gltf");
     let o = pathwave("xvfb-run")
-        .args(["-a", "-s", "-screen 0 640x480x24", env!("CARGO_BIN_EXE_pathwave"), "view"])
+        .args([
+            "-a",
+            "-s",
+            "-screen 0 640x480x24",
+            env!("CARGO_BIN_EXE_pathwave"),
+            "view",
+        ])
         .arg(&scene)
         .args(["--size", "64x48", "--frames", "8", "--play", "--shutter", "0.05"])
         .output()

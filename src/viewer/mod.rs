@@ -184,7 +184,11 @@ impl Playback {
         let (lo, hi) = self.scene.rig.range(self.animation);
         let length = hi - lo;
         let t = self.time + dt;
-        self.time = if length > 0.0 && t > hi { lo + (t - lo) % length } else { t };
+        self.time = if length > 0.0 && t > hi {
+            lo + (t - lo) % length
+        } else {
+            t
+        };
         let pose = crate::scene::PoseTime {
             time: self.time,
             animation: self.animation,
