@@ -467,3 +467,76 @@ fn info_describes_animations_skins_and_morph_targets() {
         "{text}"
     );
 }
+
+/// The lit quad's node (1) placing its mesh three times through EXT_mesh_gpu_instancing.
+fn gpu_instanced(translations: &[[f32; 3]], rotations: Option<&[[f32; 4]]>, scales: &[[f32; 3]]) -> serde_json::Value {
+    let mut b = lit_quad();
+    b.camera([0.0, 3.0, 4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    let (t, r, s) = (
+        b.raw_accessor(translations),
+        rotations.map(|r| b.raw_accessor(r)),
+        b.raw_accessor(scales),
+    );
+    let mut doc: serde_json::Value = serde_json::from_str(&b.to_json()).unwrap();
+    let mut attributes = json!({ "TRANSLATION": t, "SCALE": s });
+    if let Some(r) = r {
+        attributes["ROTATION"] = json!(r);
+    }
+    doc["nodes"][1]["extensions"] = json!({ "EXT_mesh_gpu_instancing": { "attributes": attributes } });
+    doc["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
+    doc
+}
+
+/// Catches: EXT_mesh_gpu_instancing ignored (one quad), its transforms applied before instead of after the node's,
+/// or its rotations misread.
+#[test]
+fn gpu_instancing_places_the_mesh_once_per_instance_after_the_nodes_transform() {
+    let translations = [[-1.0, 0.0, 0.0], [0.0, 0.0, 0.5], [1.0, 0.0, 0.0]];
+    let scales = [[1.0, 1.0, 1.0], [0.5, 1.0, 0.5], [2.0, 1.0, 1.0]];
+    let mut doc = gpu_instanced(&translations, None, &scales);
+    doc["nodes"][1]["translation"] = json!([0.0, 0.25, 0.0]);
+    let dir = tempfile::tempdir().unwrap();
+    let instanced = dir.path().join("instanced.gltf");
+    std::fs::write(&instanced, doc.to_string()).unwrap();
+    let scene = load(&instanced, None).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let quads: Vec<Vec3> = (1..4).map(|i| translation_of(&scene, i)).collect();
+    assert_eq!(scene.instances.len(), 4, "the lamp and three quads");
+    for (q, t) in quads.iter().zip(translations) {
+        assert!(close(*q, Vec3::from(t) + Vec3::new(0.0, 0.25, 0.0)), "{q} for {t:?}");
+    }
+    // The same quads as three nodes of their own render the same bytes.
+    let mut nodes = doc.clone();
+    nodes["nodes"][1]["extensions"] = json!({});
+    nodes["extensionsUsed"] = json!([]);
+    let quad = nodes["nodes"][1].clone();
+    let mut placed = Vec::new();
+    for (t, s) in translations.iter().zip(scales) {
+        let mut n = quad.clone();
+        n["translation"] = json!([t[0], t[1] + 0.25, t[2]]);
+        n["scale"] = json!(s);
+        placed.push(n);
+    }
+    let first = nodes["nodes"].as_array().unwrap().len();
+    nodes["nodes"].as_array_mut().unwrap().extend(placed);
+    nodes["nodes"][1].as_object_mut().unwrap().remove("mesh");
+    let roots = nodes["scenes"][0]["nodes"].as_array_mut().unwrap();
+    roots.extend((first..first + 3).map(|i| json!(i)));
+    let separate = dir.path().join("separate.gltf");
+    std::fs::write(&separate, nodes.to_string()).unwrap();
+    let out = |n: &str| dir.path().join(n).display().to_string();
+    let size = ["--size", "32x24", "--spp", "4"];
+    ok(&[&["render", instanced.to_str().unwrap(), "-o", &out("a.exr")][..], &size].concat());
+    ok(&[&["render", separate.to_str().unwrap(), "-o", &out("b.exr")][..], &size].concat());
+    assert_eq!(
+        std::fs::read(dir.path().join("a.exr")).unwrap(),
+        std::fs::read(dir.path().join("b.exr")).unwrap()
+    );
+
+    let q = Quat::from_rotation_y(0.7);
+    let doc = gpu_instanced(&translations, Some(&[q.to_array(); 3]), &scales);
+    std::fs::write(&instanced, doc.to_string()).unwrap();
+    let scene = load(&instanced, None).unwrap();
+    let x = scene.instances[3].world_from_object.transform_vector3(Vec3::X);
+    assert!(close(x, q * Vec3::X * 2.0), "{x}");
+}

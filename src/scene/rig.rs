@@ -33,6 +33,8 @@ pub struct Node {
     pub light: Option<LightSpec>,
     /// The node's morph-target weights, or its mesh's defaults (empty without targets).
     pub weights: Vec<f32>,
+    /// EXT_mesh_gpu_instancing: the mesh is placed once per transform (relative to the node), not once.
+    pub instancing: Vec<Mat4>,
 }
 
 /// A skeleton: joints (indices into `Rig::nodes`) and the inverse bind matrix of each.
@@ -233,11 +235,23 @@ impl Scene {
             let morphing =
                 mesh.primitives.iter().any(|p| !p.morph_targets.is_empty()) && node_weights.iter().any(|&w| w != 0.0);
             let skin = node.skin.map(|s| &rig.skins[s]);
+            // EXT_mesh_gpu_instancing: the node places its mesh once per instance transform, each after the node's.
+            let place = |instances: &mut Vec<Instance>, mesh: usize, w: Mat4| {
+                if node.instancing.is_empty() {
+                    instances.push(Instance {
+                        mesh,
+                        world_from_object: w,
+                    });
+                }
+                for local in &node.instancing {
+                    instances.push(Instance {
+                        mesh,
+                        world_from_object: w * *local,
+                    });
+                }
+            };
             if skin.is_none() && !morphing {
-                instances.push(Instance {
-                    mesh: m,
-                    world_from_object: w,
-                });
+                place(&mut instances, m, w);
                 continue;
             }
             let mut posed = mesh.clone();
@@ -255,11 +269,9 @@ impl Scene {
                 p.skin.clear();
             }
             posed_meshes.push(posed);
-            instances.push(Instance {
-                mesh: file_meshes + posed_meshes.len() - 1,
-                // glTF: a skinned mesh is placed by its joints alone, its own node's transform is ignored.
-                world_from_object: if skin.is_some() { Mat4::IDENTITY } else { w },
-            });
+            // glTF: a skinned mesh is placed by its joints alone, its own node's transform is ignored.
+            let w = if skin.is_some() { Mat4::IDENTITY } else { w };
+            place(&mut instances, file_meshes + posed_meshes.len() - 1, w);
         }
         let camera = match self.rig.camera_choice {
             None => cameras.first().copied(),

@@ -108,6 +108,20 @@ impl GltfBuilder {
         self.accessors.len() - 1
     }
 
+    /// An accessor of float vectors (VEC3 or VEC4 by N) not tied to any mesh; returns its index.
+    pub fn raw_accessor<const N: usize>(&mut self, data: &[[f32; N]]) -> usize {
+        let kind = match N {
+            2 => "VEC2",
+            3 => "VEC3",
+            4 => "VEC4",
+            _ => "SCALAR",
+        };
+        let acc = self.float_accessor(data, kind);
+        let view = self.accessors[acc]["bufferView"].as_u64().unwrap() as usize;
+        self.views[view].as_object_mut().unwrap().remove("target");
+        acc
+    }
+
     /// Points attribute `name` of the last mesh at accessor `acc`.
     fn set_attribute(&mut self, name: &str, acc: usize) {
         self.meshes.last_mut().unwrap()["primitives"][0]["attributes"][name] = json!(acc);

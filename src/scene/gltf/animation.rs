@@ -142,6 +142,86 @@ impl Loader<'_> {
         }))
     }
 
+    /// EXT_mesh_gpu_instancing's per-instance transforms of a node (empty without the extension): TRANSLATION,
+    /// ROTATION and SCALE accessors of one count, each optional.
+    pub(super) fn instancing(&self, node: &gltf::Node) -> Result<Vec<Mat4>, Error> {
+        let Some(ext) = node.extension_value("EXT_mesh_gpu_instancing") else {
+            return Ok(Vec::new());
+        };
+        let err = |m: String| {
+            scene_err(
+                self.path,
+                format!("node {} (EXT_mesh_gpu_instancing): {m}", node.index()),
+            )
+        };
+        let attributes = ext.get("attributes").and_then(|a| a.as_object());
+        let Some(attributes) = attributes else {
+            return Err(err("it has no attributes".into()));
+        };
+        let doc = self.document;
+        let mut count: Option<usize> = None;
+        let mut columns: [Option<Vec<Vec4>>; 3] = [None, None, None];
+        for (slot, name) in ["TRANSLATION", "ROTATION", "SCALE"].iter().enumerate() {
+            let Some(index) = attributes.get(*name) else { continue };
+            let acc = index
+                .as_u64()
+                .and_then(|i| doc.accessors().nth(i as usize))
+                .ok_or_else(|| err(format!("{name} names accessor {index}, which does not exist")))?;
+            let (types, dims): (&[DataType], Dimensions) = match *name {
+                "ROTATION" => (&[DataType::F32, DataType::I8, DataType::I16], Dimensions::Vec4),
+                _ => (&[DataType::F32], Dimensions::Vec3),
+            };
+            let contents = self.check_accessor(&acc, name, types, dims, true)?;
+            let n = acc.count();
+            if count.is_some_and(|c| c != n) {
+                return Err(err(format!("{name} has {n} elements where the others have {count:?}")));
+            }
+            count = Some(n);
+            let buffers = self.buffers;
+            let data = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d[..]);
+            let values: Vec<Vec4> = match (contents, acc.data_type()) {
+                (Contents::Zeros, _) => vec![Vec4::ZERO; n],
+                (_, DataType::F32) if dims == Dimensions::Vec3 => gltf::accessor::Iter::<[f32; 3]>::new(acc, data)
+                    .map(|i| i.map(|v| Vec3::from(v).extend(0.0)).collect())
+                    .unwrap_or_default(),
+                (_, DataType::F32) => gltf::accessor::Iter::<[f32; 4]>::new(acc, data)
+                    .map(|i| i.map(Vec4::from).collect())
+                    .unwrap_or_default(),
+                (_, DataType::I8) => gltf::accessor::Iter::<[i8; 4]>::new(acc, data)
+                    .map(|i| i.map(|v| Vec4::from(v.map(|c| (c as f32 / 127.0).max(-1.0)))).collect())
+                    .unwrap_or_default(),
+                _ => gltf::accessor::Iter::<[i16; 4]>::new(acc, data)
+                    .map(|i| {
+                        i.map(|v| Vec4::from(v.map(|c| (c as f32 / 32767.0).max(-1.0))))
+                            .collect()
+                    })
+                    .unwrap_or_default(),
+            };
+            if values.len() != n || values.iter().any(|v| !v.is_finite()) {
+                return Err(err(format!("{name} cannot be read or holds a non-finite value")));
+            }
+            columns[slot] = Some(values);
+        }
+        let n = count.ok_or_else(|| err("it names none of TRANSLATION, ROTATION and SCALE".into()))?;
+        let [t, r, s] = columns;
+        Ok((0..n)
+            .map(|i| {
+                let translation = t.as_ref().map_or(Vec3::ZERO, |t| t[i].truncate());
+                let rotation = r.as_ref().map_or(glam::Quat::IDENTITY, |r| {
+                    let q = glam::Quat::from_vec4(r[i]);
+                    // An all-zero rotation (an accessor without data) is no rotation.
+                    if q.length_squared() > 0.0 {
+                        q.normalize()
+                    } else {
+                        glam::Quat::IDENTITY
+                    }
+                });
+                let scale = s.as_ref().map_or(Vec3::ONE, |s| s[i].truncate());
+                Mat4::from_scale_rotation_translation(scale, rotation, translation)
+            })
+            .collect())
+    }
+
     pub(super) fn skin(&self, s: &gltf::Skin) -> Result<Skin, Error> {
         let joints: Vec<usize> = s.joints().map(|j| j.index()).collect();
         let err = |m: String| scene_err(self.path, format!("skin {}: {m}", s.index()));

@@ -19,6 +19,7 @@ use validate::{parse, pre_validate, validate};
 
 /// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -113,6 +114,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     };
     Loader {
         path,
+        document: &document,
         uris: &uris,
         max_texture_pixels: options.max_texture_pixels,
         buffers: &buffers,
@@ -128,6 +130,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
 
 struct Loader<'a> {
     path: &'a Path,
+    document: &'a gltf::Document,
     /// Resolves image URIs inside the scene's folder.
     uris: &'a UriPolicy,
     max_texture_pixels: u64,
@@ -280,7 +283,9 @@ impl Loader<'_> {
                 }
             };
             let targets = mesh.primitives().map(|p| p.morph_targets().count()).max().unwrap_or(0);
+            let instancing = self.instancing(node)?;
             let n = &mut self.scene.rig.nodes[i];
+            n.instancing = instancing;
             n.mesh = Some(index);
             n.skin = node.skin().map(|s| s.index());
             if targets > 0 {
@@ -395,5 +400,6 @@ fn rest_node(node: &gltf::Node) -> Node {
         camera: None,
         light: None,
         weights: Vec::new(),
+        instancing: Vec::new(),
     }
 }
