@@ -15,11 +15,14 @@ struct ShadowRay {
     bool wanted;
 };
 
-// Moves p off the surface along n by a few ulps, so the next ray cannot hit the surface it leaves
-// (Waechter and Binder, Ray Tracing Gems ch. 6): robust at any scene scale.
-vec3 offset_ray(vec3 p, vec3 n) {
-    const float origin = 1.0 / 32.0;
-    const float float_scale = 1.0 / 65536.0;
+// Moves p off the surface along n by a few ulps, so the next ray cannot hit the surface it leaves (Waechter and
+// Binder, Ray Tracing Gems ch. 6). Near the origin, where ulps vanish, they step a fixed distance instead, which
+// assumes triangles of about unit size; `size` (a power of two, at most 1: see offset_size) scales that region and
+// step with the triangle, so a scene modelled in micrometres renders as one in metres. Triangles of size 1/2 and
+// more take the paper's constants exactly.
+vec3 offset_ray(vec3 p, vec3 n, float size) {
+    float origin = size * (1.0 / 32.0);
+    float float_scale = size * (1.0 / 65536.0);
     const float int_scale = 256.0;
     ivec3 of_i = ivec3(int_scale * n);
     vec3 p_i = vec3(
@@ -30,6 +33,14 @@ vec3 offset_ray(vec3 p, vec3 n) {
         abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
         abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
         abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+// The scale offset_ray works at for triangle tv: its largest coordinate or edge component, rounded up to a power of
+// two (so the products stay exact), at most 1.
+float offset_size(TriVerts tv) {
+    vec3 m = max(abs(tv.v0.xyz), max(abs(tv.e1.xyz), abs(tv.e2.xyz)));
+    float largest = max(m.x, max(m.y, m.z));
+    return largest >= 0.5 ? 1.0 : exp2(ceil(log2(max(largest, 1e-30))));
 }
 
 // Bounce `bounce` of sample s of pixel: v's ray found `hit` (t, triangle bits, barycentrics). Adds the emission the
@@ -102,8 +113,9 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, o
         beta *= exp(-m.attenuation.rgb * hit.x);
     }
     Bsdf bsdf = bsdf_from_material(m, front);
-    vec3 p_back = offset_ray(p, -n_in); // origin for rays that go through the surface
-    vec3 p_off = offset_ray(p, n_in);
+    float size = offset_size(tv);
+    vec3 p_back = offset_ray(p, -n_in, size); // origin for rays that go through the surface
+    vec3 p_off = offset_ray(p, n_in, size);
     // The shading frame: z along the shading normal on the incoming side.
     vec3 tx, ty;
     basis(ns, tx, ty);

@@ -3,6 +3,9 @@ use super::{tangent, Primitive, Scene};
 use crate::error::Error;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
+/// The largest world coordinate (in magnitude) a scene may place geometry at; see `Scene::check_extent`.
+pub const MAX_WORLD_COORDINATE: f32 = 1e9;
+
 /// One world-space triangle and its per-vertex shading data: what `TriangleSoup::push` takes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldTriangle {
@@ -241,6 +244,53 @@ impl Scene {
         let mut soup = TriangleSoup::default();
         self.flatten_into(&mut soup);
         soup
+    }
+
+    /// Refuses geometry placed beyond MAX_WORLD_COORDINATE, naming the mesh and the instance: traversal's slab tests
+    /// stay finite only within it (the Cornell box renders the same scaled by anything from 1e-8 to 7e9; scaled by
+    /// 1e10 it loses light). O(vertices + instances): each mesh's box, its corners placed by each instance and key.
+    pub fn check_extent(&self) -> Result<(), Error> {
+        let mesh_box =
+            |m: &super::Mesh| bounds(m.primitives.iter().flat_map(|p| p.positions.iter().map(|&v| [v, v, v])));
+        let boxes: Vec<(Vec3, Vec3)> = self.meshes.iter().map(mesh_box).collect();
+        let keys = self.motion.as_ref().map_or(0, |m| m.keys.len());
+        for k in 0..=keys {
+            let instances = match (k, &self.motion) {
+                (k, Some(m)) if k > 0 => &m.keys[k - 1].instances,
+                _ => &self.instances,
+            };
+            for (i, instance) in instances.iter().enumerate() {
+                let (lo, hi) = if k == 0 {
+                    boxes[instance.mesh]
+                } else {
+                    mesh_box(self.key_mesh(k, instance.mesh))
+                };
+                if lo.x > hi.x {
+                    continue;
+                }
+                let reach = (0..8)
+                    .map(|c| {
+                        let corner = Vec3::new(
+                            if c & 1 == 0 { lo.x } else { hi.x },
+                            if c & 2 == 0 { lo.y } else { hi.y },
+                            if c & 4 == 0 { lo.z } else { hi.z },
+                        );
+                        instance.world_from_object.transform_point3(corner).abs().max_element()
+                    })
+                    .fold(0.0f32, |a, b| if b.is_nan() { f32::INFINITY } else { a.max(b) });
+                if reach > MAX_WORLD_COORDINATE {
+                    let mesh = self.key_mesh(k, instance.mesh).name.as_str();
+                    return Err(Error::Scene {
+                        path: self.path.clone(),
+                        message: format!(
+                            "mesh '{mesh}' (instance {i}) reaches {reach:e} in world space; pathwave renders geometry \
+                             within ±{MAX_WORLD_COORDINATE:e} units (1e9 m is past the Moon's orbit): rescale the scene"
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `flatten`, with the soup's memory reserved first, so a host out of memory is an error rather than an abort.

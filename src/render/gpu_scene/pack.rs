@@ -198,6 +198,7 @@ pub fn pack(scene: &Scene) -> PackedScene {
 /// The scene packed for the device. The big arrays (the soup, the packed triangles) are reserved fallibly, so a
 /// host out of memory is an error naming the scene rather than an abort.
 pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
+    scene.check_extent()?;
     let (soup, keys) = scene.try_flatten_motion()?;
     // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
     // give it an error here; memory that runs out during the build (taken by another process) still aborts.
