@@ -16,4 +16,6 @@ void main() {
     uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_ALPHA);
     Hit h = trace(o, d, 0.0, 3.0e38, false, key);
     path_set(PATH_HIT, path, vec4(h.t, uintBitsToFloat(h.tri), h.uv));
+    // The instance rides in the direction's w, which shade reads with the direction.
+    if (scene_has(FEATURE_INSTANCES)) path_set(PATH_DIR, path, vec4(d, uintBitsToFloat(h.inst)));
 }

@@ -41,7 +41,7 @@ void main() {
             Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, ray_key(pixel, s, bounce, DIM_ALPHA));
             rays++;
             ShadowRay shadow;
-            bool alive = shade_path(pixel, s, bounce, vec4(h.t, uintBitsToFloat(h.tri), h.uv), v, shadow);
+            bool alive = shade_path(pixel, s, bounce, vec4(h.t, uintBitsToFloat(h.tri), h.uv), h.inst, v, shadow);
             if (shadow.wanted) {
                 shadow_rays++;
                 uint shadow_key = ray_key(pixel, s, bounce, DIM_SHADOW_ALPHA);

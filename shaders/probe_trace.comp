@@ -16,4 +16,5 @@ void main() {
     records[k].t = h.t;
     records[k].tri = h.tri;
     records[k].uv = h.uv;
+    records[k].inst = h.inst;
 }

@@ -27,11 +27,13 @@ void main() {
 
     PathVertex v;
     v.origin = path_get(PATH_ORIGIN, path);
-    v.dir = path_get(PATH_DIR, path).xyz;
+    vec4 dir = path_get(PATH_DIR, path);
+    v.dir = dir.xyz;
     v.beta = path_get(PATH_THROUGHPUT, path).rgb;
     v.radiance = path_get(PATH_RADIANCE, path).rgb;
     ShadowRay shadow;
-    bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), v, shadow);
+    uint inst = scene_has(FEATURE_INSTANCES) ? floatBitsToUint(dir.w) : NO_INSTANCE;
+    bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
     path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
     if (shadow.wanted) {

@@ -28,31 +28,34 @@ pub const BINDING_TONEMAP_OUT: u32 = 18;
 /// Motion over the shutter (FEATURE_MOTION): `MotionKey` records, the camera's keys and then every triangle's after
 /// its first; a stand-in where the scene does not move.
 pub const BINDING_MOTION: u32 = 19;
+/// Instances of meshes kept in object space (FEATURE_INSTANCES): `Instance` records, the header first (the TLAS
+/// root and the instance count), then one per instance.
+pub const BINDING_INSTANCES: u32 = 20;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 20;
-pub const BINDING_NODE_TEXELS: u32 = 20;
-pub const BINDING_TRI_TEXELS: u32 = 21;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 22;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 23;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 24;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 25;
+pub const BINDING_FIRST_TEXEL: u32 = 21;
+pub const BINDING_NODE_TEXELS: u32 = 21;
+pub const BINDING_TRI_TEXELS: u32 = 22;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 23;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 24;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 25;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 26;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 26;
+pub const BINDING_IMAGE_TEXELS: u32 = 27;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 27;
+pub const BINDING_PATH_TEXELS: u32 = 28;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 28;
+pub const BINDING_MATERIAL_TEXELS: u32 = 29;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 29;
+pub const BINDING_LIGHT_TEXELS: u32 = 30;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
-pub const BINDING_MOTION_TEXELS: u32 = 30;
-pub const BINDING_COUNT: u32 = 31;
+pub const BINDING_MOTION_TEXELS: u32 = 31;
+pub const BINDING_COUNT: u32 = 32;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -131,6 +134,11 @@ pub const FEATURE_DEEP_STACK: u32 = 64;
 /// Something moves while the shutter is open (--shutter above 0 on an animated scene): rays carry a time, and
 /// traversal, shading, light sampling and the camera interpolate between the MOTION_SEGMENTS + 1 keys.
 pub const FEATURE_MOTION: u32 = 128;
+/// Some meshes are instanced: after the world BVH, traversal walks a top-level BVH over instances and each one's
+/// own BVH in object space, and shading moves the hit into world space (see `Instancing`).
+pub const FEATURE_INSTANCES: u32 = 256;
+/// Hit.inst of a world-space triangle (instance records start at 1, after the header).
+pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
 
 /// Light ids: the kind in the top two bits, the index (triangle, ...) below.

@@ -18,6 +18,14 @@ pub struct BvhNode {
 }
 
 impl BvhNode {
+    /// The node moved into a node array and a triangle array that hold others before it: its interior children's
+    /// index by `nodes`, its leaves' first triangle by `tris` (the kinds in the low bits are kept).
+    pub fn offset(&mut self, nodes: u32, tris: u32) {
+        use crate::constants::STACK_COUNT_BITS;
+        self.q1[2] = self.q1[2].wrapping_add(nodes << STACK_COUNT_BITS);
+        self.q1[3] = self.q1[3].wrapping_add(tris << STACK_COUNT_BITS);
+    }
+
     /// Child `c`'s kind: 0 for an unused slot, a leaf's triangle count, or BVH_CHILD_INTERIOR.
     pub fn kind(&self, c: usize) -> u32 {
         let word = [self.origin[3] >> 24, self.origin[3] >> 27, self.q1[2], self.q1[3]][c];
@@ -112,6 +120,22 @@ pub struct MotionKey {
     pub n0: [f32; 4],
     pub n1: [f32; 4],
     pub n2: [f32; 4],
+}
+
+/// 112 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
+/// three rows each (x, y, z of a 3x4 affine map), and `info` = (its BLAS root node, 1 when the transform mirrors,
+/// 0, 0). Record 0 is the header: `info` = (the TLAS root node, the instance count, 0, 0). See `Instance` in
+/// layout.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuInstance {
+    pub world0: [f32; 4],
+    pub world1: [f32; 4],
+    pub world2: [f32; 4],
+    pub object0: [f32; 4],
+    pub object1: [f32; 4],
+    pub object2: [f32; 4],
+    pub info: [u32; 4],
 }
 
 /// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area.
@@ -265,6 +289,7 @@ const _: () = assert!(std::mem::size_of::<BvhNode>() == 48);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
+const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);
@@ -359,8 +384,8 @@ impl Frame {
     }
 }
 
-/// 64 bytes: probe_trace's ray, with its time in the shutter, and the hit traversal found (see `TraceRecord` in
-/// layout.glsl).
+/// 64 bytes: probe_trace's ray, with its time in the shutter, and the hit traversal found, with its instance (see
+/// `TraceRecord` in layout.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TraceRecord {
@@ -369,7 +394,8 @@ pub struct TraceRecord {
     pub dir: [f32; 3],
     pub tmax: f32,
     pub time: f32,
-    pub pad0: u32,
+    /// Out: the instance hit (NO_INSTANCE for a world-space triangle).
+    pub inst: u32,
     pub pad1: u32,
     pub pad2: u32,
     pub t: f32,

@@ -14,5 +14,7 @@ pub mod viewer;
 pub mod vk;
 
 pub use error::Error;
-pub use render::{BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, Schedule, Session};
+pub use render::{
+    BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, RendererOptions, Schedule, Session,
+};
 pub use scene::Scene;

@@ -102,21 +102,30 @@ impl Scene {
     /// Triangles flattening would emit at most (every instance's mesh, degenerate ones included), without
     /// flattening: O(instances + primitives).
     pub fn flattened_triangle_bound(&self) -> u64 {
+        self.flattened_triangle_bound_except(&vec![false; self.meshes.len()])
+    }
+
+    /// `flattened_triangle_bound` of every mesh but those `instanced` marks, which are stored once each.
+    pub fn flattened_triangle_bound_except(&self, instanced: &[bool]) -> u64 {
         let per_mesh: Vec<u64> = self
             .meshes
             .iter()
             .map(|m| m.primitives.iter().map(|p| p.triangles.len() as u64).sum())
             .collect();
-        self.instances
-            .iter()
-            .map(|i| per_mesh[i.mesh])
-            .fold(0, u64::saturating_add)
+        let placed = (self.instances.iter())
+            .map(|i| if instanced[i.mesh] { 0 } else { per_mesh[i.mesh] })
+            .fold(0, u64::saturating_add);
+        let stored = (per_mesh.iter().zip(instanced))
+            .map(|(&n, &inst)| if inst { n } else { 0 })
+            .fold(0, u64::saturating_add);
+        placed.saturating_add(stored)
     }
 
     /// Refuses a scene whose flattening and packing would need more than `limit` bytes of host memory, before any
     /// of it is allocated.
     pub fn check_host_memory(&self, limit: u64) -> Result<(), Error> {
-        let triangles = self.flattened_triangle_bound();
+        // Meshes the renderer instances are stored once (Instancing::Auto's rule, which the renderer uses too).
+        let triangles = self.flattened_triangle_bound_except(&self.instanced_meshes(crate::scene::Instancing::Auto));
         let keys = self.motion.as_ref().map_or(0, |m| m.keys.len() as u64);
         let per_triangle = HOST_BYTES_PER_TRIANGLE + keys * HOST_BYTES_PER_MOTION_KEY;
         let need = triangles.saturating_mul(per_triangle);

@@ -47,6 +47,19 @@ struct MotionKey {
     vec4 n2;
 };
 
+// 112 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
+// 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, 0, 0). Record 0 is the header: info = (the TLAS
+// root node, the instance count, 0, 0).
+struct Instance {
+    vec4 world0;
+    vec4 world1;
+    vec4 world2;
+    vec4 object0;
+    vec4 object1;
+    vec4 object2;
+    uvec4 info;
+};
+
 // 32 bytes: a material's use of a texture. The texture is sampled at (dot(u.xyz, vec3(uv, 1)), dot(v.xyz, vec3(uv, 1)))
 // (KHR_texture_transform as an affine map); u.w: texture index (uint bits, TEXTURE_NONE if unused), v.w: TEXCOORD set.
 struct TextureSlot {
@@ -202,7 +215,7 @@ struct TraceRecord {
     vec3 dir;
     float tmax;
     float time;
-    uint pad0;
+    uint inst;     // out: the instance hit (NO_INSTANCE for a world-space triangle)
     uint pad1;
     uint pad2;
     float t;
@@ -259,6 +272,7 @@ layout(std430, set = 0, binding = BINDING_TRI_TEXCOORDS) readonly buffer TriTexc
 layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTangentsBuf { TriTangents tri_tangents[]; };
 layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
 layout(std430, set = 0, binding = BINDING_MOTION) readonly buffer MotionBuf { MotionKey motion_keys[]; };
+layout(std430, set = 0, binding = BINDING_INSTANCES) readonly buffer InstancesBuf { Instance instances[]; };
 
 // Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.

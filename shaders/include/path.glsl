@@ -47,7 +47,7 @@ float offset_size(TriVerts tv) {
 // ray sees (MIS-weighted), asks for a shadow ray towards a light in `shadow`, and turns v into the continuation.
 // Returns whether the path goes on. Randomness depends only on (pixel, s, bounce, dimension), so the wavefront and
 // follow give the same bytes.
-bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, out ShadowRay shadow) {
+bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout PathVertex v, out ShadowRay shadow) {
     uint tri = floatBitsToUint(hit.y);
     vec4 ray_o = v.origin;
     vec3 ray_d = v.dir;
@@ -79,10 +79,26 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, inout PathVertex v, o
 
     TriVerts tv = load_tri_verts(tri);
     TriShading ts = load_tri_shading(tri);
+    bool mirrored = false;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
+        // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
+        // inverse transpose (the world-to-object rows, transposed).
+        Instance I = instances[inst];
+        tv.v0.xyz = vec3(dot(I.world0.xyz, tv.v0.xyz) + I.world0.w, dot(I.world1.xyz, tv.v0.xyz) + I.world1.w,
+                         dot(I.world2.xyz, tv.v0.xyz) + I.world2.w);
+        tv.e1.xyz = vec3(dot(I.world0.xyz, tv.e1.xyz), dot(I.world1.xyz, tv.e1.xyz), dot(I.world2.xyz, tv.e1.xyz));
+        tv.e2.xyz = vec3(dot(I.world0.xyz, tv.e2.xyz), dot(I.world1.xyz, tv.e2.xyz), dot(I.world2.xyz, tv.e2.xyz));
+        ts.n0.xyz = I.object0.xyz * ts.n0.x + I.object1.xyz * ts.n0.y + I.object2.xyz * ts.n0.z;
+        ts.n1.xyz = I.object0.xyz * ts.n1.x + I.object1.xyz * ts.n1.y + I.object2.xyz * ts.n1.z;
+        ts.n2.xyz = I.object0.xyz * ts.n2.x + I.object1.xyz * ts.n2.y + I.object2.xyz * ts.n2.z;
+        mirrored = I.info.y != 0u;
+    }
     vec2 uv = hit.zw;
     Material m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
     vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
     vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
+    // A mirroring instance turns the winding; its front is still the mesh's.
+    if (mirrored) ng = -ng;
     bool front = dot(ng, ray_d) < 0.0;
     vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
     vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);

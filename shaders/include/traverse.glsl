@@ -8,6 +8,7 @@ struct Hit {
     float t;
     uint tri;
     vec2 uv;
+    uint inst; // the instance whose triangle it is (records from 1), or NO_INSTANCE for a world-space triangle
 };
 
 // Moller-Trumbore. Returns t in (tmin, tmax) or -1 (callers keep tmin >= 0); uv are the barycentrics of v1 and v2.
@@ -38,8 +39,18 @@ vec3 safe_inverse(vec3 d) {
     return clamp(inv, vec3(-big), vec3(big));
 }
 
-// The hit's barycentrics, from the same arithmetic that found it (traversal keeps only t and the triangle).
+// The ray in an instance's object space: the world-to-object rows applied to the origin (a point) and the direction
+// (a vector, left unnormalised, so that distances along it stay the world's).
+void to_object(Instance inst, inout vec3 o, inout vec3 d) {
+    o = vec3(dot(inst.object0.xyz, o) + inst.object0.w, dot(inst.object1.xyz, o) + inst.object1.w,
+             dot(inst.object2.xyz, o) + inst.object2.w);
+    d = vec3(dot(inst.object0.xyz, d), dot(inst.object1.xyz, d), dot(inst.object2.xyz, d));
+}
+
+// The hit's barycentrics, from the same arithmetic that found it (traversal keeps only t and the triangle), in the
+// space it was found in.
 Hit with_barycentrics(Hit h, vec3 o, vec3 d, float tmin) {
+    if (scene_has(FEATURE_INSTANCES) && h.inst != NO_INSTANCE) to_object(instances[h.inst], o, d);
     if (h.tri != NO_HIT) intersect_triangle(h.tri, o, d, tmin, uintBitsToFloat(0x7F800000u), h.uv);
     return h;
 }
@@ -117,12 +128,14 @@ void sort2(inout float ta, inout float tb, inout uint wa, inout uint wb) {
 // The register stack (s0 .. s7 in trace_hit) is written out for REGISTER_STACK = 8: any other value fails to compile.
 const uint register_stack_is_written_out_for_8[REGISTER_STACK == 8u ? 1 : 0] = uint[](0u);
 
-// The closest (or any) hit's distance and triangle; its barycentrics are left 0 (see trace).
-Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+// The closest (or any) hit's distance and triangle in the BVH rooted at node `root` (0: the world's); its barycentrics
+// are left 0 (see trace).
+Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key, uint root) {
     Hit hit;
     hit.t = tmax;
     hit.tri = NO_HIT;
     hit.uv = vec2(0.0);
+    hit.inst = NO_INSTANCE;
     vec3 inv_d = safe_inverse(d);
     // A node is known by its (first, count) word, read when its parent tested its box: visiting an interior node
     // fetches only its own record, a leaf nothing more. A stack entry is that word alone. Keeping each entry's
@@ -135,12 +148,9 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
     uint stack[BVH_STACK_SIZE];
     uint s0 = 0u, s1 = 0u, s2 = 0u, s3 = 0u, s4 = 0u, s5 = 0u, s6 = 0u, s7 = 0u;
     uint sp = 0u;
-    // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
-    uint first = 0u;
+    // Traversal starts at the root as if its parent had entered it (an empty tree's root has no children).
+    uint first = root;
     uint count = 0u;
-#ifdef TRAVERSE_COUNT_NODES
-    traverse_node_visits = 0u;
-#endif
     bool has_node = true; // (first, count) is a node still to visit
     uint tri = 0u;        // the pending leaf: triangles tri .. end - 1 are still to test
     uint end = 0u;
@@ -254,14 +264,73 @@ Hit trace_hit(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
     return hit;
 }
 
+// Beyond `hit` (the world BVH's), the closest (or any) hit among the instances: the top-level BVH's leaves are
+// instances (records from 1), each traced in its own object space from its own root. A plain stack walk: the TLAS is
+// small next to the BVHs below it, where the time goes.
+Hit trace_instances(vec3 o, vec3 d, float tmin, Hit hit, bool any_hit, uint alpha_key) {
+    Instance header = instances[0];
+    vec3 inv_d = safe_inverse(d);
+    uint stack[BVH_STACK_SIZE];
+    uint sp = 0u;
+    uint first = header.info.x;
+    uint count = 0u;
+    bool more = header.info.y > 0u;
+    while (more) {
+        if (count == 0u) {
+            BvhNode n = load_node(first);
+            vec3 origin = uintBitsToFloat(n.origin.xyz);
+            vec3 scale = uintBitsToFloat(((uvec3(n.origin.w) >> uvec3(0u, 8u, 16u)) & 0xFFu) << 23u);
+            vec3 base = (origin - o) * inv_d;
+            vec3 step = scale * inv_d;
+            uvec4 cw = child_entries(n);
+            for (uint c = 0u; c < BVH_WIDTH; ++c) {
+                float t = test_child(n, c, base, step, tmin, hit.t);
+                stack[sp] = cw[c];
+                sp += (cw[c] != 0u && t != uintBitsToFloat(0x7F800000u)) ? 1u : 0u;
+            }
+        } else {
+            for (uint k = 0u; k < count; ++k) {
+                Instance inst = instances[first + k];
+                vec3 oo = o, od = d;
+                to_object(inst, oo, od);
+                Hit h = trace_hit(oo, od, tmin, hit.t, any_hit, alpha_key, inst.info.x);
+                if (h.tri != NO_HIT) {
+                    hit.t = h.t;
+                    hit.tri = h.tri;
+                    hit.inst = first + k;
+                }
+            }
+            if (any_hit && hit.tri != NO_HIT) break;
+        }
+        more = sp > 0u;
+        if (more) {
+            --sp;
+            unpack(stack[sp], first, count);
+        }
+    }
+    return hit;
+}
+
+// The closest (or any) hit in the world BVH and then, where the scene has them, among the instances.
+Hit trace_all(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+#ifdef TRAVERSE_COUNT_NODES
+    traverse_node_visits = 0u;
+#endif
+    Hit h = trace_hit(o, d, tmin, tmax, any_hit, alpha_key, 0u);
+    if (scene_has(FEATURE_INSTANCES) && !(any_hit && h.tri != NO_HIT)) {
+        h = trace_instances(o, d, tmin, h, any_hit, alpha_key);
+    }
+    return h;
+}
+
 // The hit with its barycentrics, found again from the same arithmetic (traversal keeps only t and the triangle).
 Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
-    return with_barycentrics(trace_hit(o, d, tmin, tmax, any_hit, alpha_key), o, d, tmin);
+    return with_barycentrics(trace_all(o, d, tmin, tmax, any_hit, alpha_key), o, d, tmin);
 }
 
 // Whether anything blocks the segment: a shadow ray, which skips the barycentrics' triangle test.
 bool occluded(vec3 o, vec3 d, float tmin, float tmax, uint alpha_key) {
-    return trace_hit(o, d, tmin, tmax, true, alpha_key).tri != NO_HIT;
+    return trace_all(o, d, tmin, tmax, true, alpha_key).tri != NO_HIT;
 }
 
 #endif

@@ -2,7 +2,7 @@
 //! (`layout::BvhNode`), with triangles reordered to match.
 mod traverse;
 
-pub use traverse::{brute_force, intersect_triangle, trace, Ray, TraceHit};
+pub use traverse::{brute_force, intersect_triangle, to_object, trace, trace_from, trace_two_level, Ray, TraceHit};
 
 use crate::constants::{BVH_CHILD_INTERIOR, BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH, STACK_COUNT_BITS};
 use crate::layout::BvhNode;
@@ -135,6 +135,12 @@ pub fn build_moving(keys: &[&[[Vec3; 3]]]) -> Bvh {
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
     let n = keys.first().map_or(0, |k| k.len());
     build_over(n, |i| keys.iter().flat_map(move |k| k[i]), threads)
+}
+
+/// Builds over boxes (lo, hi), e.g. instances in the world: a leaf's "triangles" are then indices into `boxes`.
+pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh {
+    let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+    build_over(boxes.len(), |i| [boxes[i].0, boxes[i].1].into_iter(), threads)
 }
 
 /// The build over `n` triangles, triangle i bounded by the points `points(i)` yields.

@@ -1,6 +1,6 @@
 //! CPU traversal of the exact GPU node layout; it mirrors shaders/include/traverse.glsl line for line.
-use crate::constants::{BVH_STACK_SIZE, BVH_WIDTH, NO_HIT, STACK_COUNT_BITS};
-use crate::layout::{BvhNode, TriVerts};
+use crate::constants::{BVH_STACK_SIZE, BVH_WIDTH, NO_HIT, NO_INSTANCE, STACK_COUNT_BITS};
+use crate::layout::{BvhNode, GpuInstance, TriVerts};
 use glam::{Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -17,6 +17,8 @@ pub struct TraceHit {
     /// Index into the reordered triangles, or NO_HIT.
     pub tri: u32,
     pub uv: Vec2,
+    /// The instance record whose triangle it is, or NO_INSTANCE (a world-space triangle, or a miss).
+    pub inst: u32,
 }
 
 fn v3(a: [f32; 4]) -> Vec3 {
@@ -99,10 +101,16 @@ fn unpack(word: u32) -> (u32, u32) {
 /// Closest hit (or any hit) through the flattened BVH, in the same visiting order as the device: each step tests
 /// the next interior node and the next triangle of a pending leaf (see traverse.glsl for why).
 pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> TraceHit {
+    trace_from(nodes, tris, 0, ray, any_hit)
+}
+
+/// `trace` from the BVH rooted at node `root` (a mesh's own, in a two-level layout).
+pub fn trace_from(nodes: &[BvhNode], tris: &[TriVerts], root: u32, ray: &Ray, any_hit: bool) -> TraceHit {
     let mut hit = TraceHit {
         t: ray.tmax,
         tri: NO_HIT,
         uv: Vec2::ZERO,
+        inst: NO_INSTANCE,
     };
     let (o, d) = (ray.origin, ray.dir);
     let inv_d = safe_inverse(d);
@@ -110,8 +118,8 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
     // distance (see traverse.glsl).
     let mut stack = [0u32; BVH_STACK_SIZE as usize];
     let mut sp = 0usize;
-    // Traversal starts at the root, node 0, as if its parent had entered it (an empty tree's root has no children).
-    let (mut first, mut count) = (0u32, 0u32);
+    // Traversal starts at the root as if its parent had entered it (an empty tree's root has no children).
+    let (mut first, mut count) = (root, 0u32);
     let mut has_node = true;
     // The pending leaf: triangles tri .. end - 1 are still to test.
     let (mut tri, mut end) = (0u32, 0u32);
@@ -152,7 +160,12 @@ pub fn trace(nodes: &[BvhNode], tris: &[TriVerts], ray: &Ray, any_hit: bool) -> 
             let i = tri;
             tri += 1;
             if let Some((t, uv)) = intersect_triangle(&tris[i as usize], o, d, ray.tmin, hit.t) {
-                hit = TraceHit { t, tri: i, uv };
+                hit = TraceHit {
+                    t,
+                    tri: i,
+                    uv,
+                    inst: NO_INSTANCE,
+                };
                 if any_hit {
                     return hit;
                 }
@@ -169,10 +182,79 @@ pub fn brute_force(tris: &[TriVerts], ray: &Ray) -> TraceHit {
         t: ray.tmax,
         tri: NO_HIT,
         uv: Vec2::ZERO,
+        inst: NO_INSTANCE,
     };
     for (i, tv) in tris.iter().enumerate() {
         if let Some((t, uv)) = intersect_triangle(tv, ray.origin, ray.dir, ray.tmin, hit.t) {
-            hit = TraceHit { t, tri: i as u32, uv };
+            hit = TraceHit {
+                t,
+                tri: i as u32,
+                uv,
+                inst: NO_INSTANCE,
+            };
+        }
+    }
+    hit
+}
+
+/// The ray in an instance's object space, as traverse.glsl's to_object: the direction left unnormalised, so
+/// distances along it stay the world's.
+pub fn to_object(inst: &GpuInstance, ray: &Ray) -> Ray {
+    let rows = [inst.object0, inst.object1, inst.object2].map(|r| (v3(r), r[3]));
+    let point = |p: Vec3| Vec3::from_array(rows.map(|(r, w)| r.dot(p) + w));
+    let vector = |d: Vec3| Vec3::from_array(rows.map(|(r, _)| r.dot(d)));
+    Ray {
+        origin: point(ray.origin),
+        dir: vector(ray.dir),
+        ..*ray
+    }
+}
+
+/// The two-level traversal of traverse.glsl's trace_all: the world BVH from node 0, then (unless any hit is done)
+/// the top-level BVH over `instances` (the header first), each instance traced from its own root in its space.
+pub fn trace_two_level(
+    nodes: &[BvhNode],
+    tris: &[TriVerts],
+    instances: &[GpuInstance],
+    ray: &Ray,
+    any_hit: bool,
+) -> TraceHit {
+    let mut hit = trace_from(nodes, tris, 0, ray, any_hit);
+    let Some(header) = instances.first() else {
+        return hit;
+    };
+    if (any_hit && hit.tri != NO_HIT) || header.info[1] == 0 {
+        return hit;
+    }
+    let inv_d = safe_inverse(ray.dir);
+    let mut stack = vec![header.info[0] << STACK_COUNT_BITS];
+    while let Some(word) = stack.pop() {
+        let (first, count) = unpack(word);
+        if count == 0 {
+            let n = &nodes[first as usize];
+            let base = (Vec3::from(n.grid_origin()) - ray.origin) * inv_d;
+            let step = Vec3::from(n.scale()) * inv_d;
+            let cw = n.child_entries();
+            for (c, &w) in cw.iter().enumerate() {
+                if w != 0 && test_child(n, c, base, step, ray.tmin, hit.t).is_some() {
+                    stack.push(w);
+                }
+            }
+            continue;
+        }
+        for i in first..first + count {
+            let inst = &instances[i as usize];
+            let local = Ray {
+                tmax: hit.t,
+                ..to_object(inst, ray)
+            };
+            let h = trace_from(nodes, tris, inst.info[0], &local, any_hit);
+            if h.tri != NO_HIT {
+                hit = TraceHit { inst: i, ..h };
+            }
+        }
+        if any_hit && hit.tri != NO_HIT {
+            break;
         }
     }
     hit

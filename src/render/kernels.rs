@@ -1,6 +1,6 @@
 //! The compute kernels: the `Stage` enum, each stage's compiled variants (`Kernel`), and the pipelines built for
 //! them on demand, handed out as typed handles so a pass can only dispatch what it built.
-use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK, FEATURE_MOTION};
+use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK, FEATURE_INSTANCES, FEATURE_MOTION};
 use crate::error::Error;
 use crate::layout::Frame;
 use crate::variants::STAGE_VARIANTS;
@@ -104,8 +104,9 @@ impl Stage {
 }
 
 /// The feature bits scene-independent stages take from the scene rather than all set: the BVH's stack depth (so the
-/// BVH tests check the traversal the render stages run) and motion (whose buffer only a moving scene fills).
-const SCENE_OWNED: u32 = FEATURE_DEEP_STACK | FEATURE_MOTION;
+/// BVH tests check the traversal the render stages run), motion and instances (whose buffers only scenes with them
+/// fill).
+const SCENE_OWNED: u32 = FEATURE_DEEP_STACK | FEATURE_MOTION | FEATURE_INSTANCES;
 
 /// The preprocessor defines a variant is compiled with (src/variants.rs), as bits.
 const ALPHA_TEST: u8 = 1;

@@ -374,7 +374,7 @@ impl Uploaded {
             env.check()
                 .map_err(|why| Error::Settings(format!("the environment: {why}")))?;
         }
-        let packed = gpu_scene::try_pack(scene)?;
+        let packed = gpu_scene::try_pack_with(scene, options.instancing)?;
         let mut warnings = scene.warnings.clone();
         if packed.lights.is_empty() {
             warnings.push(

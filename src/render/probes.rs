@@ -93,6 +93,7 @@ impl Renderer {
                 t: r.t,
                 tri: r.tri,
                 uv: glam::Vec2::from(r.uv),
+                inst: r.inst,
             })
             .collect();
         Ok((hits, times))

@@ -67,7 +67,7 @@ impl Default for RenderSettings {
 }
 
 /// How the renderer may be steered past its own choices; `from_env` is the one place that reads the environment for
-/// it (PATHWAVE_SCHEDULE, PATHWAVE_BVH_READS), so the library below takes typed options.
+/// it (PATHWAVE_SCHEDULE, PATHWAVE_BVH_READS, PATHWAVE_INSTANCING), so the library below takes typed options.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RendererOptions {
     /// Fix the schedule instead of choosing (a trial on CPU devices, the wavefront on GPUs).
@@ -77,6 +77,8 @@ pub struct RendererOptions {
     /// Device memory the scene's buffers may take; None: the device's largest device-local heap. A scene past it
     /// is refused before anything is uploaded.
     pub max_device_memory: Option<u64>,
+    /// Which meshes are kept in object space under a two-level BVH (PATHWAVE_INSTANCING=auto|always|never).
+    pub instancing: crate::scene::Instancing,
 }
 
 impl RendererOptions {
@@ -104,10 +106,22 @@ impl RendererOptions {
             }
             Err(_) => return Err(Error::Settings("PATHWAVE_BVH_READS is not valid Unicode".into())),
         };
+        let instancing = match std::env::var("PATHWAVE_INSTANCING").as_deref() {
+            Ok("auto") | Err(std::env::VarError::NotPresent) => crate::scene::Instancing::Auto,
+            Ok("always") => crate::scene::Instancing::Always,
+            Ok("never") => crate::scene::Instancing::Never,
+            Ok(other) => {
+                return Err(Error::Settings(format!(
+                    "PATHWAVE_INSTANCING={other}: expected auto, always or never"
+                )))
+            }
+            Err(_) => return Err(Error::Settings("PATHWAVE_INSTANCING is not valid Unicode".into())),
+        };
         Ok(RendererOptions {
             schedule,
             storage_reads,
             max_device_memory: None,
+            instancing,
         })
     }
 

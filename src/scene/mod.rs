@@ -2,6 +2,7 @@
 pub mod animation;
 mod environment;
 mod gltf;
+pub mod instancing;
 pub mod rig;
 mod soup;
 mod tangent;
@@ -9,6 +10,7 @@ pub mod texture;
 
 pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, MAX_FILE_BYTES, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
+pub use instancing::{invertible, Instancing, INSTANCING_MIN_TRIANGLES};
 pub use rig::{JointSet, MorphTarget, Motion, PoseTime, Rig};
 pub use soup::{soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};

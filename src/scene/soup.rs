@@ -242,7 +242,7 @@ impl Scene {
     /// without area. The arithmetic is the loader's before meshes were shared, so images stay byte for byte the same.
     pub fn flatten(&self) -> TriangleSoup {
         let mut soup = TriangleSoup::default();
-        self.flatten_into(&mut soup);
+        self.flatten_into(&mut soup, &vec![false; self.meshes.len()]);
         soup
     }
 
@@ -295,7 +295,12 @@ impl Scene {
 
     /// `flatten`, with the soup's memory reserved first, so a host out of memory is an error rather than an abort.
     pub fn try_flatten(&self) -> Result<TriangleSoup, Error> {
-        let n = self.flattened_triangle_bound();
+        self.try_flatten_except(&vec![false; self.meshes.len()])
+    }
+
+    /// `try_flatten` of the instances of every mesh but those `instanced` marks (which stay in object space).
+    pub fn try_flatten_except(&self, instanced: &[bool]) -> Result<TriangleSoup, Error> {
+        let n = self.flattened_triangle_bound_except(instanced);
         let mut soup = usize::try_from(n)
             .ok()
             .and_then(|n| TriangleSoup::try_with_capacity(n).ok())
@@ -303,8 +308,18 @@ impl Scene {
                 path: self.path.clone(),
                 message: format!("out of host memory placing its {n} triangles"),
             })?;
-        self.flatten_into(&mut soup);
+        self.flatten_into(&mut soup, instanced);
         Ok(soup)
+    }
+
+    /// Mesh `m` in its own space: its triangles placed by the identity, for a BVH of its own.
+    pub fn object_soup(&self, m: usize) -> TriangleSoup {
+        let mut soup = TriangleSoup::default();
+        let identity = Placement::new(Mat4::IDENTITY);
+        for p in &self.meshes[m].primitives {
+            identity.push_primitive(p, &mut soup);
+        }
+        soup
     }
 
     /// `try_flatten` over the shutter: the soup at key 0 (the shutter's opening) and, for each later key of
@@ -374,8 +389,8 @@ impl Scene {
         Ok((soup, Some(keys)))
     }
 
-    fn flatten_into(&self, soup: &mut TriangleSoup) {
-        for instance in &self.instances {
+    fn flatten_into(&self, soup: &mut TriangleSoup, instanced: &[bool]) {
+        for instance in self.instances.iter().filter(|i| !instanced[i.mesh]) {
             let placement = Placement::new(instance.world_from_object);
             for p in &self.meshes[instance.mesh].primitives {
                 let first = soup.len();

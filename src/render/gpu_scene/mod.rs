@@ -1,7 +1,7 @@
 //! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
 mod pack;
 
-pub use pack::{emitted_power, mean_emission, pack, try_pack, PackedScene};
+pub use pack::{emitted_power, mean_emission, pack, try_pack, try_pack_with, PackedScene};
 
 use crate::constants::*;
 use crate::error::Error;
@@ -37,7 +37,7 @@ enum Reads {
 struct SceneBinding(&'static str, u32, Option<u32>, Reads);
 
 /// Every scene buffer, in upload order: the one list binding, upload, views and limits come from.
-const SCENE_BINDINGS: [SceneBinding; 13] = [
+const SCENE_BINDINGS: [SceneBinding; 14] = [
     SceneBinding("bvh nodes", BINDING_NODES, Some(BINDING_NODE_TEXELS), Reads::Viewed),
     SceneBinding(
         "triangle vertices",
@@ -79,6 +79,7 @@ const SCENE_BINDINGS: [SceneBinding; 13] = [
     SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
     SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
     SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
+    SceneBinding("instances", BINDING_INSTANCES, None, Reads::Storage),
     SceneBinding(
         "motion keys",
         BINDING_MOTION,
@@ -111,6 +112,7 @@ impl PackedScene {
             BINDING_TEXTURES => bytes(&self.textures),
             BINDING_TEXELS => bytes(&self.texels),
             BINDING_MOTION => bytes(&self.motion),
+            BINDING_INSTANCES => bytes(&self.instances),
             _ => unreachable!("binding {binding} is no scene buffer"),
         }
     }

@@ -3,10 +3,12 @@ use crate::bvh::{self, Bvh};
 use crate::constants::*;
 use crate::error::Error;
 use crate::layout::{
-    GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey, TextureSlot, TriColors, TriShading, TriTangents,
-    TriTexcoords, TriVerts,
+    GpuInstance, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey, TextureSlot, TriColors, TriShading,
+    TriTangents, TriTexcoords, TriVerts,
 };
-use crate::scene::{AlphaMode, Camera, KeyTriangle, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap};
+use crate::scene::{
+    AlphaMode, Camera, Instancing, KeyTriangle, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap,
+};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -40,6 +42,8 @@ pub struct PackedScene {
     pub motion: Vec<MotionKey>,
     /// The scene's own camera moves over the shutter (its keys in `motion` are the ones to use).
     pub camera_moves: bool,
+    /// The instance records (the header first); empty when no mesh is instanced.
+    pub instances: Vec<GpuInstance>,
 }
 
 impl PackedScene {
@@ -75,6 +79,9 @@ impl PackedScene {
         }
         if !self.motion.is_empty() {
             bits |= FEATURE_MOTION;
+        }
+        if !self.instances.is_empty() {
+            bits |= FEATURE_INSTANCES;
         }
         bits
     }
@@ -198,8 +205,18 @@ pub fn pack(scene: &Scene) -> PackedScene {
 /// The scene packed for the device. The big arrays (the soup, the packed triangles) are reserved fallibly, so a
 /// host out of memory is an error naming the scene rather than an abort.
 pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
+    try_pack_with(scene, Instancing::Auto)
+}
+
+/// `try_pack`, instancing the meshes `rule` picks (see `Scene::instanced_meshes`).
+pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Error> {
     scene.check_extent()?;
-    let (soup, keys) = scene.try_flatten_motion()?;
+    let instanced = scene.instanced_meshes(rule);
+    let (soup, keys) = if instanced.contains(&true) {
+        (scene.try_flatten_except(&instanced)?, None)
+    } else {
+        scene.try_flatten_motion()?
+    };
     // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
     // give it an error here; memory that runs out during the build (taken by another process) still aborts.
     if Vec::<u8>::new()
@@ -215,7 +232,7 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
         .map(|k| k.iter().map(|t| t.positions).collect())
         .collect();
     let start = std::time::Instant::now();
-    let bvh = match keys {
+    let mut bvh = match keys {
         None => bvh::build(soup.positions()),
         Some(_) => {
             let mut all: Vec<&[[glam::Vec3; 3]]> = vec![soup.positions()];
@@ -229,6 +246,19 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
         message: format!("out of host memory packing its {} triangles", soup.len()),
     })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
+    let instances = if instanced.contains(&true) {
+        pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds).ok_or_else(|| Error::Scene {
+            path: scene.path.clone(),
+            message: "out of host memory packing its instanced meshes".into(),
+        })?
+    } else {
+        Vec::new()
+    };
+    let bvh_build = if instances.is_empty() {
+        bvh_build
+    } else {
+        start.elapsed()
+    };
     for k in &key_positions {
         let (lo, hi) = crate::scene::soup_bounds(k);
         bounds = bounds.map(|(a, b)| (a.min(lo), b.max(hi)));
@@ -268,7 +298,119 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
         tri_colors: t.tri_colors,
         motion,
         camera_moves,
+        instances,
     })
+}
+
+/// Every mesh `instanced` marks in its own space, after the world's triangles, with a BVH of its own; a top-level
+/// BVH over the instances that place them; and the instance records (the header first). Nodes end up as [world
+/// BVH][TLAS][each mesh's BVH], every index offset to its place. Grows `bounds` by the instances' boxes.
+fn pack_instances(
+    scene: &Scene,
+    instanced: &[bool],
+    bvh: &mut Bvh,
+    t: &mut PackedTriangles,
+    bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
+) -> Option<Vec<GpuInstance>> {
+    use glam::Vec3;
+    // Each instanced mesh's BVH and packed triangles, and where they start.
+    let mut parts: Vec<(usize, Bvh, PackedTriangles, (Vec3, Vec3))> = Vec::new();
+    for (m, _) in instanced.iter().enumerate().filter(|(_, &i)| i) {
+        let soup = scene.object_soup(m);
+        if soup.is_empty() {
+            continue;
+        }
+        let blas = bvh::build(soup.positions());
+        let packed = pack_triangles(scene, &soup, None, &blas.order)?;
+        parts.push((m, blas, packed, soup.bounds()));
+    }
+    let part_of = |m: usize| parts.iter().position(|p| p.0 == m);
+    let placed: Vec<(usize, glam::Mat4)> = (scene.instances.iter())
+        .filter(|i| instanced[i.mesh] && crate::scene::invertible(&i.world_from_object))
+        .filter_map(|i| Some((part_of(i.mesh)?, i.world_from_object)))
+        .collect();
+    let boxes: Vec<(Vec3, Vec3)> = (placed.iter())
+        .map(|&(p, w)| {
+            let (lo, hi) = parts[p].3;
+            let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for c in 0..8 {
+                let corner = Vec3::new(
+                    if c & 1 == 0 { lo.x } else { hi.x },
+                    if c & 2 == 0 { lo.y } else { hi.y },
+                    if c & 4 == 0 { lo.z } else { hi.z },
+                );
+                let q = w.transform_point3(corner);
+                b = (b.0.min(q), b.1.max(q));
+            }
+            b
+        })
+        .collect();
+    for b in &boxes {
+        *bounds = Some(bounds.map_or(*b, |(lo, hi)| (lo.min(b.0), hi.max(b.1))));
+    }
+    let tlas = bvh::build_boxes(&boxes);
+    let tlas_root = bvh.nodes.len() as u32;
+    // TLAS leaves index instance records, which start at 1 (after the header) in the TLAS's order.
+    bvh.nodes.extend(tlas.nodes.iter().map(|n| {
+        let mut n = *n;
+        n.offset(tlas_root, 1);
+        n
+    }));
+    let colored = !t.tri_colors.is_empty() || parts.iter().any(|p| !p.2.tri_colors.is_empty());
+    let white = TriColors {
+        c0: [1.0; 4],
+        c1: [1.0; 4],
+        c2: [1.0; 4],
+    };
+    if colored && t.tri_colors.is_empty() {
+        t.tri_colors = vec![white; t.tri_verts.len()];
+    }
+    let mut roots = Vec::with_capacity(parts.len());
+    for (_, blas, packed, _) in &mut parts {
+        let root = bvh.nodes.len() as u32;
+        let tri_base = t.tri_verts.len() as u32;
+        bvh.nodes.extend(blas.nodes.iter().map(|n| {
+            let mut n = *n;
+            n.offset(root, tri_base);
+            n
+        }));
+        roots.push(root);
+        let n = packed.tri_verts.len();
+        t.tri_verts.try_reserve(n).ok()?;
+        t.tri_verts.append(&mut packed.tri_verts);
+        t.tri_shading.append(&mut packed.tri_shading);
+        t.tri_texcoords.append(&mut packed.tri_texcoords);
+        t.tri_tangents.append(&mut packed.tri_tangents);
+        if colored && packed.tri_colors.is_empty() {
+            packed.tri_colors = vec![white; n];
+        }
+        t.tri_colors.append(&mut packed.tri_colors);
+        let s = &blas.stats;
+        bvh.stats.max_waiting = bvh.stats.max_waiting.max(s.max_waiting);
+        bvh.stats.leaves += s.leaves;
+        bvh.stats.max_leaf_tris = bvh.stats.max_leaf_tris.max(s.max_leaf_tris);
+    }
+    bvh.stats.nodes = bvh.nodes.len();
+    let mut records = Vec::with_capacity(placed.len() + 1);
+    records.push(GpuInstance {
+        info: [tlas_root, placed.len() as u32, 0, 0],
+        ..Default::default()
+    });
+    for &i in &tlas.order {
+        let (p, w) = placed[i as usize];
+        let o = w.inverse();
+        let mirrored = glam::Mat3::from_mat4(w).determinant() < 0.0;
+        records.push(GpuInstance {
+            world0: w.row(0).to_array(),
+            world1: w.row(1).to_array(),
+            world2: w.row(2).to_array(),
+            object0: o.row(0).to_array(),
+            object1: o.row(1).to_array(),
+            object2: o.row(2).to_array(),
+            info: [roots[p], mirrored as u32, 0, 0],
+        });
+    }
+    Some(records)
 }
 
 /// The motion buffer: the camera's key records first (zeros when the scene has no camera of its own), then the

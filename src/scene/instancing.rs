@@ -1,0 +1,58 @@
+//! Which meshes the renderer keeps once in object space, placed by instances through a two-level BVH, rather than
+//! copied into the world-space soup once per instance.
+use super::{Mesh, Scene};
+use glam::{Mat3, Mat4};
+
+/// How the renderer chooses the meshes it instances.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Instancing {
+    /// The rule of `Scene::instanced_meshes`.
+    #[default]
+    Auto,
+    /// Every mesh the rule allows, however few triangles its instances place (for tests).
+    Always,
+    /// None: every instance is flattened into the world BVH.
+    Never,
+}
+
+/// A mesh is instanced only when its instances place at least this many triangles in all: below it, flattening
+/// costs little memory and traversal stays one level, which is faster (one BVH walk, no ray transforms).
+pub const INSTANCING_MIN_TRIANGLES: u64 = 1 << 16;
+
+impl Mesh {
+    fn triangles(&self) -> u64 {
+        self.primitives.iter().map(|p| p.triangles.len() as u64).sum()
+    }
+}
+
+/// Whether a transform can place a mesh in object space: the ray goes back through its inverse.
+pub fn invertible(world_from_object: &Mat4) -> bool {
+    world_from_object.is_finite() && Mat3::from_mat4(*world_from_object).determinant().is_normal()
+}
+
+impl Scene {
+    /// Per mesh, whether it is instanced. The rule: a mesh placed by two or more instances (with invertible
+    /// transforms), whose instances place at least INSTANCING_MIN_TRIANGLES triangles (any number under
+    /// Instancing::Always), with no emissive and no normal-mapped material (light sampling and tangent frames work
+    /// on world-space triangles), in a scene that does not move over the shutter. Every other mesh is flattened.
+    pub fn instanced_meshes(&self, rule: Instancing) -> Vec<bool> {
+        let none = vec![false; self.meshes.len()];
+        if rule == Instancing::Never || self.motion.is_some() {
+            return none;
+        }
+        let mut uses = vec![0u64; self.meshes.len()];
+        for i in self.instances.iter().filter(|i| invertible(&i.world_from_object)) {
+            uses[i.mesh] += 1;
+        }
+        (self.meshes.iter().zip(&uses))
+            .map(|(mesh, &n)| {
+                let plain = mesh.primitives.iter().all(|p| {
+                    let m = &self.materials[p.material as usize];
+                    m.emission.max_element() <= 0.0 && m.normal_texture.is_none()
+                });
+                let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
+                n >= 2 && plain && big && mesh.triangles() > 0
+            })
+            .collect()
+    }
+}
