@@ -661,7 +661,8 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());
-    println!("triangles   {}", packed.tri_verts.len());
+    let placed = scene.flattened_triangle_bound();
+    println!("triangles   {} stored, {placed} placed", packed.tri_verts.len());
     let file_meshes = &scene.meshes[..scene.rig.file_meshes.min(scene.meshes.len())];
     println!(
         "meshes      {} unique ({} triangles), placed by {} instances",
@@ -690,11 +691,24 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
             hi - lo
         );
     }
+    let instanced = scene.instanced_meshes(pathwave::scene::Instancing::Auto);
+    let kept = instanced.iter().filter(|&&i| i).count();
+    if kept > 0 {
+        println!(
+            "instancing  {kept} of {} meshes kept once in object space under a two-level BVH, placed by {} instances \
+             ({:.2} MiB of instance records)",
+            file_meshes.len(),
+            packed.instances.len().saturating_sub(1),
+            std::mem::size_of_val(&packed.instances[..]) as f64 / (1 << 20) as f64
+        );
+    } else {
+        println!("instancing  none (every instance is placed into the world BVH)");
+    }
     println!("materials   {}", scene.materials.len() - 1);
     println!(
         "lights      {} emissive triangles, {:.4} W in total",
         packed.lights.len(),
-        packed.total_light_power
+        packed.total_light_power + 0.0
     );
     println!(
         "textures    {} ({} images, {:.2} MiB of texels)",

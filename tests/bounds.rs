@@ -180,8 +180,10 @@ fn shared_grid(nodes: u32) -> common::gltf_builder::GltfBuilder {
     b
 }
 
-/// 25,600 nodes sharing one 79,202-triangle mesh flatten to 2 billion triangles (hundreds of GiB): refused from
-/// the instance count before anything is placed, where it used to run for a minute and die out of memory.
+/// 25,600 nodes sharing one 79,202-triangle emissive mesh (which light sampling needs in world space, so it is
+/// flattened rather than instanced) flatten to 2 billion triangles (hundreds of GiB): refused from the instance
+/// count before anything is placed, where it used to run for a minute and die out of memory. The same file with a
+/// plain material is instanced and renders (tests/instances.rs).
 #[test]
 fn a_scene_whose_flattening_exceeds_the_budget_is_refused_fast() {
     let (dir, path) = common::write_temp(&shared_grid(25_600), "many.gltf");

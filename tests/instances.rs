@@ -201,3 +201,58 @@ fn many_instances_of_one_mesh_take_the_mesh_once_plus_a_record_each() {
     let film = common::render(&mut r, &common::settings(16, 16, 2, 1));
     assert!(film.mean().iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
+
+/// The file: 25,600 nodes sharing one 80,000-triangle mesh (2 billion placed triangles). Before instancing,
+/// loading it tried to allocate tens of gigabytes and aborted; now it renders within a 400 MiB host budget.
+#[test]
+fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_budget() {
+    let n = 200u32;
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (i as f32 / n as f32 - 0.5, j as f32 / n as f32 - 0.5);
+            positions.push([x * 0.9, 0.05 * (x * 20.0).sin() * (z * 17.0).cos(), z * 0.9]);
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            indices.extend([a, a + n + 1, a + 1, a + 1, a + n + 1, a + n + 2]);
+        }
+    }
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    b.mesh("grid", &positions, &indices, grey);
+    for k in 1..25_600 {
+        let (x, z) = ((k % 160) as f32 - 80.0, (k / 160) as f32 - 80.0);
+        b.place_last_mesh("grid", json!({ "translation": [x, 0.0, z] }));
+    }
+    b.camera([0.0, 40.0, 120.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 45.0);
+    let (dir, path) = common::write_temp(&b, "forest.gltf");
+    let out = dir.path().join("forest.png");
+    let o = common::pathwave_cli()
+        .arg("render")
+        .arg(&path)
+        .args([
+            "--env-color",
+            "1,1,1",
+            "--size",
+            "32x18",
+            "--spp",
+            "2",
+            "--max-memory",
+            "400M",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{log}");
+    assert!(out.exists());
+    let info = common::pathwave_cli().arg("info").arg(&path).output().unwrap();
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("80000 stored, 2048000000 placed"), "{text}");
+    assert!(text.contains("placed by 25600 instances"), "{text}");
+}

@@ -35,7 +35,7 @@ pub struct CaseResult {
     /// stages in stage_ms depend on it.
     pub schedule: String,
     pub bvh_build_s: f64,
-    /// Device bytes per triangle: BVH nodes, triangle vertices and shading data.
+    /// Device bytes per placed triangle: BVH nodes, triangle vertices, shading data and instance records.
     pub bytes_per_triangle: f64,
     pub image_mean: f64,
 }
@@ -62,6 +62,40 @@ pub enum Compare {
     Mitsuba,
     /// Embree (embreex) on the terrain mesh: random-ray traversal speed.
     Embree,
+}
+
+/// `count` instances (a square grid, each turned about +y) of the `side` terrain's mesh, seen from above at an
+/// angle: the instancing case, whose placed triangles would not fit in memory flattened.
+pub fn instanced_terrain(count: usize, side: usize) -> Scene {
+    let mut s = terrain(side);
+    s.path = PathBuf::from(format!("instanced-terrain-{count}x{side}"));
+    s.instances.clear();
+    let row = (count as f32).sqrt().ceil() as usize;
+    for i in 0..count {
+        let (x, z) = ((i % row) as f32 - row as f32 / 2.0, (i / row) as f32 - row as f32 / 2.0);
+        s.instances.push(crate::scene::Instance {
+            mesh: 0,
+            world_from_object: Mat4::from_rotation_translation(
+                glam::Quat::from_rotation_y(i as f32 * 0.7),
+                Vec3::new(x * 2.2, 0.0, z * 2.2),
+            ),
+        });
+    }
+    let extent = row as f32 * 1.1;
+    let eye = Vec3::new(0.0, extent * 0.8, extent * 1.6);
+    let forward = (Vec3::ZERO - eye).normalize();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    s.camera = Some(Camera {
+        world_from_camera: Mat4::from_cols(
+            right.extend(0.0),
+            up.extend(0.0),
+            (-forward).extend(0.0),
+            eye.extend(1.0),
+        ),
+        yfov: 45f32.to_radians(),
+    });
+    s
 }
 
 /// A heightfield of `side`^2 quads (2 side^2 triangles) of rolling hills under a uniform sky.
@@ -178,7 +212,7 @@ fn measure(
     Ok(CaseResult {
         name: name.into(),
         device: device_name,
-        triangles: scene.triangle_count(),
+        triangles: scene.flattened_triangle_bound() as usize,
         size,
         spp,
         process_s: None,
@@ -196,7 +230,7 @@ fn measure(
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
         schedule: schedule.into(),
         bvh_build_s,
-        bytes_per_triangle: bytes as f64 / scene.triangle_count().max(1) as f64,
+        bytes_per_triangle: bytes as f64 / scene.flattened_triangle_bound().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,
     })
 }
@@ -338,6 +372,22 @@ fn run_cases(
         storage,
         None,
     )?);
+    // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
+    progress("instances");
+    let (count, mesh_side) = if o.quick { (400, 40) } else { (10_000, 160) };
+    let build = Instant::now();
+    let forest = instanced_terrain(count, mesh_side);
+    let mut c = measure(
+        &format!("instances-{count}x{}k", 2 * mesh_side * mesh_side / 1000),
+        &forest,
+        (256, 256),
+        spp_mesh.min(8),
+        &o.device,
+        None,
+        None,
+    )?;
+    c.process_s = Some(build.elapsed().as_secs_f64());
+    cases.push(c);
     if !o.quick {
         // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
         // read through texel views, which is the only way this device can hold the scene.
@@ -436,7 +486,7 @@ impl BenchReport {
         );
         for c in &self.cases {
             s += &format!(
-                "{:<17} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10} {:>8.3} {:>7.0}\n",
+                "{:<17} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10} {:>8.3} {:>7.1}\n",
                 c.name,
                 c.triangles,
                 c.process_s.map_or("-".into(), |t| format!("{t:.2}")),

@@ -227,7 +227,7 @@ impl Renderer {
         self.scene.bvh_build
     }
 
-    /// Device bytes of what traversal and shading read per triangle: BVH nodes, vertices and shading normals.
+    /// Device bytes of what traversal and shading read: BVH nodes, vertices, shading normals and instance records.
     pub fn traversal_bytes(&self) -> u64 {
         self.scene.traversal_bytes()
     }

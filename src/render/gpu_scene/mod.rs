@@ -277,9 +277,14 @@ impl GpuScene {
 
     /// Device bytes of what traversal and shading read per triangle: BVH nodes, vertices and shading normals.
     pub fn traversal_bytes(&self) -> u64 {
+        let instances = match self.features & FEATURE_INSTANCES {
+            0 => 0,
+            _ => self.buffer(BINDING_INSTANCES).size,
+        };
         [BINDING_NODES, BINDING_TRI_VERTS, BINDING_TRI_SHADING]
             .map(|b| self.buffer(b).size)
             .iter()
-            .sum()
+            .sum::<u64>()
+            + instances
     }
 }
