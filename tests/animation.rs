@@ -540,3 +540,46 @@ fn gpu_instancing_places_the_mesh_once_per_instance_after_the_nodes_transform() 
     let x = scene.instances[3].world_from_object.transform_vector3(Vec3::X);
     assert!(close(x, q * Vec3::X * 2.0), "{x}");
 }
+
+/// Catches: sparse accessors refused (morph targets in the sample models use them), their base taken as data when
+/// it has no bufferView, or a malformed one read instead of refused.
+#[test]
+fn a_sparse_morph_target_displaces_only_the_vertices_it_lists() {
+    let mut b = lit_quad();
+    b.add_morph_target(&[[0.0; 3]; 4], &[0.5]);
+    // Vertex 2 displaced by (0, 2, 0), stored sparse: one index (u32 2) and one value, no base.
+    let index = b.raw_accessor(&[[f32::from_bits(2)]]);
+    let value = b.raw_accessor(&[[0.0, 2.0, 0.0]]);
+    let mut doc: serde_json::Value = serde_json::from_str(&b.to_json()).unwrap();
+    let view = |doc: &serde_json::Value, acc: usize| doc["accessors"][acc]["bufferView"].clone();
+    let target = doc["meshes"][1]["primitives"][0]["targets"][0]["POSITION"]
+        .as_u64()
+        .unwrap() as usize;
+    let (iv, vv) = (view(&doc, index), view(&doc, value));
+    doc["accessors"][target] = json!({
+        "componentType": 5126, "count": 4, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [0.0, 2.0, 0.0],
+        "sparse": { "count": 1, "indices": { "bufferView": iv, "componentType": 5125 }, "values": { "bufferView": vv } }
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sparse.gltf");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let scene = load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+    let v = vertices(&scene);
+    // Weight 0.5 of (0, 2, 0) on the quad's corner (0.5, 0, 0.5); every other corner stays on y = 0.
+    assert!(v.iter().any(|p| close(*p, Vec3::new(0.5, 1.0, 0.5))), "{v:?}");
+    assert_eq!(
+        v.iter().filter(|p| p.y > 0.0 && p.y < 3.0).count(),
+        2,
+        "the one corner, in both its triangles: {v:?}"
+    );
+    // An index past the accessor's count is refused, naming the accessor.
+    let bad = dir.path().join("bad.gltf");
+    let mut broken = doc.clone();
+    broken["accessors"][target]["count"] = json!(2);
+    broken["accessors"][target]["sparse"]["count"] = json!(1);
+    std::fs::write(&bad, broken.to_string()).unwrap();
+    match load(&bad, None) {
+        Ok(_) => panic!("a sparse index beyond the count loaded"),
+        Err(e) => assert!(e.to_string().contains("sparse index 2"), "{e}"),
+    }
+}

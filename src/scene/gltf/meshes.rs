@@ -67,8 +67,12 @@ impl Loader<'_> {
         if acc.view().is_none() && acc.sparse().is_none() {
             return Ok(Contents::Zeros);
         }
-        if acc.sparse().is_some() {
-            return Err(err("sparse accessors are not supported yet".into()));
+        if let Some(sparse) = acc.sparse() {
+            self.check_sparse(acc, &sparse).map_err(err)?;
+            // Without a bufferView the base is zeros, which gltf's reader supplies.
+            if acc.view().is_none() {
+                return Ok(Contents::Data);
+            }
         }
         let view = acc.view().ok_or_else(|| err("has no bufferView".into()))?;
         let size = acc.size();
@@ -94,6 +98,62 @@ impl Loader<'_> {
             return Err(err(format!("runs past the end of bufferView {}", view.index())));
         }
         Ok(Contents::Data)
+    }
+
+    /// A sparse accessor's indices and values lie inside their bufferViews and buffers, and its indices are strictly
+    /// increasing and below the accessor's count, as glTF requires (gltf's reader would silently skip the others).
+    fn check_sparse(&self, acc: &gltf::Accessor, sparse: &gltf::accessor::sparse::Sparse) -> Result<(), String> {
+        let count = sparse.count();
+        if count == 0 || count > acc.count() {
+            return Err(format!(
+                "sparse count {count} is not between 1 and the accessor's count {}",
+                acc.count()
+            ));
+        }
+        // The bytes [offset, offset + stride * (count - 1) + size) of a view, as gltf's reader slices them.
+        let slice = |view: gltf::buffer::View, offset: usize, size: usize, what: &str| -> Result<&[u8], String> {
+            let stride = view.stride().unwrap_or(size);
+            let buffer = self.buffers.get(view.buffer().index()).map(|b| &b[..]).unwrap_or(&[]);
+            let in_buffer = view.offset().checked_add(view.length()).filter(|&e| e <= buffer.len());
+            let end = (count - 1)
+                .checked_mul(stride)
+                .and_then(|x| x.checked_add(size))
+                .and_then(|x| x.checked_add(offset));
+            match (in_buffer, end) {
+                (Some(_), Some(end)) if stride >= size && end <= view.length() => {
+                    Ok(&buffer[view.offset() + offset..][..end - offset])
+                }
+                _ => Err(format!(
+                    "its sparse {what} run past the end of bufferView {}",
+                    view.index()
+                )),
+            }
+        };
+        let index_size = sparse.indices().index_type().size();
+        let indices = slice(
+            sparse.indices().view(),
+            sparse.indices().offset(),
+            index_size,
+            "indices",
+        )?;
+        slice(sparse.values().view(), sparse.values().offset(), acc.size(), "values")?;
+        let stride = sparse.indices().view().stride().unwrap_or(index_size);
+        let mut last: Option<u64> = None;
+        for k in 0..count {
+            let b = &indices[k * stride..k * stride + index_size];
+            let i = match index_size {
+                1 => b[0] as u64,
+                2 => u16::from_le_bytes([b[0], b[1]]) as u64,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u64,
+            };
+            if i >= acc.count() as u64 || last.is_some_and(|l| i <= l) {
+                return Err(format!(
+                    "sparse index {i} (entry {k}) is out of range or not above the one before it"
+                ));
+            }
+            last = Some(i);
+        }
+        Ok(())
     }
 
     fn primitive(
