@@ -394,7 +394,8 @@ fn bench_reports_every_case() {
             "cornell-wavefront",
             "glass",
             "terrain-32k",
-            "terrain-storage"
+            "terrain-storage",
+            "instances-400x3k"
         ],
         "{names:?}"
     );
