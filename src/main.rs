@@ -55,11 +55,11 @@ struct LoadArgs {
     #[arg(long)]
     allow_outside_paths: bool,
     /// Largest image (texture or environment map) in pixels, checked from its header before it is decoded.
-    #[arg(long, default_value_t = scene::DEFAULT_MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = scene::DEFAULT_MAX_TEXTURE_PIXELS, value_parser = clap::value_parser!(u64).range(1..), allow_hyphen_values = true)]
     max_texture_pixels: u64,
     /// Host memory the scene may take once read, placed and packed, in bytes or with a suffix (512M, 8G); a scene
     /// that would need more is refused before it is built. Default: half of the available memory, at most 8 GiB.
-    #[arg(long, value_parser = pathwave::memory::parse_size)]
+    #[arg(long, value_parser = pathwave::memory::parse_size, allow_hyphen_values = true)]
     max_memory: Option<u64>,
 }
 
@@ -92,7 +92,7 @@ struct EnvArgs {
     #[arg(long, conflicts_with = "env_color")]
     env: Option<PathBuf>,
     /// A uniform environment colour instead of a map: linear RGB radiance, e.g. 1,1,1.
-    #[arg(long, value_parser = parse_rgb)]
+    #[arg(long, value_parser = parse_rgb, allow_hyphen_values = true)]
     env_color: Option<[f32; 3]>,
     /// Multiplies the environment's radiance (0 to 1e10).
     #[arg(long, default_value = "1", value_parser = parse_intensity, allow_hyphen_values = true)]
