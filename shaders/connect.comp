@@ -17,4 +17,5 @@ void main() {
         vec4 l = path_get(PATH_RADIANCE, path);
         path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));
     }
+    check_loop_budget();
 }

@@ -18,4 +18,5 @@ void main() {
     path_set(PATH_HIT, path, vec4(h.t, uintBitsToFloat(h.tri), h.uv));
     // The instance rides in the direction's w, which shade reads with the direction.
     if (scene_has(FEATURE_INSTANCES)) path_set(PATH_DIR, path, vec4(d, uintBitsToFloat(h.inst)));
+    check_loop_budget();
 }

@@ -48,4 +48,5 @@ void main() {
         path_set(PATH_THROUGHPUT, path, vec4(v.beta, 0.0));
         queue_push(1u - cur, path);
     }
+    check_loop_budget();
 }

@@ -228,8 +228,9 @@ pub struct GpuPunctual {
     pub intensity: [f32; 4],
 }
 
-/// 48 bytes: queue counters, the indirect dispatch of the current bounce, ray tallies, whether a follow dispatch was
-/// cut short (its pass is then run again by the wavefront), and the samples film_add dropped as not finite.
+/// 64 bytes: queue counters, the indirect dispatch of the current bounce, ray tallies, whether a follow dispatch was
+/// cut short (its pass is then run again by the wavefront), the samples film_add dropped as not finite, and the
+/// wavefront stage invocations lavapipe's loop budget cut short (an error: their results are wrong).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct Counters {
@@ -239,6 +240,10 @@ pub struct Counters {
     pub shadow_rays: u32,
     pub follow_cut: u32,
     pub nonfinite: u32,
+    pub stage_cut: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// 128 bytes: the push constants of every stage.
@@ -300,7 +305,7 @@ const _: () = assert!(std::mem::size_of::<TriTexcoords>() == 48);
 const _: () = assert!(std::mem::size_of::<TriTangents>() == 48);
 const _: () = assert!(std::mem::size_of::<TriColors>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 16);
-const _: () = assert!(std::mem::size_of::<Counters>() == 48);
+const _: () = assert!(std::mem::size_of::<Counters>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuPunctual>() == 48);
 const _: () = assert!(std::mem::size_of::<Frame>() == 128);
 

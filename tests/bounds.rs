@@ -261,3 +261,37 @@ fn a_file_too_big_to_read_within_the_budget_is_refused_before_reading() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A user's shade.comp whose loop never ends: lavapipe cuts every loop of the invocation once 65,535 iterations are
+/// spent, silently, which used to give a wrong image with exit 0. The stage's own budget check now makes it an error.
+#[test]
+fn a_stage_that_spends_the_loop_budget_is_an_error_not_a_wrong_image() {
+    let dir = tempfile::tempdir().unwrap();
+    pathwave::shaders::export_builtin(dir.path()).unwrap();
+    let path = dir.path().join("shade.comp");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let anchor = "    PathVertex v;";
+    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
+    // Endless as far as the compiler can tell: the bound depends on the frame, and x never reaches it.
+    let endless = "float x = float(path);\n\
+                   for (uint i = 0u; i < frame.width + 1u; i += 0u) { x = x * 0.5 + 1.0; }\n\
+                   if (x == 12345.0) path_set(PATH_RADIANCE, path, vec4(x));\n";
+    std::fs::write(&path, src.replacen(anchor, &format!("{endless}{anchor}"), 1)).unwrap();
+    let out = dir.path().join("never.exr");
+    let (o, took) = run_within(
+        pathwave()
+            .env("PATHWAVE_SCHEDULE", "wavefront")
+            .arg("render")
+            .arg(cornell())
+            .arg("-o")
+            .arg(&out)
+            .args(["--size", "16x16", "--spp", "1", "--shader-dir"])
+            .arg(dir.path()),
+        Duration::from_secs(120),
+    );
+    let log = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && !log.contains("panicked"), "{log}");
+    assert!(log.contains("loop budget"), "{log}");
+    assert!(took < Duration::from_secs(100), "took {took:?}");
+    assert!(!out.exists(), "a cut render wrote an image");
+}

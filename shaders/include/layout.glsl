@@ -126,7 +126,7 @@ struct PunctualLight {
     vec4 intensity;
 };
 
-// 48 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
+// 64 bytes. queue_count: 0/1 ray queues (ping-pong), 2 shadow queue, 3 unused.
 // dispatch xyz is a VkDispatchIndirectCommand for the current bounce's stages. follow_cut: nonzero when a follow
 // dispatch's loops were cut short (follow.comp), and accumulate then leaves the film alone. nonfinite: samples
 // film_add dropped this pass (not finite, or beyond SAMPLE_RADIANCE_MAX).
@@ -137,6 +137,10 @@ struct Counters {
     uint shadow_rays;
     uint follow_cut;
     uint nonfinite;
+    uint stage_cut; // wavefront stage invocations whose loops lavapipe's loop budget cut (check_loop_budget)
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 
 // 128 bytes, the guaranteed push-constant budget. The camera basis vectors are in world space.

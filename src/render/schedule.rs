@@ -128,6 +128,14 @@ impl Renderer {
                 tally = self.wavefront_in_chunks(frame, counters, &mut times)?;
             }
         }
+        if tally.stage_cut != 0 {
+            return Err(Error::Shader(format!(
+                "{} invocations of the wavefront stages ran past lavapipe's loop budget (65535 loop iterations per \
+                 invocation), which cuts every loop short silently: an endless or very long loop in a stage, and the \
+                 image would be wrong",
+                tally.stage_cut
+            )));
+        }
         if schedule == Schedule::Fused && self.schedule.current() == Schedule::Fused {
             self.follow.after_fused_pass();
         }
@@ -192,6 +200,7 @@ impl Renderer {
             total.extension_rays = total.extension_rays.wrapping_add(t.extension_rays);
             total.shadow_rays = total.shadow_rays.wrapping_add(t.shadow_rays);
             total.nonfinite = total.nonfinite.wrapping_add(t.nonfinite);
+            total.stage_cut = total.stage_cut.wrapping_add(t.stage_cut);
         }
         Ok(total)
     }
