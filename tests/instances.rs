@@ -256,3 +256,71 @@ fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_bu
     assert!(text.contains("80000 stored, 2048000000 placed"), "{text}");
     assert!(text.contains("placed by 25600 instances"), "{text}");
 }
+
+/// Catches: an instanced normal map's tangents left in object space, or a mirroring instance's bitangent not
+/// flipped: the bumps would light differently from the same quads placed one by one.
+#[test]
+fn instanced_normal_maps_shade_like_placed_ones() {
+    let mut b = GltfBuilder::new();
+    let light = b.material("light", [0.8; 3], [5.0; 3], false);
+    b.quad(
+        "lamp",
+        [[-2.0, 3.0, -2.0], [2.0, 3.0, -2.0], [2.0, 3.0, 2.0], [-2.0, 3.0, 2.0]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    // Ridges: normals tilted along u in alternate columns and along v in all, so the map's effect depends on both the
+    // tangent's direction and the bitangent's sign.
+    let size = 16;
+    let texels: Vec<[u8; 4]> = (0..size * size)
+        .map(|k| {
+            let n = if (k % size) / 2 % 2 == 0 {
+                Vec3::new(0.5, 0.6, 0.6)
+            } else {
+                Vec3::new(-0.5, 0.6, 0.6)
+            }
+            .normalize();
+            let e = |c: f32| ((c + 1.0) * 0.5 * 255.0).round() as u8;
+            [e(n.x), e(n.y), e(n.z), 255]
+        })
+        .collect();
+    let bumpy = b.pbr_material("bumpy", [0.8; 3], 0.0, 0.5, [0.0; 3], false);
+    let image = b.png_image(size as u32, size as u32, &texels);
+    let tex = b.texture(image, json!({ "magFilter": 9728, "minFilter": 9728 }));
+    b.material_json(bumpy)["normalTexture"] = json!({ "index": tex });
+    b.textured_quad(
+        "tile",
+        [[-0.5, 0.0, -0.5], [-0.5, 0.0, 0.5], [0.5, 0.0, 0.5], [0.5, 0.0, -0.5]],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+        bumpy,
+    );
+    b.transform_last_node(
+        json!({ "translation": [-1.2, 0.0, 0.0], "rotation": Quat::from_rotation_y(0.5).to_array() }),
+    );
+    b.place_last_mesh(
+        "mirrored",
+        json!({ "translation": [0.0, 0.0, 0.0], "scale": [-1.0, 1.0, 1.0] }),
+    );
+    // Apart from the others (coplanar overlaps would z-fight, each traversal picking its own winner).
+    b.place_last_mesh("stretched", json!({ "translation": [1.5, 0.0, 0.2], "scale": [0.6, 1.0, 1.4], "rotation": Quat::from_rotation_y(1.2).to_array() }));
+    b.camera([0.0, 2.5, 2.5], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
+    let (_dir, path) = common::write_temp(&b, "tiles.gltf");
+    let scene = load(&path, None).unwrap();
+    assert_ne!(
+        try_pack_with(&scene, Instancing::Always).unwrap().features() & FEATURE_INSTANCES,
+        0
+    );
+    let s = common::settings(48, 36, 256, 4);
+    let a = common::render(&mut renderer(&scene, Instancing::Always), &s);
+    let flat = common::render(&mut renderer(&scene, Instancing::Never), &s);
+    let (ma, mb) = (a.mean(), flat.mean());
+    let (va, vb) = (a.sample_variance(), flat.sample_variance());
+    let mut bad = 0;
+    for i in 0..ma.len() {
+        for c in 0..3 {
+            let se = ((va[i][c] + vb[i][c]) / s.spp as f32).sqrt();
+            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + 2e-3) as u32;
+        }
+    }
+    assert!(bad <= 3, "{bad} pixel channels differ beyond noise");
+}

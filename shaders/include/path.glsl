@@ -102,7 +102,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     bool front = dot(ng, ray_d) < 0.0;
     vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
     vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
-    ns = normal_mapped(m, tri, uv, ns);
+    ns = normal_mapped(m, tri, uv, ns, inst);
     if (dot(ns, n_in) < 0.0) ns = -ns;
     // To look at any quantity while editing (README), e.g. the shading normals: `v.radiance = ns * 0.5 + 0.5;
     // return false;` here.

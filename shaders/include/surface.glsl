@@ -68,12 +68,19 @@ Material material_at(Material m, uint tri, vec2 b) {
     return m;
 }
 
-// The shading normal with the normal map applied; ns is the interpolated vertex normal (unit length).
-vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns) {
+// The shading normal with the normal map applied; ns is the interpolated vertex normal (unit length, in the world).
+// An instanced triangle's tangents are its mesh's: the instance takes them into the world, and a mirroring one flips
+// the bitangent relative to cross(normal, tangent), as placing a mirrored mesh does.
+vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns, uint inst) {
 #ifdef TEXTURED
     if (!slot_used(m.textures[TEX_NORMAL])) return ns;
     TriTangents tt = load_tri_tangents(tri);
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
+        Instance I = instances[inst];
+        t4.xyz = vec3(dot(I.world0.xyz, t4.xyz), dot(I.world1.xyz, t4.xyz), dot(I.world2.xyz, t4.xyz));
+        if (I.info.y != 0u) t4.w = -t4.w;
+    }
     vec3 t = t4.xyz - ns * dot(ns, t4.xyz);
     if (!(dot(t, t) > 1e-12)) return ns;
     t = normalize(t);

@@ -33,8 +33,9 @@ pub fn invertible(world_from_object: &Mat4) -> bool {
 impl Scene {
     /// Per mesh, whether it is instanced. The rule: a mesh placed by two or more instances (with invertible
     /// transforms), whose instances place at least INSTANCING_MIN_TRIANGLES triangles (any number under
-    /// Instancing::Always), with no emissive and no normal-mapped material (light sampling and tangent frames work
-    /// on world-space triangles), in a scene that does not move over the shutter. Every other mesh is flattened.
+    /// Instancing::Always), with no emissive material (light sampling picks world-space triangles), in a scene that
+    /// does not move over the shutter. Every other mesh is flattened. Normal maps are instanced too: tangents are
+    /// generated once in the mesh's space and taken into the world per instance.
     pub fn instanced_meshes(&self, rule: Instancing) -> Vec<bool> {
         let none = vec![false; self.meshes.len()];
         if rule == Instancing::Never || self.motion.is_some() {
@@ -46,10 +47,8 @@ impl Scene {
         }
         (self.meshes.iter().zip(&uses))
             .map(|(mesh, &n)| {
-                let plain = mesh.primitives.iter().all(|p| {
-                    let m = &self.materials[p.material as usize];
-                    m.emission.max_element() <= 0.0 && m.normal_texture.is_none()
-                });
+                let plain =
+                    (mesh.primitives.iter()).all(|p| self.materials[p.material as usize].emission.max_element() <= 0.0);
                 let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
                 n >= 2 && plain && big && mesh.triangles() > 0
             })

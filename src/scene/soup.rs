@@ -317,7 +317,12 @@ impl Scene {
         let mut soup = TriangleSoup::default();
         let identity = Placement::new(Mat4::IDENTITY);
         for p in &self.meshes[m].primitives {
+            let first = soup.len();
             identity.push_primitive(p, &mut soup);
+            // In the mesh's space, once for all its instances (each takes them into the world when shading).
+            if let (Some(r), None) = (self.materials[p.material as usize].normal_texture, &p.tangents) {
+                soup.generate_tangents(first, r.tex_coord as usize);
+            }
         }
         soup
     }
