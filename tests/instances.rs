@@ -80,6 +80,21 @@ fn renderer(scene: &Scene, instancing: Instancing) -> Renderer {
     Renderer::with_options(scene, ctx, options).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Pixel channels of two renders with the same samples per pixel whose means differ by more than five standard
+/// errors of the difference of two independent means, plus `floor`.
+fn beyond_noise(a: &pathwave::Film, b: &pathwave::Film, floor: f32) -> u32 {
+    let (ma, mb) = (a.mean(), b.mean());
+    let (va, vb) = (a.sample_variance(), b.sample_variance());
+    let mut bad = 0;
+    for i in 0..ma.len() {
+        for c in 0..3 {
+            let se = ((va[i][c] + vb[i][c]) / a.spp as f32).sqrt();
+            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + floor) as u32;
+        }
+    }
+    bad
+}
+
 /// Catches: rays not moved into the instance's space (or moved by the wrong matrix), distances measured in object
 /// space, TLAS boxes not holding their instances, BLAS indices not offset to where their nodes and triangles live,
 /// any hit stopping on a miss.
@@ -137,16 +152,7 @@ fn an_instanced_scene_renders_like_its_triangles_placed_one_by_one() {
     // Per pixel within five standard errors of the difference of two independent means, and the same overall
     // brightness within 1 %.
     let (ma, mb) = (a.mean(), flat.mean());
-    let (va, vb) = (a.sample_variance(), flat.sample_variance());
-    let mut bad = 0;
-    for i in 0..ma.len() {
-        for c in 0..3 {
-            let se = ((va[i][c] + vb[i][c]) / s.spp as f32).sqrt();
-            if (ma[i][c] - mb[i][c]).abs() > 5.0 * se + 1e-3 {
-                bad += 1;
-            }
-        }
-    }
+    let bad = beyond_noise(&a, &flat, 1e-3);
     assert!(bad <= 3, "{bad} pixel channels differ beyond noise");
     let sum = |m: &[[f32; 3]]| m.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
     assert!(
@@ -313,14 +319,6 @@ fn instanced_normal_maps_shade_like_placed_ones() {
     let s = common::settings(48, 36, 256, 4);
     let a = common::render(&mut renderer(&scene, Instancing::Always), &s);
     let flat = common::render(&mut renderer(&scene, Instancing::Never), &s);
-    let (ma, mb) = (a.mean(), flat.mean());
-    let (va, vb) = (a.sample_variance(), flat.sample_variance());
-    let mut bad = 0;
-    for i in 0..ma.len() {
-        for c in 0..3 {
-            let se = ((va[i][c] + vb[i][c]) / s.spp as f32).sqrt();
-            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + 2e-3) as u32;
-        }
-    }
+    let bad = beyond_noise(&a, &flat, 2e-3);
     assert!(bad <= 3, "{bad} pixel channels differ beyond noise");
 }

@@ -356,17 +356,24 @@ MotionKey motion_key(uint tri, uint k) { return fetch_motion_key(MOTION_CAMERA_K
 // a + (b - a) f: exactly a where a key repeats (a static triangle in a moving scene), unlike mix.
 vec3 toward(vec3 a, vec3 b, float f) { return a + (b - a) * f; }
 
+// The keys of triangle i on either side of motion_time (b after it, a before it unless that is key 0, which the
+// triangle buffers hold: then false) and how far between them the time is.
+bool motion_span(uint i, out MotionKey a, out MotionKey b, out float f) {
+    uint k;
+    motion_segment(k, f);
+    b = motion_key(i, k + 1u);
+    if (k > 0u) a = motion_key(i, k);
+    return k > 0u;
+}
+
 // Triangle i at motion_time: its keys on either side, linearly between them (its w's, which do not move, from key 0).
 TriVerts load_tri_verts(uint i) {
     TriVerts tv = fetch_tri_verts(i);
     if (scene_has(FEATURE_MOTION)) {
-        uint k;
+        MotionKey a, b;
         float f;
-        motion_segment(k, f);
-        MotionKey b = motion_key(i, k + 1u);
         vec3 v0 = tv.v0.xyz, e1 = tv.e1.xyz, e2 = tv.e2.xyz;
-        if (k > 0u) {
-            MotionKey a = motion_key(i, k);
+        if (motion_span(i, a, b, f)) {
             v0 = a.v0.xyz;
             e1 = a.e1.xyz;
             e2 = a.e2.xyz;
@@ -378,29 +385,36 @@ TriVerts load_tri_verts(uint i) {
     return tv;
 }
 
-// Triangle i's shading data at motion_time: normals between its keys, its area then, and the light-sampling density
-// per unit area for that area (n0.w holds it for the mean area n1.w that light selection used).
-TriShading load_tri_shading(uint i) {
+// Triangle i's shading data at motion_time, given its vertices then (tv, from load_tri_verts): normals between its
+// keys, its area, and the light-sampling density per unit area for that area (n0.w holds it for the mean area n1.w
+// that light selection used).
+TriShading load_tri_shading(uint i, TriVerts tv) {
     TriShading ts = fetch_tri_shading(i);
     if (scene_has(FEATURE_MOTION)) {
-        uint k;
+        MotionKey a, b;
         float f;
-        motion_segment(k, f);
-        MotionKey b = motion_key(i, k + 1u);
         vec3 n0 = ts.n0.xyz, n1 = ts.n1.xyz, n2 = ts.n2.xyz;
-        if (k > 0u) {
-            MotionKey a = motion_key(i, k);
+        if (motion_span(i, a, b, f)) {
             n0 = a.n0.xyz;
             n1 = a.n1.xyz;
             n2 = a.n2.xyz;
         }
-        TriVerts tv = load_tri_verts(i);
         float area = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
         ts.n0 = vec4(toward(n0, b.n0.xyz, f), area > 0.0 ? ts.n0.w * ts.n1.w / area : 0.0);
         ts.n1 = vec4(toward(n1, b.n1.xyz, f), area);
         ts.n2.xyz = toward(n2, b.n2.xyz, f);
     }
     return ts;
+}
+
+// An instance's affine maps as three rows (x, y, z): a point, and a vector (the translation left out).
+vec3 rows_point(vec4 r0, vec4 r1, vec4 r2, vec3 p) {
+    return vec3(dot(r0.xyz, p) + r0.w, dot(r1.xyz, p) + r1.w, dot(r2.xyz, p) + r2.w);
+}
+vec3 rows_vector(vec4 r0, vec4 r1, vec4 r2, vec3 v) { return vec3(dot(r0.xyz, v), dot(r1.xyz, v), dot(r2.xyz, v)); }
+// A normal into the world: by the inverse transpose, the world-to-object rows transposed.
+vec3 instance_normal(Instance inst, vec3 n) {
+    return inst.object0.xyz * n.x + inst.object1.xyz * n.y + inst.object2.xyz * n.z;
 }
 
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }

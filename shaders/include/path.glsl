@@ -78,19 +78,18 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     }
 
     TriVerts tv = load_tri_verts(tri);
-    TriShading ts = load_tri_shading(tri);
+    TriShading ts = load_tri_shading(tri, tv);
     bool mirrored = false;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
         // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
-        // inverse transpose (the world-to-object rows, transposed).
+        // inverse transpose.
         Instance I = instances[inst];
-        tv.v0.xyz = vec3(dot(I.world0.xyz, tv.v0.xyz) + I.world0.w, dot(I.world1.xyz, tv.v0.xyz) + I.world1.w,
-                         dot(I.world2.xyz, tv.v0.xyz) + I.world2.w);
-        tv.e1.xyz = vec3(dot(I.world0.xyz, tv.e1.xyz), dot(I.world1.xyz, tv.e1.xyz), dot(I.world2.xyz, tv.e1.xyz));
-        tv.e2.xyz = vec3(dot(I.world0.xyz, tv.e2.xyz), dot(I.world1.xyz, tv.e2.xyz), dot(I.world2.xyz, tv.e2.xyz));
-        ts.n0.xyz = I.object0.xyz * ts.n0.x + I.object1.xyz * ts.n0.y + I.object2.xyz * ts.n0.z;
-        ts.n1.xyz = I.object0.xyz * ts.n1.x + I.object1.xyz * ts.n1.y + I.object2.xyz * ts.n1.z;
-        ts.n2.xyz = I.object0.xyz * ts.n2.x + I.object1.xyz * ts.n2.y + I.object2.xyz * ts.n2.z;
+        tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
+        tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
+        tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);
+        ts.n0.xyz = instance_normal(I, ts.n0.xyz);
+        ts.n1.xyz = instance_normal(I, ts.n1.xyz);
+        ts.n2.xyz = instance_normal(I, ts.n2.xyz);
         mirrored = I.info.y != 0u;
     }
     vec2 uv = hit.zw;

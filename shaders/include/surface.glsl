@@ -78,7 +78,7 @@ vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns, uint inst) {
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
         Instance I = instances[inst];
-        t4.xyz = vec3(dot(I.world0.xyz, t4.xyz), dot(I.world1.xyz, t4.xyz), dot(I.world2.xyz, t4.xyz));
+        t4.xyz = rows_vector(I.world0, I.world1, I.world2, t4.xyz);
         if (I.info.y != 0u) t4.w = -t4.w;
     }
     vec3 t = t4.xyz - ns * dot(ns, t4.xyz);

@@ -42,9 +42,8 @@ vec3 safe_inverse(vec3 d) {
 // The ray in an instance's object space: the world-to-object rows applied to the origin (a point) and the direction
 // (a vector, left unnormalised, so that distances along it stay the world's).
 void to_object(Instance inst, inout vec3 o, inout vec3 d) {
-    o = vec3(dot(inst.object0.xyz, o) + inst.object0.w, dot(inst.object1.xyz, o) + inst.object1.w,
-             dot(inst.object2.xyz, o) + inst.object2.w);
-    d = vec3(dot(inst.object0.xyz, d), dot(inst.object1.xyz, d), dot(inst.object2.xyz, d));
+    o = rows_point(inst.object0, inst.object1, inst.object2, o);
+    d = rows_vector(inst.object0, inst.object1, inst.object2, d);
 }
 
 // The hit's barycentrics, from the same arithmetic that found it (traversal keeps only t and the triangle), in the

@@ -83,18 +83,7 @@ pub fn instanced_terrain(count: usize, side: usize) -> Scene {
     }
     let extent = row as f32 * 1.1;
     let eye = Vec3::new(0.0, extent * 0.8, extent * 1.6);
-    let forward = (Vec3::ZERO - eye).normalize();
-    let right = forward.cross(Vec3::Y).normalize();
-    let up = right.cross(forward);
-    s.camera = Some(Camera {
-        world_from_camera: Mat4::from_cols(
-            right.extend(0.0),
-            up.extend(0.0),
-            (-forward).extend(0.0),
-            eye.extend(1.0),
-        ),
-        yfov: 45f32.to_radians(),
-    });
+    s.camera = Some(Camera::look_at(eye, Vec3::ZERO, 45f32.to_radians()));
     s
 }
 
@@ -151,18 +140,7 @@ pub fn terrain(side: usize) -> Scene {
         Mat4::IDENTITY,
     );
     let eye = Vec3::new(0.0, 1.2, 2.2);
-    let forward = (Vec3::new(0.0, 0.0, 0.0) - eye).normalize();
-    let right = forward.cross(Vec3::Y).normalize();
-    let up = right.cross(forward);
-    s.camera = Some(Camera {
-        world_from_camera: Mat4::from_cols(
-            right.extend(0.0),
-            up.extend(0.0),
-            (-forward).extend(0.0),
-            eye.extend(1.0),
-        ),
-        yfov: 45f32.to_radians(),
-    });
+    s.camera = Some(Camera::look_at(eye, Vec3::ZERO, 45f32.to_radians()));
     s.environment = Some(Environment::constant([1.0, 1.0, 1.0]));
     s
 }

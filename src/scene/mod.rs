@@ -12,7 +12,7 @@ pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, M
 pub use environment::Environment;
 pub use instancing::{invertible, Instancing, INSTANCING_MIN_TRIANGLES};
 pub use rig::{JointSet, MorphTarget, Motion, PoseTime, Rig};
-pub use soup::{soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
+pub use soup::{box_corners, soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
@@ -133,6 +133,22 @@ impl Camera {
         let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
         Camera {
             world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
+            yfov,
+        }
+    }
+
+    /// A camera at `eye` looking at `target`, +y up (`eye` not straight above or below it).
+    pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        Camera {
+            world_from_camera: Mat4::from_cols(
+                right.extend(0.0),
+                up.extend(0.0),
+                (-forward).extend(0.0),
+                eye.extend(1.0),
+            ),
             yfov,
         }
     }

@@ -110,6 +110,17 @@ impl TriangleSoup {
     }
 }
 
+/// The eight corners of the box (lo, hi).
+pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|c| {
+        Vec3::new(
+            if c & 1 == 0 { lo.x } else { hi.x },
+            if c & 2 == 0 { lo.y } else { hi.y },
+            if c & 4 == 0 { lo.z } else { hi.z },
+        )
+    })
+}
+
 /// The box around `triangles` (inverted, +inf to -inf, when there is none).
 pub fn soup_bounds(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     bounds(triangles.iter().copied())
@@ -268,15 +279,8 @@ impl Scene {
                 if lo.x > hi.x {
                     continue;
                 }
-                let reach = (0..8)
-                    .map(|c| {
-                        let corner = Vec3::new(
-                            if c & 1 == 0 { lo.x } else { hi.x },
-                            if c & 2 == 0 { lo.y } else { hi.y },
-                            if c & 4 == 0 { lo.z } else { hi.z },
-                        );
-                        instance.world_from_object.transform_point3(corner).abs().max_element()
-                    })
+                let reach = (box_corners(lo, hi).iter())
+                    .map(|&c| instance.world_from_object.transform_point3(c).abs().max_element())
                     .fold(0.0f32, |a, b| if b.is_nan() { f32::INFINITY } else { a.max(b) });
                 if reach > MAX_WORLD_COORDINATE {
                     let mesh = self.key_mesh(k, instance.mesh).name.as_str();

@@ -333,12 +333,7 @@ fn pack_instances(
         .map(|&(p, w)| {
             let (lo, hi) = parts[p].3;
             let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            for c in 0..8 {
-                let corner = Vec3::new(
-                    if c & 1 == 0 { lo.x } else { hi.x },
-                    if c & 2 == 0 { lo.y } else { hi.y },
-                    if c & 4 == 0 { lo.z } else { hi.z },
-                );
+            for corner in crate::scene::box_corners(lo, hi) {
                 let q = w.transform_point3(corner);
                 b = (b.0.min(q), b.1.max(q));
             }
