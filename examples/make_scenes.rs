@@ -16,6 +16,7 @@ fn main() {
         ("punctual-lights.gltf", scenes::punctual_lights()),
         ("textured.gltf", scenes::textured()),
         ("animated.gltf", scenes::animated()),
+        ("layers.gltf", scenes::layers()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

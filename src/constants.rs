@@ -62,9 +62,16 @@ pub const TEX_BASE_COLOR: u32 = 0;
 pub const TEX_METALLIC_ROUGHNESS: u32 = 1;
 pub const TEX_NORMAL: u32 = 2;
 pub const TEX_EMISSIVE: u32 = 3;
-pub const TEX_SLOTS: u32 = 4;
-/// 16-byte texels per material (layout.glsl's Material is 240 bytes).
-pub const MATERIAL_TEXELS: u32 = 15;
+/// KHR_materials_clearcoat: the factor (R), the roughness (G) and the coat's own normal map.
+pub const TEX_CLEARCOAT: u32 = 4;
+pub const TEX_CLEARCOAT_ROUGHNESS: u32 = 5;
+pub const TEX_CLEARCOAT_NORMAL: u32 = 6;
+/// KHR_materials_sheen: the colour (sRGB RGB) and the roughness (A).
+pub const TEX_SHEEN_COLOR: u32 = 7;
+pub const TEX_SHEEN_ROUGHNESS: u32 = 8;
+pub const TEX_SLOTS: u32 = 9;
+/// 16-byte texels per material (layout.glsl's Material is 432 bytes).
+pub const MATERIAL_TEXELS: u32 = 27;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
@@ -86,14 +93,19 @@ pub const TONEMAP_TILE: u32 = 8;
 pub const ALPHA_OPAQUE: u32 = 0;
 pub const ALPHA_MASK: u32 = 1;
 pub const ALPHA_BLEND: u32 = 2;
+/// Material.alpha.w bits.
+/// KHR_materials_unlit: the surface shows its base colour to every ray that reaches it and scatters nothing.
+pub const MATERIAL_UNLIT: u32 = 1;
 
 /// Microfacet energy tables: ENERGY_RES x ENERGY_RES cells over (cos theta, perceptual roughness), each the mean of
-/// ENERGY_SAMPLES visible-normal samples. Layout of the energy buffer, in floats: E1 grid, E2 grid (roughness-major),
-/// then the hemispherical averages E1avg and E2avg per roughness. E1 is the GGX lobe's albedo with F = 1, E2 its
-/// albedo weighted by Schlick's (1 - cos)^5, so a Schlick coat's albedo is F0 E1 + (1 - F0) E2.
+/// ENERGY_SAMPLES samples. Layout of the energy buffer, in floats: the E1, E2 and Esheen grids (roughness-major),
+/// then the hemispherical averages of each per roughness. E1 is the GGX lobe's albedo with F = 1, E2 its albedo
+/// weighted by Schlick's (1 - cos)^5, so a Schlick coat's albedo is F0 E1 + (1 - F0) E2; Esheen is the Charlie sheen
+/// lobe's albedo for a white sheen colour, over sheen roughness.
 pub const ENERGY_RES: u32 = 32;
 pub const ENERGY_SAMPLES: u32 = 4096;
-pub const ENERGY_TABLE_FLOATS: u32 = 2 * ENERGY_RES * ENERGY_RES + 2 * ENERGY_RES;
+pub const ENERGY_GRIDS: u32 = 3;
+pub const ENERGY_TABLE_FLOATS: u32 = ENERGY_GRIDS * ENERGY_RES * ENERGY_RES + ENERGY_GRIDS * ENERGY_RES;
 
 /// Frame.flags bits.
 pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
@@ -137,6 +149,12 @@ pub const FEATURE_MOTION: u32 = 128;
 /// Some meshes are instanced: after the world BVH, traversal walks a top-level BVH over instances and each one's
 /// own BVH in object space, and shading moves the hit into world space (see `Instancing`).
 pub const FEATURE_INSTANCES: u32 = 256;
+/// Some material has a clear coat (KHR_materials_clearcoat factor above 0): a second GGX lobe over everything else.
+pub const FEATURE_CLEARCOAT: u32 = 512;
+/// Some material has a sheen (KHR_materials_sheen colour above 0): the Charlie lobe over the base.
+pub const FEATURE_SHEEN: u32 = 1024;
+/// Some material is unlit (KHR_materials_unlit).
+pub const FEATURE_UNLIT: u32 = 2048;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;

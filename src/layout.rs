@@ -147,9 +147,10 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 240 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 432 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption,
-/// alpha (mode bits, cutoff, normal scale), then one texture slot per TEX_*.
+/// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
+/// (colour, roughness), then one texture slot per TEX_*.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -160,7 +161,9 @@ pub struct GpuMaterial {
     pub transmission: [f32; 4],
     pub attenuation: [f32; 4],
     pub alpha: [f32; 4],
-    pub textures: [TextureSlot; 4],
+    pub clearcoat: [f32; 4],
+    pub sheen: [f32; 4],
+    pub textures: [TextureSlot; crate::constants::TEX_SLOTS as usize],
 }
 
 /// 32 bytes: a material's use of a texture. uv' = (u . (uv, 1), v . (uv, 1)); `u[3]` holds the texture index bits
@@ -297,7 +300,7 @@ const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 240);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 432);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);

@@ -670,6 +670,20 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
         file_meshes.iter().map(|m| m.triangle_count()).sum::<usize>(),
         scene.instances.len()
     );
+    if scene.extensions_used.is_empty() {
+        println!("extensions  none");
+    }
+    for ext in &scene.extensions_used {
+        let supported = pathwave::scene::SUPPORTED_EXTENSIONS.contains(&ext.as_str());
+        println!(
+            "extension   {ext}: {}",
+            if supported {
+                "supported"
+            } else {
+                "not supported, ignored"
+            }
+        );
+    }
     let (morphed, skinned) = pathwave::scene::rig::deformation_counts(&scene);
     println!(
         "deforming   {} skins, {skinned} skinned meshes, {morphed} meshes with morph targets",

@@ -286,3 +286,60 @@ fn energy_conserving_materials_vanish_in_a_white_furnace() {
         );
     }
 }
+
+// A clear coat or a sheen over a base that keeps all energy keeps all energy: each layer scales the base by one minus
+// its own albedo at wo. Would catch the base not scaled (energy created: the smooth coat over white Lambert came
+// out 1.053 +- 0.0015 with base_weight returning 1) or a layer's lobe and table disagreeing. The tables'
+// interpolation costs at most ~0.01 (the BSDF tests measure it per direction).
+#[test]
+fn layered_materials_over_a_white_base_vanish_in_a_white_furnace() {
+    use pathwave::scene::{Clearcoat, Sheen};
+    let lambert = Material {
+        metallic: 0.0,
+        specular: 0.0,
+        ..Material::default()
+    };
+    let plastic = Material {
+        metallic: 0.0,
+        roughness: 0.5,
+        ..Material::default()
+    };
+    let coat = |base: &Material, roughness| Material {
+        clearcoat: Clearcoat {
+            factor: 1.0,
+            roughness,
+            ..Clearcoat::default()
+        },
+        ..base.clone()
+    };
+    let sheen = |base: &Material, roughness| Material {
+        sheen: Sheen {
+            color: glam::Vec3::ONE,
+            roughness,
+            ..Sheen::default()
+        },
+        ..base.clone()
+    };
+    let cases = [
+        ("smooth coat over white lambert", coat(&lambert, 0.0), 0.005),
+        ("coat 0.3 over white lambert", coat(&lambert, 0.3), 0.01),
+        ("smooth coat over plastic 0.5", coat(&plastic, 0.0), 0.01),
+        ("sheen 0.5 over white lambert", sheen(&lambert, 0.5), 0.01),
+        ("sheen 0.2 over plastic 0.5", sheen(&plastic, 0.2), 0.01),
+        (
+            "coat 0.1 over sheen 0.8 over white lambert",
+            coat(&sheen(&lambert, 0.8), 0.1),
+            0.015,
+        ),
+    ];
+    for (name, material, table_error) in cases {
+        let (mean, se, pixels) = white_furnace(material, 128, false);
+        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
+        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
+        assert!(mean <= 1.0 + 4.0 * se + 1e-6, "{name}: {mean} +- {se} creates energy");
+        assert!(
+            mean >= 1.0 - table_error - 4.0 * se,
+            "{name}: {mean} +- {se} loses energy"
+        );
+    }
+}

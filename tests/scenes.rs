@@ -13,6 +13,7 @@ fn scene_files_match_their_generator() {
         ("punctual-lights.gltf", common::scenes::punctual_lights()),
         ("textured.gltf", common::scenes::textured()),
         ("animated.gltf", common::scenes::animated()),
+        ("layers.gltf", common::scenes::layers()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(

@@ -1,4 +1,5 @@
-// The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior, _specular, _transmission, _volume):
+// The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior, _specular, _transmission, _volume, and
+// the _sheen and _clearcoat layers over it):
 // eval, sample and pdf live together here, in the shading frame (z = normal on wo's side), so they cannot drift apart.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
@@ -19,7 +20,18 @@ struct Bsdf {
     float transmission;   // fraction of the dielectric base that is a rough dielectric interface instead of diffuse
     bool thin;            // thin-walled: transmitted light passes straight through, unbent
     float eta;            // relative IOR across the surface, from wo's side to the other: n_other / n_this
+    float clearcoat;      // KHR_materials_clearcoat weight (0: no coat, and nothing below is read)
+    float coat_roughness; // perceptual, for the energy tables
+    float coat_alpha;
+    vec3 coat_n;          // the clear coat's normal in the shading frame, and its tangents (its own normal map)
+    vec3 coat_t;
+    vec3 coat_b;
+    vec3 sheen_color;     // KHR_materials_sheen (black: no sheen)
+    float sheen_roughness;
 };
+
+// KHR_materials_clearcoat fixes the coat's IOR at 1.5.
+const float CLEARCOAT_F0 = 0.04;
 
 // front: wo is on the front (counter-clockwise) side, outside the object.
 Bsdf bsdf_from_material(Material m, bool front) {
@@ -37,7 +49,21 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.transmission = scene_has(FEATURE_TRANSMISSION) ? m.transmission.x : 0.0;
     b.thin = m.transmission.y > 0.5;
     b.eta = b.thin || front ? ior : 1.0 / ior;
+    b.clearcoat = scene_has(FEATURE_CLEARCOAT) ? m.clearcoat.x : 0.0;
+    b.coat_roughness = m.clearcoat.y;
+    b.coat_alpha = m.clearcoat.y * m.clearcoat.y;
+    b.coat_n = vec3(0.0, 0.0, 1.0);
+    b.coat_t = vec3(1.0, 0.0, 0.0);
+    b.coat_b = vec3(0.0, 1.0, 0.0);
+    b.sheen_color = scene_has(FEATURE_SHEEN) ? m.sheen.rgb : vec3(0.0);
+    b.sheen_roughness = m.sheen.w;
     return b;
+}
+
+// The clear coat's normal map, as a normal in the shading frame (z = the base's shading normal).
+void bsdf_set_coat_normal(inout Bsdf b, vec3 n) {
+    b.coat_n = n;
+    basis(n, b.coat_t, b.coat_b);
 }
 
 bool bsdf_is_delta(Bsdf b) {
@@ -79,7 +105,7 @@ vec3 metal_fresnel(Bsdf b, float c) {
     return b.base_color + (vec3(1.0) - b.base_color) * schlick_weight(c);
 }
 
-// Bilinear lookup in one of the energy tables (table 0: E1, 1: E2) at (cos theta, roughness).
+// Bilinear lookup in one of the energy tables (table 0: E1, 1: E2, 2: Esheen) at (cos theta, roughness).
 float energy_lookup(uint table, float mu, float roughness) {
     float x = clamp(mu, 0.0, 1.0) * float(ENERGY_RES - 1u);
     float y = clamp(roughness, 0.0, 1.0) * float(ENERGY_RES - 1u);
@@ -97,7 +123,7 @@ float energy_lookup(uint table, float mu, float roughness) {
 float energy_average(uint table, float roughness) {
     float y = clamp(roughness, 0.0, 1.0) * float(ENERGY_RES - 1u);
     uint y0 = min(uint(y), ENERGY_RES - 2u);
-    uint base = 2u * ENERGY_RES * ENERGY_RES + table * ENERGY_RES + y0;
+    uint base = ENERGY_GRIDS * ENERGY_RES * ENERGY_RES + table * ENERGY_RES + y0;
     return mix(energy[base], energy[base + 1u], y - float(y0));
 }
 
@@ -136,6 +162,104 @@ vec3 metal_multiple_scattering(Bsdf b, float cos_o, float cos_i) {
     return f_ms * lobe;
 }
 
+// ---- The layers over the base: sheen (Estevez and Kulla 2017, as KHR_materials_sheen gives it) under a clear coat.
+// Each layer scales what lies below by one minus its own directional albedo at wo (albedo scaling), so a layer over
+// a base that keeps all energy keeps all energy too: total = coat + (1 - Ecoat(wo)) (sheen + (1 - Esheen(wo)) base).
+// The scaling looks only at wo, so the layered BSDF is not reciprocal; the layers alone are.
+
+bool coat_is_delta(Bsdf b) {
+    return b.coat_alpha < DELTA_ALPHA;
+}
+
+vec3 to_coat(Bsdf b, vec3 w) {
+    return vec3(dot(w, b.coat_t), dot(w, b.coat_b), dot(w, b.coat_n));
+}
+
+vec3 from_coat(Bsdf b, vec3 w) {
+    return w.x * b.coat_t + w.y * b.coat_b + w.z * b.coat_n;
+}
+
+float coat_fresnel(float c) {
+    return CLEARCOAT_F0 + (1.0 - CLEARCOAT_F0) * schlick_weight(c);
+}
+
+// The coat's directional albedo at cos theta mu (in its own frame): weight times Schlick F0 E1 + (1 - F0) E2.
+float clearcoat_albedo(Bsdf b, float mu) {
+    if (b.clearcoat == 0.0 || mu <= 0.0) return 0.0;
+    if (coat_is_delta(b)) return b.clearcoat * coat_fresnel(mu);
+    return b.clearcoat * (CLEARCOAT_F0 * energy_lookup(0u, mu, b.coat_roughness) + (1.0 - CLEARCOAT_F0) * energy_lookup(1u, mu, b.coat_roughness));
+}
+
+// Charlie sheen with alpha = roughness^2, kept above 1e-3 so 1 / alpha stays finite.
+float sheen_alpha(float roughness) {
+    return max(roughness * roughness, 1e-3);
+}
+
+float charlie_d(float alpha, vec3 h) {
+    float inv = 1.0 / alpha;
+    float sin2 = h.x * h.x + h.y * h.y;
+    return (2.0 + inv) * pow(sin2, 0.5 * inv) / (2.0 * PI);
+}
+
+// The fitted exponent of the sheen's shadowing (Estevez and Kulla's l(x)), interpolated in (1 - alpha)^2.
+float sheen_l(float x, float alpha) {
+    float t = (1.0 - alpha) * (1.0 - alpha);
+    float a = mix(21.5473, 25.3245, t);
+    float b = mix(3.82987, 3.32435, t);
+    float c = mix(0.19823, 0.16801, t);
+    float d = mix(-1.97760, -1.27393, t);
+    float e = mix(-4.32054, -4.85967, t);
+    return a / (1.0 + b * pow(x, c)) + d * x + e;
+}
+
+float sheen_lambda(float mu, float alpha) {
+    return mu < 0.5 ? exp(sheen_l(mu, alpha)) : exp(2.0 * sheen_l(0.5, alpha) - sheen_l(1.0 - mu, alpha));
+}
+
+// The sheen lobe for a white colour, both directions above the surface.
+float sheen_lobe(float roughness, vec3 wo, vec3 wi) {
+    float alpha = sheen_alpha(roughness);
+    vec3 h = normalize(wo + wi);
+    float v = 1.0 / ((1.0 + sheen_lambda(wo.z, alpha) + sheen_lambda(wi.z, alpha)) * 4.0 * wo.z * wi.z);
+    return charlie_d(alpha, h) * v;
+}
+
+float sheen_albedo(Bsdf b, float mu) {
+    if (max3(b.sheen_color) == 0.0) return 0.0;
+    return max3(b.sheen_color) * energy_lookup(2u, mu, b.sheen_roughness);
+}
+
+// How much of the base (everything but the layers) is left at wo: the scale the layers put on it.
+float base_weight(Bsdf b, vec3 wo) {
+    float w = 1.0;
+    if (scene_has(FEATURE_CLEARCOAT)) w *= 1.0 - clearcoat_albedo(b, dot(wo, b.coat_n));
+    if (scene_has(FEATURE_SHEEN)) w *= 1.0 - sheen_albedo(b, wo.z);
+    return w;
+}
+
+// The coat lobe's f, for the integrator's cosine about the shading normal: the coat's own cosine replaces it, so the
+// lobe keeps exactly the albedo its table gives even under its own normal map.
+float clearcoat_eval(Bsdf b, vec3 wo, vec3 wi) {
+    if (b.clearcoat == 0.0 || coat_is_delta(b) || wi.z <= 0.0) return 0.0;
+    vec3 o = to_coat(b, wo);
+    vec3 i = to_coat(b, wi);
+    if (o.z <= 0.0 || i.z <= 0.0) return 0.0;
+    float a2 = b.coat_alpha * b.coat_alpha;
+    vec3 h = normalize(o + i);
+    float g = 1.0 / (1.0 + smith_lambda(a2, o) + smith_lambda(a2, i));
+    return b.clearcoat * coat_fresnel(dot(o, h)) * ggx_d(a2, h) * g / (4.0 * o.z * wi.z);
+}
+
+float clearcoat_pdf(Bsdf b, vec3 wo, vec3 wi) {
+    if (coat_is_delta(b)) return 0.0;
+    vec3 o = to_coat(b, wo);
+    vec3 i = to_coat(b, wi);
+    if (o.z <= 0.0 || i.z <= 0.0) return 0.0;
+    float a2 = b.coat_alpha * b.coat_alpha;
+    vec3 h = normalize(o + i);
+    return ggx_d(a2, h) / (4.0 * (1.0 + smith_lambda(a2, o)) * o.z);
+}
+
 // Exact Fresnel reflectance of a dielectric interface; eta = n_t / n_i, cos_i > 0. 1 under total internal reflection.
 float fresnel_dielectric(float cos_i, float eta) {
     float sin2_t = max(0.0, 1.0 - cos_i * cos_i) / (eta * eta);
@@ -157,9 +281,10 @@ bool refract_dir(vec3 wo, vec3 n, float eta, out vec3 wt) {
     return true;
 }
 
-// Lobe selection: the probability of the glass lobe (rough dielectric interface) and of the specular reflections
-// (coat and metal); the rest goes to the cosine lobe that samples everything diffuse-like.
-vec2 lobe_probabilities(Bsdf b, vec3 wo) {
+// Lobe selection: the probability of the glass lobe (rough dielectric interface), of the specular reflections
+// (coat and metal) and of the clear coat; the rest goes to the cosine lobe that samples everything diffuse-like,
+// sheen included.
+vec3 lobe_probabilities(Bsdf b, vec3 wo) {
     vec3 fd = dielectric_fresnel(b, wo.z);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
@@ -168,9 +293,19 @@ vec2 lobe_probabilities(Bsdf b, vec3 wo) {
         diff += b.metallic * (1.0 - energy_lookup(0u, wo.z, b.roughness)) * luminance(b.base_color);
     }
     float glass = (1.0 - b.metallic) * b.transmission;
-    float total = spec + diff + glass;
-    if (total <= 0.0) return vec2(0.0, 1.0);
-    return vec2(glass, spec) / total;
+    float coat = 0.0;
+    if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
+        float w = base_weight(b, wo);
+        spec *= w;
+        diff *= w;
+        glass *= w;
+        float cc = scene_has(FEATURE_CLEARCOAT) ? clearcoat_albedo(b, dot(wo, b.coat_n)) : 0.0;
+        if (scene_has(FEATURE_SHEEN)) diff += (1.0 - cc) * luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
+        coat = cc;
+    }
+    float total = spec + diff + glass + coat;
+    if (total <= 0.0) return vec3(0.0, 1.0, 0.0);
+    return vec3(glass, spec, coat) / total;
 }
 
 // The visible-normal density of the microfacet normal m seen from wo: G1(wo) D(m) max(0, wo.m) / wo.z.
@@ -223,9 +358,8 @@ void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
     pdf = vndf_pdf(a2, wo, m) * abs(wi_m) / (denom * denom) * (1.0 - F);
 }
 
-// f(wo, wi) without the cosine; zero for delta lobes.
-vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z == 0.0) return vec3(0.0);
+// The base's f(wo, wi), below the layers.
+vec3 base_eval(Bsdf b, vec3 wo, vec3 wi) {
     float glass_w = (1.0 - b.metallic) * b.transmission;
     vec3 glass_f = vec3(0.0);
     float glass_pdf;
@@ -245,10 +379,26 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
     return diffuse + spec * (opaque * b.specular * fd + b.metallic * metal_fresnel(b, c)) + glass_w * glass_f;
 }
 
+// f(wo, wi) without the cosine; zero for delta lobes.
+vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z == 0.0) return vec3(0.0);
+    vec3 f = base_eval(b, wo, wi);
+    if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
+        float cc = scene_has(FEATURE_CLEARCOAT) ? clearcoat_albedo(b, dot(wo, b.coat_n)) : 0.0;
+        vec3 under = f * base_weight(b, wo);
+        if (scene_has(FEATURE_SHEEN) && wi.z > 0.0 && max3(b.sheen_color) > 0.0) {
+            under += (1.0 - cc) * b.sheen_color * sheen_lobe(b.sheen_roughness, wo, wi);
+        }
+        f = under;
+        if (scene_has(FEATURE_CLEARCOAT)) f += vec3(clearcoat_eval(b, wo, wi));
+    }
+    return f;
+}
+
 // Solid-angle density with which bsdf_sample returns wi (delta lobes have none).
 float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
-    vec2 p = lobe_probabilities(b, wo);
+    vec3 p = lobe_probabilities(b, wo);
     float pdf = 0.0;
     if (p.x > 0.0) {
         vec3 f;
@@ -257,7 +407,8 @@ float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
         pdf += p.x * glass_pdf;
     }
     if (wi.z < 0.0) return pdf;
-    pdf += (1.0 - p.x - p.y) * wi.z / PI;
+    pdf += (1.0 - p.x - p.y - p.z) * wi.z / PI;
+    if (scene_has(FEATURE_CLEARCOAT) && p.z > 0.0) pdf += p.z * clearcoat_pdf(b, wo, wi);
     if (scene_has(FEATURE_COAT | FEATURE_METAL) && !bsdf_is_delta(b)) {
         // Visible-normal sampling then reflection: D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
         float a2 = b.alpha * b.alpha;
@@ -298,7 +449,9 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     s.pdf = 0.0;
     s.delta = false;
     if (wo.z <= 0.0) return false;
-    vec2 p = lobe_probabilities(b, wo);
+    vec3 p = lobe_probabilities(b, wo);
+    // What the layers leave of the base, for the base's delta lobes (whose weights are not evaluated).
+    float under = base_weight(b, wo);
     if (scene_has(FEATURE_TRANSMISSION) && u.z < p.x) {
         // The glass lobe. u_rt reuses u.z, rescaled to [0, 1), to choose reflection or transmission.
         float u_rt = u.z / p.x;
@@ -306,7 +459,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
         if (glass_passes_through(b)) {
             s.wi = -wo;
             s.delta = true;
-            s.weight = b.base_color * (glass_w / p.x);
+            s.weight = b.base_color * (glass_w * under / p.x);
             return true;
         }
         if (bsdf_is_delta(b)) {
@@ -314,13 +467,13 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             s.delta = true;
             if (u_rt < F) {
                 s.wi = vec3(-wo.x, -wo.y, wo.z);
-                s.weight = vec3(glass_w / p.x);
+                s.weight = vec3(glass_w * under / p.x);
             } else if (b.thin) {
                 s.wi = -wo;
-                s.weight = b.base_color * (glass_w / p.x);
+                s.weight = b.base_color * (glass_w * under / p.x);
             } else {
                 if (!refract_dir(wo, vec3(0.0, 0.0, 1.0), b.eta, s.wi)) return false;
-                s.weight = b.base_color * (glass_w / (p.x * b.eta * b.eta));
+                s.weight = b.base_color * (glass_w * under / (p.x * b.eta * b.eta));
             }
             return true;
         }
@@ -341,12 +494,24 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             s.delta = true;
             float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
             vec3 f = opaque * b.specular * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
-            s.weight = f / p.y;
+            s.weight = f * under / p.y;
             return true;
         }
         vec3 h = sample_ggx_vndf(wo, b.alpha, u.xy);
         s.wi = reflect(-wo, h);
         if (s.wi.z <= 0.0) return false;
+    } else if (scene_has(FEATURE_CLEARCOAT) && u.z < p.x + p.y + p.z) {
+        // The clear coat, sampled in its own frame; a direction its normal map sends below the surface is lost.
+        vec3 o = to_coat(b, wo);
+        if (coat_is_delta(b)) {
+            s.wi = from_coat(b, vec3(-o.x, -o.y, o.z));
+            if (s.wi.z <= 0.0) return false;
+            s.delta = true;
+            s.weight = vec3(b.clearcoat * coat_fresnel(o.z) / p.z);
+            return true;
+        }
+        s.wi = from_coat(b, reflect(-o, sample_ggx_vndf(o, b.coat_alpha, u.xy)));
+        if (s.wi.z <= 0.0 || dot(s.wi, b.coat_n) <= 0.0) return false;
     } else {
         s.wi = sample_cosine_hemisphere(vec3(0.0, 0.0, 1.0), u.xy);
     }

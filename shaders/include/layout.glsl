@@ -67,7 +67,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 240 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 432 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
@@ -75,7 +75,9 @@ struct Material {
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
     vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), zw unused
     vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused
-    vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w unused
+    vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w: MATERIAL_* bits
+    vec4 clearcoat;      // KHR_materials_clearcoat: x factor, y roughness (perceptual), z its normal map's scale, w unused
+    vec4 sheen;          // KHR_materials_sheen: rgb colour, w roughness (perceptual)
     TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
 };
 
@@ -307,8 +309,10 @@ Material load_material(uint i) {
     m.transmission = FETCH(material_texels, b + 4u);
     m.attenuation = FETCH(material_texels, b + 5u);
     m.alpha = FETCH(material_texels, b + 6u);
+    m.clearcoat = FETCH(material_texels, b + 7u);
+    m.sheen = FETCH(material_texels, b + 8u);
     for (uint k = 0u; k < TEX_SLOTS; ++k) {
-        m.textures[k] = TextureSlot(FETCH(material_texels, b + 7u + 2u * k), FETCH(material_texels, b + 8u + 2u * k));
+        m.textures[k] = TextureSlot(FETCH(material_texels, b + 9u + 2u * k), FETCH(material_texels, b + 10u + 2u * k));
     }
     return m;
 }

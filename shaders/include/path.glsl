@@ -100,8 +100,8 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     if (mirrored) ng = -ng;
     bool front = dot(ng, ray_d) < 0.0;
     vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
-    vec3 ns = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
-    ns = normal_mapped(m, tri, uv, ns, inst);
+    vec3 n_mesh = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
+    vec3 ns = normal_mapped(m.textures[TEX_NORMAL], m.alpha.z, tri, uv, n_mesh, inst);
     if (dot(ns, n_in) < 0.0) ns = -ns;
     // To look at any quantity while editing (README), e.g. the shading normals: `v.radiance = ns * 0.5 + 0.5;
     // return false;` here.
@@ -121,6 +121,12 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         }
         v.radiance += beta * m.emission.rgb * w;
     }
+    // An unlit surface shows its colour to whatever ray reaches it and ends the path. No light sampling aims at it, so
+    // the colour counts in full after every kind of bounce.
+    if (scene_has(FEATURE_UNLIT) && (floatBitsToUint(m.alpha.w) & MATERIAL_UNLIT) != 0u) {
+        if (alive) v.radiance += beta * m.base_color.rgb;
+        alive = false;
+    }
     alive = alive && bounce < frame.max_depth;
 
     // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
@@ -135,6 +141,14 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     vec3 tx, ty;
     basis(ns, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
+    if (scene_has(FEATURE_CLEARCOAT) && bsdf.clearcoat > 0.0) {
+        // The coat has its own normal map, or none: then it follows the mesh, not the base's map.
+        vec3 nc = normal_mapped(m.textures[TEX_CLEARCOAT_NORMAL], m.clearcoat.z, tri, uv, n_mesh, inst);
+        if (dot(nc, n_in) < 0.0) nc = -nc;
+        vec3 nl = vec3(dot(nc, tx), dot(nc, ty), dot(nc, ns));
+        // A coat normal below the shading hemisphere (an extreme map) falls back to the shading normal.
+        bsdf_set_coat_normal(bsdf, nl.z > 1e-4 ? normalize(nl) : vec3(0.0, 0.0, 1.0));
+    }
 
     // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
     if (frame.light_count > 0u) {

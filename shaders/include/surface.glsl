@@ -64,16 +64,27 @@ Material material_at(Material m, uint tri, vec2 b) {
         m.params.y *= mr.g;
     }
     if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true).rgb;
+    if (scene_has(FEATURE_CLEARCOAT)) {
+        if (slot_used(m.textures[TEX_CLEARCOAT])) m.clearcoat.x *= sample_slot(m.textures[TEX_CLEARCOAT], tri, b, false).r;
+        if (slot_used(m.textures[TEX_CLEARCOAT_ROUGHNESS])) {
+            m.clearcoat.y *= sample_slot(m.textures[TEX_CLEARCOAT_ROUGHNESS], tri, b, false).g;
+        }
+    }
+    if (scene_has(FEATURE_SHEEN)) {
+        if (slot_used(m.textures[TEX_SHEEN_COLOR])) m.sheen.rgb *= sample_slot(m.textures[TEX_SHEEN_COLOR], tri, b, true).rgb;
+        if (slot_used(m.textures[TEX_SHEEN_ROUGHNESS])) m.sheen.w *= sample_slot(m.textures[TEX_SHEEN_ROUGHNESS], tri, b, false).a;
+    }
 #endif
     return m;
 }
 
-// The shading normal with the normal map applied; ns is the interpolated vertex normal (unit length, in the world).
-// An instanced triangle's tangents are its mesh's: the instance takes them into the world, and a mirroring one flips
-// the bitangent relative to cross(normal, tangent), as placing a mirrored mesh does.
-vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns, uint inst) {
+// The shading normal with the normal map in `slot` applied (x and y scaled by `scale`); ns is the interpolated vertex
+// normal (unit length, in the world). An instanced triangle's tangents are its mesh's: the instance takes them into
+// the world, and a mirroring one flips the bitangent relative to cross(normal, tangent), as placing a mirrored mesh
+// does.
+vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uint inst) {
 #ifdef TEXTURED
-    if (!slot_used(m.textures[TEX_NORMAL])) return ns;
+    if (!slot_used(slot)) return ns;
     TriTangents tt = load_tri_tangents(tri);
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
@@ -85,8 +96,8 @@ vec3 normal_mapped(Material m, uint tri, vec2 b, vec3 ns, uint inst) {
     if (!(dot(t, t) > 1e-12)) return ns;
     t = normalize(t);
     vec3 bt = cross(ns, t) * (t4.w < 0.0 ? -1.0 : 1.0);
-    vec3 c = sample_slot(m.textures[TEX_NORMAL], tri, b, false).xyz * 2.0 - 1.0;
-    c.xy *= m.alpha.z;
+    vec3 c = sample_slot(slot, tri, b, false).xyz * 2.0 - 1.0;
+    c.xy *= scale;
     vec3 n = c.x * t + c.y * bt + c.z * ns;
     return dot(n, n) > 1e-12 ? normalize(n) : ns;
 #else

@@ -1,4 +1,4 @@
-//! The microfacet energy tables energy compensation and coat layering read: the grid from the device (the BSDF's
+//! The microfacet and sheen energy tables energy compensation and layering read: the grid from the device (the BSDF's
 //! own sampling), the hemispherical averages from the host.
 use super::kernels::{Kernel, Stage};
 use super::Renderer;
@@ -34,21 +34,22 @@ impl Renderer {
         let mut table: Vec<f32> = energy.download(&self.ctx)?;
         table.truncate(floats);
         let h = 1.0 / (n - 1) as f64;
-        for t in 0..2 {
+        let grids = ENERGY_GRIDS as usize;
+        for t in 0..grids {
             for j in 0..n {
                 // 2 * int_0^1 E(mu) mu dmu by the trapezoid rule on the grid the table was made on.
                 let row = &table[t * n * n + j * n..t * n * n + (j + 1) * n];
                 let integral: f64 = (0..n - 1)
                     .map(|i| 0.5 * h * (row[i] as f64 * i as f64 * h + row[i + 1] as f64 * (i + 1) as f64 * h))
                     .sum();
-                table[2 * n * n + t * n + j] = (2.0 * integral) as f32;
+                table[grids * n * n + t * n + j] = (2.0 * integral) as f32;
             }
         }
         energy.upload(&self.ctx, bytemuck::cast_slice(&table))?;
         Ok(energy)
     }
 
-    /// The energy tables as the device uses them: E1 and E2 grids, then their averages (see ENERGY_* constants).
+    /// The energy tables as the device uses them: E1, E2 and Esheen grids, then their averages (ENERGY_*).
     pub fn energy_tables(&self) -> Result<Vec<f32>, Error> {
         let energy = self.energy.as_ref().expect("built in Renderer::new");
         let mut t: Vec<f32> = energy.download(&self.ctx)?;

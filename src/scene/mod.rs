@@ -58,6 +58,53 @@ pub struct Material {
     pub normal_scale: f32,
     /// sRGB colour multiplying the emission.
     pub emissive_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat (factor 0: none).
+    pub clearcoat: Clearcoat,
+    /// KHR_materials_sheen (black: none).
+    pub sheen: Sheen,
+    /// KHR_materials_unlit: the surface shows its base colour (times texture and vertex colour) to every ray that
+    /// reaches it, camera or bounce, and reflects nothing. It is not a light: next-event estimation never aims at it.
+    pub unlit: bool,
+}
+
+/// A clear dielectric coat (IOR 1.5) over the whole material, with its own roughness and normal map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clearcoat {
+    pub factor: f32,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// R multiplies the factor.
+    pub texture: Option<TextureRef>,
+    /// G multiplies the roughness.
+    pub roughness_texture: Option<TextureRef>,
+    /// The coat's tangent-space normals (without one, the coat follows the mesh's normal, not the base's map).
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+}
+
+impl Default for Clearcoat {
+    fn default() -> Self {
+        Clearcoat {
+            factor: 0.0,
+            roughness: 0.0,
+            texture: None,
+            roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+        }
+    }
+}
+
+/// A sheen (cloth, dust) over the base: the Charlie microfiber lobe.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sheen {
+    pub color: Vec3,
+    /// Perceptual roughness.
+    pub roughness: f32,
+    /// sRGB RGB multiplies the colour.
+    pub color_texture: Option<TextureRef>,
+    /// A multiplies the roughness.
+    pub roughness_texture: Option<TextureRef>,
 }
 
 /// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
@@ -79,13 +126,23 @@ impl Material {
         }
     }
 
-    pub fn texture_refs(&self) -> [Option<TextureRef>; 4] {
+    pub fn texture_refs(&self) -> [Option<TextureRef>; crate::constants::TEX_SLOTS as usize] {
         [
             self.base_color_texture,
             self.metallic_roughness_texture,
             self.normal_texture,
             self.emissive_texture,
+            self.clearcoat.texture,
+            self.clearcoat.roughness_texture,
+            self.clearcoat.normal_texture,
+            self.sheen.color_texture,
+            self.sheen.roughness_texture,
         ]
+    }
+
+    /// The normal map whose texture coordinates the tangents follow: the base's, else the clear coat's.
+    pub fn tangent_texture(&self) -> Option<TextureRef> {
+        self.normal_texture.or(self.clearcoat.normal_texture)
     }
 }
 
@@ -112,6 +169,9 @@ impl Default for Material {
             normal_texture: None,
             normal_scale: 1.0,
             emissive_texture: None,
+            clearcoat: Clearcoat::default(),
+            sheen: Sheen::default(),
+            unlit: false,
         }
     }
 }
@@ -254,6 +314,8 @@ pub struct Scene {
     pub camera_count: usize,
     /// Everything the file asked for that pathwave ignored, one sentence each.
     pub warnings: Vec<String>,
+    /// The file's extensionsUsed, in its order.
+    pub extensions_used: Vec<String>,
     /// Light from infinitely far away; glTF has none, so it comes from the caller (`--env`, `--env-color`).
     pub environment: Option<Environment>,
     /// KHR_lights_punctual lights, in world space.

@@ -616,3 +616,56 @@ pub fn animated() -> GltfBuilder {
     );
     b
 }
+
+/// The layer extensions on a grid of spheres under one area light: front row KHR_materials_clearcoat (a red base
+/// under a smooth, a 0.3 and a fully rough coat, then a rough copper under a smooth coat: car paint), back row
+/// KHR_materials_sheen (a dark blue base under a white sheen of roughness 0.3 and 0.8, a purple velvet, then an
+/// unlit sphere of KHR_materials_unlit).
+pub fn layers() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
+    let light = b.material("light", [0.0; 3], [6.0; 3], false);
+    b.quad(
+        "floor",
+        [[-6.0, 0.0, -4.0], [6.0, 0.0, -4.0], [6.0, 0.0, 4.0], [-6.0, 0.0, 4.0]],
+        floor,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "light",
+        [[-3.0, 5.0, -1.5], [3.0, 5.0, -1.5], [3.0, 5.0, 1.5], [-3.0, 5.0, 1.5]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.use_extension("KHR_materials_clearcoat");
+    b.use_extension("KHR_materials_sheen");
+    b.use_extension("KHR_materials_unlit");
+    let coats = [
+        ("red under a smooth coat", [0.8, 0.1, 0.1], 0.0, 0.6, 0.0),
+        ("red under a coat of roughness 0.3", [0.8, 0.1, 0.1], 0.0, 0.6, 0.3),
+        ("red under a rough coat", [0.8, 0.1, 0.1], 0.0, 0.6, 1.0),
+        ("car paint", [0.95, 0.64, 0.54], 1.0, 0.5, 0.0),
+    ];
+    for (col, (name, color, metallic, roughness, coat)) in coats.into_iter().enumerate() {
+        let m = b.pbr_material(name, color, metallic, roughness, [0.0; 3], false);
+        b.material_json(m)["extensions"]["KHR_materials_clearcoat"] =
+            serde_json::json!({ "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": coat });
+        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+    }
+    let sheens = [
+        ("white sheen 0.3 over blue", [0.05, 0.1, 0.4], [1.0, 1.0, 1.0], 0.3),
+        ("white sheen 0.8 over blue", [0.05, 0.1, 0.4], [1.0, 1.0, 1.0], 0.8),
+        ("purple velvet", [0.1, 0.02, 0.1], [0.8, 0.3, 0.9], 0.5),
+    ];
+    for (col, (name, base, sheen, roughness)) in sheens.into_iter().enumerate() {
+        let m = b.material(name, base, [0.0; 3], false);
+        b.material_json(m)["extensions"]["KHR_materials_sheen"] =
+            serde_json::json!({ "sheenColorFactor": sheen, "sheenRoughnessFactor": roughness });
+        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+    }
+    let unlit = b.pbr_material("unlit", [0.9, 0.7, 0.2], 0.0, 1.0, [0.0; 3], false);
+    b.material_json(unlit)["extensions"]["KHR_materials_unlit"] = serde_json::json!({});
+    b.sphere("unlit", [1.8, 0.5, -0.7], 0.5, unlit);
+    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}

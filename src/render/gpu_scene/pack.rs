@@ -68,6 +68,15 @@ impl PackedScene {
         if any(|m| m.transmission[0] != 0.0) {
             bits |= FEATURE_TRANSMISSION;
         }
+        if any(|m| m.clearcoat[0] != 0.0) {
+            bits |= FEATURE_CLEARCOAT;
+        }
+        if any(|m| m.sheen[..3].iter().any(|&c| c != 0.0)) {
+            bits |= FEATURE_SHEEN;
+        }
+        if any(|m| m.alpha[3].to_bits() & MATERIAL_UNLIT != 0) {
+            bits |= FEATURE_UNLIT;
+        }
         if !self.punctual.is_empty() {
             bits |= FEATURE_PUNCTUAL;
         }
@@ -154,7 +163,14 @@ fn gpu_material(m: &Material) -> GpuMaterial {
         specular_color: v4(m.specular_color, 0.0),
         transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
         attenuation: v4(m.attenuation, 0.0),
-        alpha: [f32::from_bits(mode), cutoff, m.normal_scale, 0.0],
+        alpha: [
+            f32::from_bits(mode),
+            cutoff,
+            m.normal_scale,
+            f32::from_bits(if m.unlit { MATERIAL_UNLIT } else { 0 }),
+        ],
+        clearcoat: [m.clearcoat.factor, m.clearcoat.roughness, m.clearcoat.normal_scale, 0.0],
+        sheen: v4(m.sheen.color, m.sheen.roughness),
         textures: m.texture_refs().map(slot),
     }
 }
@@ -467,7 +483,7 @@ fn pack_triangles(
         .materials
         .iter()
         .any(|m| m.texture_refs().iter().any(Option::is_some));
-    let normal_mapped = scene.materials.iter().any(|m| m.normal_texture.is_some());
+    let normal_mapped = scene.materials.iter().any(|m| m.tangent_texture().is_some());
     let mut t = PackedTriangles {
         tri_verts: try_vec(n)?,
         tri_shading: try_vec(n)?,

@@ -2,8 +2,9 @@
 use super::{scene_err, uri, Loader};
 use crate::error::Error;
 use crate::scene::texture::{self, Texture, TextureRef};
-use crate::scene::{AlphaMode, Material};
+use crate::scene::{AlphaMode, Clearcoat, Material, Sheen};
 use glam::Vec3;
+use gltf::json::Value;
 
 /// A material's texture slots, resolved to scene textures.
 struct Slots {
@@ -64,6 +65,16 @@ impl Loader<'_> {
         let alpha_mode = self.alpha_mode(&name, m, alpha, slots.base_color)?;
         let d = self.dielectric(&name, m)?;
         let t = self.transmission(&name, m)?;
+        let clearcoat = self.clearcoat(&name, m)?;
+        let sheen = self.sheen(&name, m)?;
+        let unlit = m.extension_value("KHR_materials_unlit").is_some();
+        let mut pbr_metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        let mut specular = d.specular.clamp(0.0, 1.0);
+        if unlit {
+            // Nothing reflects: keep the lobes' feature bits clear so the scene's stages fold them away.
+            pbr_metallic = 0.0;
+            specular = 0.0;
+        }
         self.scene.materials.push(Material {
             transmission: t.transmission.clamp(0.0, 1.0),
             thin_walled: t.thin_walled,
@@ -72,10 +83,10 @@ impl Loader<'_> {
             base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
             emission: emission.max(Vec3::ZERO),
             double_sided: m.double_sided(),
-            metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+            metallic: pbr_metallic,
             roughness: pbr.roughness_factor().clamp(0.0, 1.0),
             ior: d.ior,
-            specular: d.specular.clamp(0.0, 1.0),
+            specular,
             specular_color: d.specular_color.max(Vec3::ZERO),
             alpha,
             alpha_mode,
@@ -88,8 +99,127 @@ impl Loader<'_> {
                 1.0
             },
             emissive_texture: slots.emissive,
+            clearcoat: if unlit { Clearcoat::default() } else { clearcoat },
+            sheen: if unlit { Sheen::default() } else { sheen },
+            unlit,
         });
         Ok(())
+    }
+
+    /// KHR_materials_clearcoat, read from its JSON (the gltf crate does not model it).
+    fn clearcoat(&mut self, name: &str, m: &gltf::Material) -> Result<Clearcoat, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_clearcoat") else {
+            return Ok(Clearcoat::default());
+        };
+        let what = "KHR_materials_clearcoat";
+        let factor = self.json_factor(name, what, ext, "clearcoatFactor", 0.0)?;
+        let roughness = self.json_factor(name, what, ext, "clearcoatRoughnessFactor", 0.0)?;
+        let texture = self.json_texture(name, what, ext, "clearcoatTexture")?;
+        let roughness_texture = self.json_texture(name, what, ext, "clearcoatRoughnessTexture")?;
+        let normal_texture = self.json_texture(name, what, ext, "clearcoatNormalTexture")?;
+        let normal_scale = match ext.get("clearcoatNormalTexture").and_then(|t| t.get("scale")) {
+            None => 1.0,
+            Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+                scene_err(
+                    self.path,
+                    format!("material '{name}': {what}.clearcoatNormalTexture.scale is not a finite number"),
+                )
+            })? as f32,
+        };
+        Ok(Clearcoat {
+            factor,
+            roughness,
+            texture,
+            roughness_texture,
+            normal_texture,
+            normal_scale,
+        })
+    }
+
+    /// KHR_materials_sheen, read from its JSON.
+    fn sheen(&mut self, name: &str, m: &gltf::Material) -> Result<Sheen, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_sheen") else {
+            return Ok(Sheen::default());
+        };
+        let what = "KHR_materials_sheen";
+        let color = match ext.get("sheenColorFactor") {
+            None => Vec3::ZERO,
+            Some(v) => {
+                let c = v
+                    .as_array()
+                    .filter(|a| a.len() == 3)
+                    .and_then(|a| {
+                        a.iter()
+                            .map(|x| x.as_f64().map(|x| x as f32))
+                            .collect::<Option<Vec<f32>>>()
+                    })
+                    .map(|c| Vec3::new(c[0], c[1], c[2]))
+                    .filter(|c| c.is_finite());
+                c.ok_or_else(|| {
+                    scene_err(
+                        self.path,
+                        format!("material '{name}': {what}.sheenColorFactor is not three finite numbers"),
+                    )
+                })?
+            }
+        };
+        Ok(Sheen {
+            color: color.clamp(Vec3::ZERO, Vec3::ONE),
+            roughness: self.json_factor(name, what, ext, "sheenRoughnessFactor", 0.0)?,
+            color_texture: self.json_texture(name, what, ext, "sheenColorTexture")?,
+            roughness_texture: self.json_texture(name, what, ext, "sheenRoughnessTexture")?,
+        })
+    }
+
+    /// A factor in [0, 1] of an extension's JSON (clamped there), `default` when absent.
+    fn json_factor(&self, name: &str, ext_name: &str, ext: &Value, key: &str, default: f32) -> Result<f32, Error> {
+        match ext.get(key) {
+            None => Ok(default),
+            Some(v) => match v.as_f64() {
+                Some(x) if x.is_finite() => Ok((x as f32).clamp(0.0, 1.0)),
+                _ => Err(scene_err(
+                    self.path,
+                    format!("material '{name}': {ext_name}.{key} is not a finite number"),
+                )),
+            },
+        }
+    }
+
+    /// A textureInfo of an extension's JSON: the texture index (checked), texCoord and KHR_texture_transform.
+    fn json_texture(
+        &mut self,
+        name: &str,
+        ext_name: &str,
+        ext: &Value,
+        key: &str,
+    ) -> Result<Option<TextureRef>, Error> {
+        let Some(info) = ext.get(key) else {
+            return Ok(None);
+        };
+        let slot = format!("{ext_name}.{key}");
+        let bad = |why: &str| scene_err(self.path, format!("material '{name}': {slot} {why}"));
+        let index = info
+            .get("index")
+            .and_then(Value::as_u64)
+            .ok_or_else(|| bad("has no texture index"))?;
+        let texture = usize::try_from(index)
+            .ok()
+            .and_then(|i| self.document.textures().nth(i))
+            .ok_or_else(|| bad(&format!("names texture {index}, which does not exist")))?;
+        let tex_coord = match info.get("texCoord") {
+            None => 0,
+            Some(t) => t
+                .as_u64()
+                .and_then(|t| u32::try_from(t).ok())
+                .ok_or_else(|| bad("has a texCoord that is not a small unsigned integer"))?,
+        };
+        let transform = match info.get("extensions").and_then(|e| e.get("KHR_texture_transform")) {
+            Some(v) => {
+                Some(texture::transform_from_json(v).ok_or_else(|| bad("has a malformed KHR_texture_transform"))?)
+            }
+            None => None,
+        };
+        self.texture_ref(name, &slot, &texture, tex_coord, transform)
     }
 
     fn slots(&mut self, name: &str, m: &gltf::Material) -> Result<Slots, Error> {

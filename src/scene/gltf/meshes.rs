@@ -259,7 +259,7 @@ impl Loader<'_> {
                 }
             }
         }
-        if mat.normal_texture.is_some() {
+        if mat.tangent_texture().is_some() {
             if let Some(acc) = prim.get(&gltf::Semantic::Tangents) {
                 present.tangents =
                     self.check_accessor(&acc, "TANGENT", &[DataType::F32], Dimensions::Vec4, false)? == Contents::Data;

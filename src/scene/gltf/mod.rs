@@ -21,10 +21,13 @@ use validate::{parse, pre_validate, validate};
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_unlit",
     "KHR_materials_volume",
     "KHR_texture_transform",
 ];
@@ -154,6 +157,7 @@ impl Loader<'_> {
 
     fn run(&mut self, doc: &gltf::Document, camera: Option<usize>) -> Result<(), Error> {
         for ext in doc.extensions_used() {
+            self.scene.extensions_used.push(ext.to_string());
             if !SUPPORTED_EXTENSIONS.contains(&ext) {
                 self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }

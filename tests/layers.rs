@@ -1,0 +1,305 @@
+//! KHR_materials_clearcoat, _sheen and _unlit through the loader and the renderer: each new texture slot lands on the
+//! pixels its texels cover, the clear coat's own normal map steers its highlight, unlit surfaces show and shed their
+//! colour for every estimator, and malformed extension JSON is refused with the material named.
+mod common;
+
+use common::gltf_builder::GltfBuilder;
+use pathwave::scene::Environment;
+use serde_json::{json, Value};
+
+const N: usize = 8;
+const NEAREST: u32 = 9728;
+
+/// The camera of tests/textures.rs: the square [-1, 1]^2 at z = 0 fills its N x N view.
+fn view(b: &mut GltfBuilder) {
+    let yfov = 2.0 * 0.5f32.atan();
+    b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
+}
+
+fn screen_quad(b: &mut GltfBuilder, material: usize) {
+    b.textured_quad(
+        "quad",
+        [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+        material,
+    );
+}
+
+/// A black base (no specular layer either) whose material gets `ext_name` = `ext`, with `slot` in it naming a 2x1
+/// nearest texture of `left` and `right` texels: the left half of the view sees the first, the right the second.
+fn halves(ext_name: &'static str, mut ext: Value, slot: &str, left: [u8; 4], right: [u8; 4]) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let m = b.material("quad", [0.0; 3], [0.0; 3], false);
+    let image = b.png_image(2, 1, &[left, right]);
+    let t = b.texture(image, json!({ "magFilter": NEAREST, "minFilter": NEAREST }));
+    ext[slot] = json!({ "index": t });
+    b.material_json(m)["extensions"][ext_name] = ext;
+    b.use_extension(ext_name);
+    screen_quad(&mut b, m);
+    view(&mut b);
+    b
+}
+
+fn render(
+    b: &GltfBuilder,
+    env: Option<[f32; 3]>,
+    spp: u32,
+    estimator: pathwave::Estimator,
+    depth: u32,
+) -> pathwave::Film {
+    let (_dir, path) = common::write_temp(b, "layers.gltf");
+    let mut scene = pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    scene.environment = env.map(Environment::constant);
+    let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
+    let mut s = common::settings(N as u32, N as u32, spp, 5);
+    s.max_depth = Some(depth);
+    s.estimator = estimator;
+    common::render(&mut r, &s)
+}
+
+/// Mean of channel 0 and the largest per-pixel variance over the left and the right half of the view.
+fn halves_of(film: &pathwave::Film) -> [(f64, f64); 2] {
+    let (mean, var) = (film.mean(), film.sample_variance());
+    let mut out = [(0.0, 0.0f64); 2];
+    for j in 0..N {
+        for i in 0..N {
+            let h = usize::from(i >= N / 2);
+            out[h].0 += mean[j * N + i][0] as f64 / (N * N / 2) as f64;
+            out[h].1 = out[h].1.max(var[j * N + i][0] as f64);
+        }
+    }
+    out
+}
+
+// In a white environment, one bounce: what the quad returns is its layer's albedo. Would catch a slot read from the
+// wrong texture, channel or colour space, or a layer's texture ignored.
+#[test]
+fn clearcoat_and_sheen_textures_land_on_their_halves() {
+    let white = Some([1.0; 3]);
+    let bsdf = pathwave::Estimator::Bsdf;
+
+    // clearcoatTexture's R scales the factor: no coat over black is black; a full smooth coat returns its Fresnel.
+    let b = halves(
+        "KHR_materials_clearcoat",
+        json!({ "clearcoatFactor": 1.0 }),
+        "clearcoatTexture",
+        [0, 255, 255, 255],
+        [255, 0, 0, 255],
+    );
+    let [l, r] = halves_of(&render(&b, white, 16, bsdf, 1));
+    eprintln!("clearcoatTexture: left {l:?}, right {r:?}");
+    assert!(l.0 == 0.0, "no coat over black must be black, got {}", l.0);
+    assert!(
+        (0.035..0.07).contains(&r.0),
+        "a smooth coat in white light returns its Fresnel (~0.04), got {}",
+        r.0
+    );
+
+    // clearcoatRoughnessTexture's G scales the roughness: a smooth coat is a delta (no variance but the pixel
+    // footprint's), a rough one is sampled.
+    let b = halves(
+        "KHR_materials_clearcoat",
+        json!({ "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 1.0 }),
+        "clearcoatRoughnessTexture",
+        [255, 0, 255, 255],
+        [0, 255, 0, 255],
+    );
+    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
+    eprintln!("clearcoatRoughnessTexture: left {l:?}, right {r:?}");
+    assert!(
+        l.1 < 1e-6 && r.1 > 100.0 * l.1.max(1e-9),
+        "smooth left, rough right: variances {} and {}",
+        l.1,
+        r.1
+    );
+
+    // sheenColorTexture (sRGB) scales the colour: black sheen is none.
+    let b = halves(
+        "KHR_materials_sheen",
+        json!({ "sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 1.0 }),
+        "sheenColorTexture",
+        [0, 0, 0, 255],
+        [255, 255, 255, 255],
+    );
+    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
+    eprintln!("sheenColorTexture: left {l:?}, right {r:?}");
+    assert!(
+        l.0 == 0.0 && r.0 > 0.05,
+        "black sheen left, white right: {} and {}",
+        l.0,
+        r.0
+    );
+
+    // sheenRoughnessTexture's A scales the roughness: a smooth sheen reflects almost nothing seen head-on.
+    let b = halves(
+        "KHR_materials_sheen",
+        json!({ "sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 1.0 }),
+        "sheenRoughnessTexture",
+        [255, 255, 255, 0],
+        [0, 0, 0, 255],
+    );
+    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
+    eprintln!("sheenRoughnessTexture: left {l:?}, right {r:?}");
+    assert!(
+        r.0 > 0.05 && l.0 < 0.3 * r.0,
+        "smooth sheen left, rough right: {} and {}",
+        l.0,
+        r.0
+    );
+}
+
+// A rough coat over black under a directional light 45 degrees towards +x: the highlight seen head-on needs a coat
+// normal tilted 22.5 degrees towards the light. The coat's own normal map tilts it towards +x on one run and -x on the
+// other; the base has no map, so only the coat's can do this. Would catch clearcoatNormalTexture ignored, or the coat
+// evaluated about the base's shading normal.
+#[test]
+fn the_clear_coat_follows_its_own_normal_map() {
+    let tilt = 22.5f64.to_radians();
+    let mut lit = Vec::new();
+    for sign in [1.0, -1.0] {
+        let n = [sign * tilt.sin(), 0.0, tilt.cos()];
+        let bytes = n.map(|c| ((c + 1.0) * 0.5 * 255.0).round() as u8);
+        let mut b = GltfBuilder::new();
+        let m = b.material("quad", [0.0; 3], [0.0; 3], false);
+        let image = b.png_image(1, 1, &[[bytes[0], bytes[1], bytes[2], 255]]);
+        let t = b.texture(image, json!({}));
+        b.material_json(m)["extensions"]["KHR_materials_clearcoat"] = json!({
+            "clearcoatFactor": 1.0,
+            "clearcoatRoughnessFactor": 0.3,
+            "clearcoatNormalTexture": { "index": t }
+        });
+        b.use_extension("KHR_materials_clearcoat");
+        screen_quad(&mut b, m);
+        let l = glam::Vec3::new(1.0, 0.0, 1.0).normalize();
+        let rot = glam::Quat::from_rotation_arc(-glam::Vec3::Z, -l);
+        b.punctual(
+            json!({ "type": "directional" }),
+            [1.0; 3],
+            2.0,
+            [0.0, 0.0, 5.0],
+            rot.to_array(),
+        );
+        view(&mut b);
+        let film = render(&b, None, 16, pathwave::Estimator::Mis, 1);
+        let mean = film.mean().iter().map(|p| p[0] as f64).sum::<f64>() / (N * N) as f64;
+        lit.push(mean);
+    }
+    eprintln!("coat tilted towards the light: {}, away: {}", lit[0], lit[1]);
+    assert!(lit[0] > 0.02, "the highlight should be there: {}", lit[0]);
+    assert!(
+        lit[0] > 5.0 * lit[1],
+        "tilting the coat away should lose the highlight: {lit:?}"
+    );
+}
+
+// The camera sees an unlit quad's colour exactly (factor times texture), whatever lights the scene; inside a closed
+// room of unlit walls of colour c, a white Lambert quad returns c for every estimator, since no light sampling aims
+// at unlit surfaces and BSDF-sampled hits count in full. Would catch unlit surfaces shaded, weighted as lights, or
+// reflecting.
+#[test]
+fn unlit_surfaces_show_and_shed_their_colour() {
+    let mut b = GltfBuilder::new();
+    let m = b.pbr_material("unlit", [0.5, 1.0, 0.25], 1.0, 0.2, [0.0; 3], false);
+    b.material_json(m)["extensions"]["KHR_materials_unlit"] = json!({});
+    b.use_extension("KHR_materials_unlit");
+    let texels: Vec<[u8; 4]> = (0..4).map(|k| [60 * k as u8, 255 - 60 * k as u8, 128, 255]).collect();
+    let image = b.png_image(4, 1, &texels);
+    let t = b.texture(image, json!({ "magFilter": NEAREST, "minFilter": NEAREST }));
+    b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
+    screen_quad(&mut b, m);
+    view(&mut b);
+    let film = render(&b, Some([3.0, 2.0, 1.0]), 8, pathwave::Estimator::Mis, 8);
+    let (mean, var) = (film.mean(), film.sample_variance());
+    for j in 0..N {
+        for i in 0..N {
+            let t = texels[i * 4 / N];
+            let want: [f32; 3] = [0.5, 1.0, 0.25];
+            for c in 0..3 {
+                let w = want[c] * pathwave::scene::texture::srgb_to_linear(t[c] as f32 / 255.0);
+                let got = mean[j * N + i][c];
+                assert!(
+                    (got - w).abs() < 1e-5 && var[j * N + i][c] < 1e-8,
+                    "pixel ({i}, {j}) channel {c}: {got}, want the unlit colour {w}"
+                );
+            }
+        }
+    }
+
+    let c = [0.6, 0.3, 0.9];
+    for estimator in [
+        pathwave::Estimator::Mis,
+        pathwave::Estimator::Bsdf,
+        pathwave::Estimator::Light,
+    ] {
+        let mut b = GltfBuilder::new();
+        let walls = b.pbr_material("walls", c, 0.0, 1.0, [0.0; 3], false);
+        b.material_json(walls)["extensions"]["KHR_materials_unlit"] = json!({});
+        b.use_extension("KHR_materials_unlit");
+        let white = b.material("white", [1.0; 3], [0.0; 3], false);
+        b.cube("room", [-4.0; 3], [4.0; 3], walls, true);
+        b.quad(
+            "card",
+            [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
+            white,
+            Some([0.0, 0.0, 1.0]),
+        );
+        view(&mut b);
+        let film = render(&b, None, 256, estimator, 1);
+        let (m, se) = common::stats::image_mean_and_stderr(&film);
+        eprintln!("{estimator:?}: card {m:.4} +- {se:.4}, want {}", c[0]);
+        assert!(
+            (m - c[0] as f64).abs() < 4.0 * se + 1e-4,
+            "{estimator:?}: a white card among unlit walls of {} returns {m} +- {se}",
+            c[0]
+        );
+    }
+}
+
+#[test]
+fn malformed_layer_extensions_are_refused_naming_the_material() {
+    let cases = [
+        (
+            "KHR_materials_clearcoat",
+            json!({ "clearcoatFactor": "thick" }),
+            "clearcoatFactor",
+        ),
+        (
+            "KHR_materials_clearcoat",
+            json!({ "clearcoatTexture": { "index": 99 } }),
+            "clearcoatTexture",
+        ),
+        (
+            "KHR_materials_clearcoat",
+            json!({ "clearcoatNormalTexture": {} }),
+            "clearcoatNormalTexture",
+        ),
+        (
+            "KHR_materials_sheen",
+            json!({ "sheenColorFactor": [1.0, 0.5] }),
+            "sheenColorFactor",
+        ),
+        (
+            "KHR_materials_sheen",
+            json!({ "sheenRoughnessTexture": { "index": -1 } }),
+            "sheenRoughnessTexture",
+        ),
+    ];
+    for (ext_name, ext, key) in cases {
+        let mut b = GltfBuilder::new();
+        let m = b.material("velvet", [0.5; 3], [0.0; 3], false);
+        b.material_json(m)["extensions"][ext_name] = ext;
+        b.use_extension(ext_name);
+        screen_quad(&mut b, m);
+        view(&mut b);
+        let (_dir, path) = common::write_temp(&b, "bad.gltf");
+        let e = pathwave::scene::load(&path, None)
+            .map(|_| ())
+            .expect_err(key)
+            .to_string();
+        assert!(
+            e.contains("velvet") && e.contains(key) && e.contains("bad.gltf"),
+            "{key}: {e}"
+        );
+    }
+}
