@@ -279,19 +279,22 @@ impl Loader<'_> {
                 if let Some(acc) = acc {
                     let what = format!("morph target {t} {what}");
                     // One without data displaces nothing, and gltf's reader yields nothing for it: the same.
-                    self.check_accessor(&acc, &what, &[DataType::F32], Dimensions::Vec3, false)?;
+                    self.check_attribute(&acc, &what, super::quantized::MORPH_TYPES, Dimensions::Vec3)?;
                     if acc.count() != n {
                         return Err(err(format!("{what} has {} elements for {n} vertices", acc.count())));
                     }
                 }
             }
         }
-        for (t, (positions, normals, tangents)) in reader.read_morph_targets().enumerate() {
-            let read = |v: Option<gltf::accessor::Iter<'_, [f32; 3]>>| v.map(|v| v.map(Vec3::from).collect::<Vec<_>>());
+        for (t, target) in prim.morph_targets().enumerate() {
+            let read = |v: Option<gltf::Accessor>| {
+                v.and_then(|a| self.read_floats::<3>(&a))
+                    .map(|v| v.into_iter().map(Vec3::from).collect::<Vec<_>>())
+            };
             let target = MorphTarget {
-                positions: read(positions),
-                normals: read(normals),
-                tangents: read(tangents),
+                positions: read(target.positions()),
+                normals: read(target.normals()),
+                tangents: read(target.tangents()),
             };
             let all = [&target.positions, &target.normals, &target.tangents];
             if all.iter().copied().flatten().flatten().any(|v| !v.is_finite()) {

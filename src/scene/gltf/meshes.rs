@@ -1,5 +1,6 @@
 //! Meshes: each primitive's accessors checked against what the reader assumes, then read into object-space
 //! vertex arrays and triangles.
+use super::quantized::{POSITION_TYPES, TEXCOORD_TYPES, UNIT_TYPES};
 use super::{scene_err, Loader};
 use crate::error::Error;
 use crate::scene::{Material, Mesh, Primitive};
@@ -64,6 +65,41 @@ impl Loader<'_> {
                 if acc.normalized() { " (normalized)" } else { "" }
             )));
         }
+        self.check_extent(acc, what)
+    }
+
+    /// `check_accessor` for a vertex attribute that may take any (component type, normalized) pair of `allowed`
+    /// (core glTF's and KHR_mesh_quantization's; see `quantized`).
+    pub(super) fn check_attribute(
+        &self,
+        acc: &gltf::Accessor,
+        what: &str,
+        allowed: &[(DataType, bool)],
+        dims: Dimensions,
+    ) -> Result<Contents, Error> {
+        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
+        if acc.count() == 0 {
+            return Err(err("count is 0".into()));
+        }
+        if !allowed.contains(&(acc.data_type(), acc.normalized())) || acc.dimensions() != dims {
+            let names: Vec<String> = allowed
+                .iter()
+                .map(|(t, n)| format!("{t:?}{}", if *n { " normalized" } else { "" }))
+                .collect();
+            return Err(err(format!(
+                "expected {dims:?} of {}, found {:?} of {:?}{}",
+                names.join(", "),
+                acc.dimensions(),
+                acc.data_type(),
+                if acc.normalized() { " normalized" } else { "" }
+            )));
+        }
+        self.check_extent(acc, what)
+    }
+
+    /// The accessor's data lies inside its bufferView and buffer (and its sparse part is well formed).
+    fn check_extent(&self, acc: &gltf::Accessor, what: &str) -> Result<Contents, Error> {
+        let err = |m: String| scene_err(self.path, format!("accessor {} ({what}): {m}", acc.index()));
         if acc.view().is_none() && acc.sparse().is_none() {
             return Ok(Contents::Zeros);
         }
@@ -203,7 +239,7 @@ impl Loader<'_> {
             return Ok(None);
         };
         // All-zero positions or indices make every triangle degenerate.
-        if self.check_accessor(&pos_acc, "POSITION", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
+        if self.check_attribute(&pos_acc, "POSITION", POSITION_TYPES, Dimensions::Vec3)? == Contents::Zeros {
             self.warn(format!(
                 "mesh '{mesh_name}': POSITION accessor {} has no bufferView (all zeros); the primitive is skipped",
                 pos_acc.index()
@@ -212,7 +248,7 @@ impl Loader<'_> {
         }
         if let Some(n) = prim.get(&gltf::Semantic::Normals) {
             present.normals = true;
-            if self.check_accessor(&n, "NORMAL", &[DataType::F32], Dimensions::Vec3, false)? == Contents::Zeros {
+            if self.check_attribute(&n, "NORMAL", UNIT_TYPES, Dimensions::Vec3)? == Contents::Zeros {
                 self.warn(format!(
                     "mesh '{mesh_name}': NORMAL accessor {} has no bufferView (all zeros); face normals are used",
                     n.index()
@@ -245,8 +281,7 @@ impl Loader<'_> {
             for (set, slot) in present.texcoords.iter_mut().enumerate() {
                 if let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) {
                     let what = format!("TEXCOORD_{set}");
-                    let types = [DataType::F32, DataType::U8, DataType::U16];
-                    *slot = self.check_accessor(&acc, &what, &types, Dimensions::Vec2, true)? == Contents::Data;
+                    *slot = self.check_attribute(&acc, &what, TEXCOORD_TYPES, Dimensions::Vec2)? == Contents::Data;
                 }
             }
             for r in mat.texture_refs().iter().flatten() {
@@ -262,7 +297,7 @@ impl Loader<'_> {
         if mat.tangent_texture().is_some() {
             if let Some(acc) = prim.get(&gltf::Semantic::Tangents) {
                 present.tangents =
-                    self.check_accessor(&acc, "TANGENT", &[DataType::F32], Dimensions::Vec4, false)? == Contents::Data;
+                    self.check_attribute(&acc, "TANGENT", UNIT_TYPES, Dimensions::Vec4)? == Contents::Data;
             }
         }
         Ok(())
@@ -275,9 +310,10 @@ impl Loader<'_> {
         let mut texcoords: [Option<Vec<Vec2>>; 2] = [None, None];
         for (set, &read) in present.texcoords.iter().enumerate() {
             if read {
-                let uvs: Vec<Vec2> = reader
-                    .read_tex_coords(set as u32)
-                    .map(|t| t.into_f32().map(Vec2::from).collect())
+                let uvs: Vec<Vec2> = prim
+                    .get(&gltf::Semantic::TexCoords(set as u32))
+                    .and_then(|acc| self.read_floats::<2>(&acc))
+                    .map(|t| t.into_iter().map(Vec2::from).collect())
                     .unwrap_or_default();
                 if uvs.iter().any(|uv| !uv.is_finite()) {
                     return Err(scene_err(
@@ -296,17 +332,24 @@ impl Loader<'_> {
             }),
             false => None,
         };
+        let attribute = |s: gltf::Semantic| prim.get(&s);
         let tangents: Option<Vec<Vec4>> = match present.tangents {
-            true => reader.read_tangents().map(|t| t.map(Vec4::from).collect()),
+            true => attribute(gltf::Semantic::Tangents)
+                .and_then(|a| self.read_floats::<4>(&a))
+                .map(|t| t.into_iter().map(Vec4::from).collect()),
             false => None,
         };
-        let positions: Vec<Vec3> = reader
-            .read_positions()
+        let positions: Vec<Vec3> = attribute(gltf::Semantic::Positions)
+            .and_then(|a| self.read_floats::<3>(&a))
             .ok_or_else(|| scene_err(self.path, format!("mesh '{mesh_name}': cannot read POSITION")))?
+            .into_iter()
             .map(Vec3::from)
             .collect();
+        // Quantised normals are only close to unit length.
         let normals: Option<Vec<Vec3>> = if present.normals {
-            reader.read_normals().map(|n| n.map(Vec3::from).collect())
+            attribute(gltf::Semantic::Normals)
+                .and_then(|a| self.read_floats::<3>(&a))
+                .map(|n| n.into_iter().map(|n| Vec3::from(n).normalize_or_zero()).collect())
         } else {
             None
         };

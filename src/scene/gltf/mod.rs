@@ -2,6 +2,7 @@
 mod animation;
 mod materials;
 mod meshes;
+mod quantized;
 mod uri;
 mod validate;
 
@@ -29,6 +30,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_transmission",
     "KHR_materials_unlit",
     "KHR_materials_volume",
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
 
