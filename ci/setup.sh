@@ -11,6 +11,7 @@ PACKAGES=(
   spirv-tools
   vulkan-tools          # vulkaninfo, for diagnosing a machine
   pkg-config
+  g++                   # builds meshoptimizer (the meshopt crate), the EXT_meshopt_compression decoder
   xvfb xauth            # a headless X server for the viewer's tests (xvfb-run)
   libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0   # loaded by winit at run time
 )

@@ -1,13 +1,16 @@
-//! KHR_mesh_quantization: the project's scenes as gltfpack writes them by default (tests/data/gltfpack, made by
-//! ci/make-packed-scenes.sh: u16 positions under a dequantising node transform, i8 normals, u16 normalized texture
-//! coordinates, quantised morph targets, skin weights and rotations) render like the originals.
+//! KHR_mesh_quantization and EXT_meshopt_compression: the project's scenes as gltfpack writes them by default
+//! (tests/data/gltfpack, made by ci/make-packed-scenes.sh: u16 positions under a dequantising node transform, i8
+//! normals, u16 normalized texture coordinates, quantised morph targets, skin weights and rotations) and with `-cc`
+//! (tests/data/gltfpack-cc: the same, meshopt-compressed with the octahedral, quaternion and exponential filters)
+//! render like the originals.
 mod common;
 
 use pathwave::scene::{load, PoseTime};
 
-fn data(name: &str) -> std::path::PathBuf {
+fn data(dir: &str, name: &str) -> std::path::PathBuf {
     std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/gltfpack")
+        .join("tests/data")
+        .join(dir)
         .join(name)
 }
 
@@ -18,6 +21,18 @@ fn data(name: &str) -> std::path::PathBuf {
 // the means still agree, but 113 of 1728 pixels of textured.gltf differ beyond 5 sigma.)
 #[test]
 fn gltfpack_output_renders_like_the_original() {
+    compare_with_originals("gltfpack");
+}
+
+// Would catch a view decoded in the wrong mode or at the wrong offset, a filter not applied (octahedral normals left
+// encoded, quaternion rotations as raw integers), or decoded bytes not landing where the accessors read. (Without
+// the octahedral filter, glass.gltf's mean falls from 0.1226 to 0.1004.)
+#[test]
+fn meshopt_compressed_output_renders_like_the_original() {
+    compare_with_originals("gltfpack-cc");
+}
+
+fn compare_with_originals(dir: &str) {
     for (name, time) in [
         ("cornell-box.gltf", None),
         ("textured.gltf", None),
@@ -25,7 +40,7 @@ fn gltfpack_output_renders_like_the_original() {
         ("animated.gltf", Some(0.7)),
     ] {
         let mut films = Vec::new();
-        for path in [common::scenes_dir().join(name), data(name)] {
+        for path in [common::scenes_dir().join(name), data(dir, name)] {
             let mut scene = load(&path, None).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             assert!(scene.warnings.is_empty(), "{}: {:?}", path.display(), scene.warnings);
             if let Some(time) = time {
@@ -38,7 +53,7 @@ fn gltfpack_output_renders_like_the_original() {
         let (ma, sa) = common::stats::image_mean_and_stderr(a);
         let (mb, sb) = common::stats::image_mean_and_stderr(b);
         let se = (sa * sa + sb * sb).sqrt();
-        eprintln!("{name}: original {ma:.5} +- {sa:.5}, gltfpack {mb:.5} +- {sb:.5}");
+        eprintln!("{name}: original {ma:.5} +- {sa:.5}, {dir} {mb:.5} +- {sb:.5}");
         assert!(
             (ma - mb).abs() < 4.0 * se,
             "{name}: means {ma} and {mb} differ by more than 4 sigma ({se})"
@@ -57,6 +72,37 @@ fn gltfpack_output_renders_like_the_original() {
         assert!(
             outliers * 100 <= pa.len(),
             "{name}: {outliers} pixels differ beyond noise"
+        );
+    }
+}
+
+// Hostile compressed views: each is refused naming the bufferView, with no panic and no read outside a buffer.
+#[test]
+fn malformed_meshopt_views_are_refused_naming_the_view() {
+    let original = std::fs::read_to_string(data("gltfpack-cc", "cornell-box.gltf")).unwrap();
+    let bin = std::fs::read(data("gltfpack-cc", "cornell-box.bin")).unwrap();
+    type Mutation = fn(&mut serde_json::Value);
+    let cases: [(&str, Mutation); 6] = [
+        ("mode 'POINTS'", |e| e["mode"] = "POINTS".into()),
+        ("does not suit mode", |e| e["byteStride"] = 6.into()),
+        ("outside buffer", |e| e["byteLength"] = 1_000_000_000u64.into()),
+        ("do not fit the view's byteLength", |e| {
+            e["count"] = 1_000_000_000u64.into()
+        }),
+        ("filter 'WAVELET'", |e| e["filter"] = "WAVELET".into()),
+        ("does not decode", |e| e["byteOffset"] = 1.into()),
+    ];
+    for (want, mutate) in cases {
+        let mut json: serde_json::Value = serde_json::from_str(&original).unwrap();
+        mutate(&mut json["bufferViews"][0]["extensions"]["EXT_meshopt_compression"]);
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("cornell-box.bin"), &bin).unwrap();
+        let path = dir.path().join("bad.gltf");
+        std::fs::write(&path, json.to_string()).unwrap();
+        let e = load(&path, None).map(|_| ()).expect_err(want).to_string();
+        assert!(
+            e.contains("bufferView 0") && e.contains("EXT_meshopt_compression") && e.contains(want),
+            "{want}: {e}"
         );
     }
 }

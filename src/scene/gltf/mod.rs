@@ -2,6 +2,7 @@
 mod animation;
 mod materials;
 mod meshes;
+mod meshopt;
 mod quantized;
 mod uri;
 mod validate;
@@ -21,6 +22,7 @@ use validate::{parse, pre_validate, validate};
 /// Extensions whose meaning pathwave renders; every other used extension is named in a warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
+    "EXT_meshopt_compression",
     "KHR_lights_punctual",
     "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
@@ -112,7 +114,8 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         ));
     }
     let uris = UriPolicy::new(path.parent().unwrap_or(Path::new(".")), options.allow_outside_paths);
-    let buffers = import_buffers(path, &uris, &document, blob)?;
+    let mut buffers = import_buffers(path, &uris, &document, blob)?;
+    meshopt::decompress(path, &document, &mut buffers)?;
     let mut scene = Scene {
         path: path.to_path_buf(),
         ..Default::default()

@@ -1,0 +1,143 @@
+//! EXT_meshopt_compression: every compressed bufferView decoded (meshoptimizer, through the `meshopt` crate) into
+//! its fallback buffer at its own offset, before anything reads it, so the rest of the reader sees plain glTF.
+use super::scene_err;
+use crate::error::Error;
+use gltf::json::Value;
+use std::path::Path;
+
+const EXT: &str = "EXT_meshopt_compression";
+
+/// Whether a buffer only stands in for decoded data (`"fallback": true`): it has no bytes of its own to load.
+pub(super) fn is_fallback(buffer: &gltf::Buffer) -> bool {
+    buffer
+        .extension_value(EXT)
+        .and_then(|e| e.get("fallback"))
+        .and_then(Value::as_bool)
+        .unwrap_or(false)
+}
+
+/// One compressed view, its fields checked.
+struct Compressed {
+    source: usize,
+    offset: usize,
+    length: usize,
+    stride: usize,
+    count: usize,
+    mode: String,
+    filter: String,
+}
+
+fn field(ext: &Value, key: &str) -> Option<usize> {
+    ext.get(key)
+        .and_then(Value::as_u64)
+        .and_then(|v| usize::try_from(v).ok())
+}
+
+/// Decodes every compressed view of `doc` into `buffers` (which hold its fallback buffers as zeros).
+pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf::buffer::Data]) -> Result<(), Error> {
+    for view in doc.views() {
+        let Some(ext) = view.extension_value(EXT) else { continue };
+        let err = |m: &str| scene_err(path, format!("bufferView {} ({EXT}): {m}", view.index()));
+        let text = |key: &str, default: &str| -> Result<String, Error> {
+            match ext.get(key) {
+                None => Ok(default.to_string()),
+                Some(v) => v
+                    .as_str()
+                    .map(str::to_string)
+                    .ok_or_else(|| err(&format!("{key} is not a string"))),
+            }
+        };
+        let c = Compressed {
+            source: field(ext, "buffer").ok_or_else(|| err("has no source buffer"))?,
+            offset: field(ext, "byteOffset").unwrap_or(0),
+            length: field(ext, "byteLength").ok_or_else(|| err("has no byteLength"))?,
+            stride: field(ext, "byteStride").ok_or_else(|| err("has no byteStride"))?,
+            count: field(ext, "count").ok_or_else(|| err("has no count"))?,
+            mode: text("mode", "")?,
+            filter: text("filter", "NONE")?,
+        };
+        let (mode, filter) = (c.mode.as_str(), c.filter.as_str());
+        let stride_ok = match mode {
+            "ATTRIBUTES" => c.stride.is_multiple_of(4) && (4..=256).contains(&c.stride),
+            "TRIANGLES" | "INDICES" => c.stride == 2 || c.stride == 4,
+            _ => return Err(err(&format!("mode '{mode}' is not ATTRIBUTES, TRIANGLES or INDICES"))),
+        };
+        if !stride_ok {
+            return Err(err(&format!("byteStride {} does not suit mode {mode}", c.stride)));
+        }
+        if mode == "TRIANGLES" && !c.count.is_multiple_of(3) {
+            return Err(err(&format!(
+                "count {} of a TRIANGLES view is not a multiple of 3",
+                c.count
+            )));
+        }
+        let filter_ok = match filter {
+            "NONE" => true,
+            "OCTAHEDRAL" => mode == "ATTRIBUTES" && (c.stride == 4 || c.stride == 8),
+            "QUATERNION" => mode == "ATTRIBUTES" && c.stride == 8,
+            "EXPONENTIAL" => mode == "ATTRIBUTES",
+            _ => false,
+        };
+        if !filter_ok {
+            return Err(err(&format!(
+                "filter '{filter}' does not apply to mode {mode} with byteStride {}",
+                c.stride
+            )));
+        }
+        let size = c
+            .count
+            .checked_mul(c.stride)
+            .filter(|&s| s <= view.length())
+            .ok_or_else(|| {
+                err(&format!(
+                    "{} elements of {} bytes do not fit the view's byteLength {}",
+                    c.count,
+                    c.stride,
+                    view.length()
+                ))
+            })?;
+        let source = buffers
+            .get(c.source)
+            .and_then(|b| b.0.get(c.offset..c.offset.checked_add(c.length)?))
+            .ok_or_else(|| err(&format!("its data lies outside buffer {}", c.source)))?;
+        // u32 storage keeps the filters' 16- and 32-bit accesses aligned.
+        let mut decoded = vec![0u32; size.div_ceil(4)];
+        let out = decoded.as_mut_ptr().cast::<std::ffi::c_void>();
+        // SAFETY: `out` holds at least count * stride bytes, and `source` is a live slice; meshoptimizer's decoders
+        // are written for untrusted input and never write past count * stride.
+        let code = unsafe {
+            match mode {
+                "ATTRIBUTES" => {
+                    ::meshopt::ffi::meshopt_decodeVertexBuffer(out, c.count, c.stride, source.as_ptr(), source.len())
+                }
+                "TRIANGLES" => {
+                    ::meshopt::ffi::meshopt_decodeIndexBuffer(out, c.count, c.stride, source.as_ptr(), source.len())
+                }
+                _ => ::meshopt::ffi::meshopt_decodeIndexSequence(out, c.count, c.stride, source.as_ptr(), source.len()),
+            }
+        };
+        if code != 0 {
+            return Err(err(&format!(
+                "the compressed data does not decode (meshoptimizer error {code})"
+            )));
+        }
+        // SAFETY: as above; each filter reads and writes count elements of `stride` bytes in place, its stride
+        // checked against what it accepts.
+        unsafe {
+            match filter {
+                "OCTAHEDRAL" => ::meshopt::ffi::meshopt_decodeFilterOct(out, c.count, c.stride),
+                "QUATERNION" => ::meshopt::ffi::meshopt_decodeFilterQuat(out, c.count, c.stride),
+                "EXPONENTIAL" => ::meshopt::ffi::meshopt_decodeFilterExp(out, c.count, c.stride),
+                _ => {}
+            }
+        }
+        let target = view.buffer().index();
+        let bytes: &[u8] = bytemuck::cast_slice(&decoded);
+        let dest = buffers
+            .get_mut(target)
+            .and_then(|b| b.0.get_mut(view.offset()..view.offset().checked_add(size)?))
+            .ok_or_else(|| err(&format!("the decoded data does not fit buffer {target}")))?;
+        dest.copy_from_slice(&bytes[..size]);
+    }
+    Ok(())
+}
