@@ -61,6 +61,10 @@ struct LoadArgs {
     /// that would need more is refused before it is built. Default: half of the available memory, at most 8 GiB.
     #[arg(long, value_parser = pathwave::memory::parse_size, allow_hyphen_values = true)]
     max_memory: Option<u64>,
+    /// The KHR_materials_variants variant to render, by name (`pathwave info` lists them; the viewer cycles them
+    /// with V). Default: the primitives' own materials.
+    #[arg(long)]
+    variant: Option<String>,
 }
 
 impl LoadArgs {
@@ -70,6 +74,7 @@ impl LoadArgs {
             allow_outside_paths: self.allow_outside_paths,
             max_texture_pixels: self.max_texture_pixels,
             max_memory: self.max_memory(),
+            variant: self.variant.clone(),
         }
     }
 
@@ -557,6 +562,7 @@ fn view(args: ViewArgs) -> Result<()> {
         frames: args.frames,
         screenshot: args.screenshot,
         budget: std::time::Duration::from_millis(args.frame_budget_ms as u64),
+        load: args.common.limits.options(args.common.camera),
     };
     pathwave::viewer::run(scene, options)?;
     Ok(())
@@ -672,6 +678,13 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     );
     if scene.extensions_used.is_empty() {
         println!("extensions  none");
+    }
+    if !scene.variants.is_empty() {
+        println!(
+            "variants    {} (--variant NAME): '{}'",
+            scene.variants.len(),
+            scene.variants.join("', '")
+        );
     }
     for ext in &scene.extensions_used {
         let supported = pathwave::scene::SUPPORTED_EXTENSIONS.contains(&ext.as_str());

@@ -316,6 +316,9 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// The file's extensionsUsed, in its order.
     pub extensions_used: Vec<String>,
+    /// KHR_materials_variants: the file's variant names, and which one the primitives were read with.
+    pub variants: Vec<String>,
+    pub variant: Option<usize>,
     /// Light from infinitely far away; glTF has none, so it comes from the caller (`--env`, `--env-color`).
     pub environment: Option<Environment>,
     /// KHR_lights_punctual lights, in world space.

@@ -37,6 +37,8 @@ pub struct ViewOptions {
     pub shutter: f32,
     /// Start with the animation playing (space toggles it).
     pub play: bool,
+    /// How the scene was read, for reading it again with another KHR_materials_variants variant (V).
+    pub load: crate::scene::LoadOptions,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -434,6 +436,7 @@ impl State {
                     self.playback.time
                 );
             }
+            KeyCode::KeyV if !self.playback.scene.variants.is_empty() => self.next_variant(options)?,
             KeyCode::KeyT => {
                 self.curve = self.curve.next();
                 eprintln!("tone curve: {:?}", self.curve);
@@ -452,6 +455,35 @@ impl State {
             _ => {}
         }
         Ok(())
+    }
+
+    /// Reads the scene again with its next KHR_materials_variants variant (after the last, none), at the same time
+    /// and in the same environment; the device and pipelines stay.
+    fn next_variant(&mut self, options: &ViewOptions) -> Result<(), Error> {
+        let scene = &self.playback.scene;
+        let next = match scene.variant {
+            None => Some(0),
+            Some(i) if i + 1 < scene.variants.len() => Some(i + 1),
+            Some(_) => None,
+        };
+        let mut load = options.load.clone();
+        load.variant = next.map(|i| scene.variants[i].clone());
+        let mut fresh = crate::scene::load_with(&scene.path, &load)?;
+        fresh.environment = scene.environment.clone();
+        let pose = crate::scene::PoseTime {
+            time: self.playback.time,
+            animation: self.playback.animation,
+        };
+        fresh.pose_shutter(pose, self.playback.shutter)?;
+        eprintln!(
+            "variant: {}",
+            load.variant
+                .as_deref()
+                .unwrap_or("none (the primitives' own materials)")
+        );
+        self.playback.scene = fresh;
+        self.renderer.set_scene(&self.playback.scene)?;
+        self.reset()
     }
 
     fn cursor_moved(&mut self, to: (f64, f64)) -> Result<(), Error> {
@@ -557,8 +589,13 @@ impl State {
                 if playing { "" } else { " (paused)" }
             ),
         };
+        let scene = &self.playback.scene;
+        let variant = match scene.variant {
+            Some(i) => format!(", variant '{}'", scene.variants[i]),
+            None => String::new(),
+        };
         self.window.set_title(&format!(
-            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}{clock}",
+            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}{variant}{clock}",
             self.session.done,
             rate * 1e-6,
             self.frame_ms,

@@ -20,6 +20,8 @@ pub struct GltfBuilder {
     /// Each animation's name, samplers and channels.
     animations: Vec<(String, Vec<Value>, Vec<Value>)>,
     skins: Vec<Value>,
+    /// Root-level extension objects beyond KHR_lights_punctual's.
+    root_extensions: Vec<(&'static str, Value)>,
 }
 
 impl GltfBuilder {
@@ -136,6 +138,17 @@ impl GltfBuilder {
         self.views
             .push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target }));
         self.views.len() - 1
+    }
+
+    /// An extension object at the document's root.
+    pub fn set_root_extension(&mut self, name: &'static str, value: Value) {
+        self.root_extensions.retain(|(n, _)| *n != name);
+        self.root_extensions.push((name, value));
+    }
+
+    /// An extension object on mesh `mesh`'s (first) primitive.
+    pub fn set_primitive_extension(&mut self, mesh: usize, name: &str, value: Value) {
+        self.meshes[mesh]["primitives"][0]["extensions"][name] = value;
     }
 
     /// The JSON of material `i`, to add textures, alpha modes or extensions.
@@ -555,6 +568,9 @@ impl GltfBuilder {
         }
         if !self.lights.is_empty() {
             doc["extensions"]["KHR_lights_punctual"] = json!({ "lights": self.lights });
+        }
+        for (name, v) in &self.root_extensions {
+            doc["extensions"][*name] = v.clone();
         }
         if !self.images.is_empty() {
             doc["images"] = json!(self.images);

@@ -208,7 +208,9 @@ impl Loader<'_> {
         let Some(mut present) = self.check_geometry(mesh_name, prim)? else {
             return Ok(None);
         };
-        let material = prim.material().index().map(|i| i as u32).unwrap_or(default_material);
+        let material = self
+            .variant_material(mesh_name, prim)?
+            .unwrap_or(prim.material().index().map(|i| i as u32).unwrap_or(default_material));
         let mat = self.scene.materials[material as usize].clone();
         self.check_shading(mesh_name, prim, &mat, &mut present)?;
         let (read, indices) = self.read(mesh_name, prim, &present)?;
@@ -220,6 +222,36 @@ impl Loader<'_> {
         };
         self.read_deformation(mesh_name, prim, &mut p)?;
         Ok(Some(p))
+    }
+
+    /// The material the selected KHR_materials_variants variant maps this primitive to, if it maps it. Every
+    /// mapping is checked, whichever variant is selected, so a file is refused or read the same for all of them.
+    fn variant_material(&self, mesh_name: &str, prim: &gltf::Primitive) -> Result<Option<u32>, Error> {
+        let mut chosen = None;
+        for (k, mapping) in prim.mappings().enumerate() {
+            let err = |m: String| {
+                scene_err(
+                    self.path,
+                    format!("mesh '{mesh_name}': KHR_materials_variants mapping {k}: {m}"),
+                )
+            };
+            let material = mapping
+                .material()
+                .index()
+                .ok_or_else(|| err("names a material that does not exist".into()))?;
+            for &v in mapping.variants() {
+                if v as usize >= self.scene.variants.len() {
+                    return Err(err(format!(
+                        "names variant {v}, but the file has {}",
+                        self.scene.variants.len()
+                    )));
+                }
+                if Some(v) == self.variant {
+                    chosen = Some(material as u32);
+                }
+            }
+        }
+        Ok(chosen)
     }
 
     /// COLOR_0, POSITION, NORMAL and the indices; `None` when the primitive is skipped (with a warning).

@@ -31,6 +31,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
+    "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
@@ -58,6 +59,9 @@ pub struct LoadOptions {
     /// Host memory the buffers and decoded meshes may take; a file that would need more is refused before they are
     /// read (`--max-memory`).
     pub max_memory: u64,
+    /// The KHR_materials_variants variant whose materials the primitives take (by name; default: none, the
+    /// primitives' own materials).
+    pub variant: Option<String>,
 }
 
 impl Default for LoadOptions {
@@ -67,6 +71,7 @@ impl Default for LoadOptions {
             allow_outside_paths: false,
             max_texture_pixels: DEFAULT_MAX_TEXTURE_PIXELS,
             max_memory: crate::memory::default_max_memory(),
+            variant: None,
         }
     }
 }
@@ -131,8 +136,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         texture_map: Default::default(),
         image_map: Default::default(),
         mesh_map: Default::default(),
+        variant: None,
     }
-    .run(&document, options.camera)?;
+    .run(&document, options.camera, options.variant.as_deref())?;
     Ok(scene)
 }
 
@@ -151,6 +157,8 @@ struct Loader<'a> {
     image_map: HashMap<usize, usize>,
     /// glTF mesh index to scene mesh: a mesh is read once, at the first node that places it.
     mesh_map: HashMap<usize, usize>,
+    /// The selected KHR_materials_variants variant's index.
+    variant: Option<u32>,
 }
 
 impl Loader<'_> {
@@ -160,12 +168,31 @@ impl Loader<'_> {
         }
     }
 
-    fn run(&mut self, doc: &gltf::Document, camera: Option<usize>) -> Result<(), Error> {
+    fn run(&mut self, doc: &gltf::Document, camera: Option<usize>, variant: Option<&str>) -> Result<(), Error> {
         for ext in doc.extensions_used() {
             self.scene.extensions_used.push(ext.to_string());
             if !SUPPORTED_EXTENSIONS.contains(&ext) {
                 self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }
+        }
+        self.scene.variants = doc
+            .variants()
+            .map(|v| v.map(|v| v.name().to_string()).collect())
+            .unwrap_or_default();
+        if let Some(name) = variant {
+            let i = self.scene.variants.iter().position(|v| v == name).ok_or_else(|| {
+                let known = if self.scene.variants.is_empty() {
+                    "the file has no KHR_materials_variants variants".to_string()
+                } else {
+                    format!("its variants are '{}'", self.scene.variants.join("', '"))
+                };
+                scene_err(
+                    self.path,
+                    format!("--variant '{name}' is not a variant of this file: {known}"),
+                )
+            })?;
+            self.variant = Some(i as u32);
+            self.scene.variant = Some(i);
         }
         for m in doc.materials() {
             self.material(&m)?;
