@@ -69,9 +69,13 @@ pub const TEX_CLEARCOAT_NORMAL: u32 = 6;
 /// KHR_materials_sheen: the colour (sRGB RGB) and the roughness (A).
 pub const TEX_SHEEN_COLOR: u32 = 7;
 pub const TEX_SHEEN_ROUGHNESS: u32 = 8;
-pub const TEX_SLOTS: u32 = 9;
-/// 16-byte texels per material (layout.glsl's Material is 432 bytes).
-pub const MATERIAL_TEXELS: u32 = 27;
+/// KHR_materials_specular: the weight (A) and the colour (sRGB RGB); KHR_materials_transmission: the factor (R).
+pub const TEX_SPECULAR: u32 = 9;
+pub const TEX_SPECULAR_COLOR: u32 = 10;
+pub const TEX_TRANSMISSION: u32 = 11;
+pub const TEX_SLOTS: u32 = 12;
+/// 16-byte texels per material (layout.glsl's Material is 528 bytes).
+pub const MATERIAL_TEXELS: u32 = 33;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.

@@ -147,7 +147,7 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 432 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 528 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption,
 /// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
 /// (colour, roughness), then one texture slot per TEX_*.
@@ -300,7 +300,7 @@ const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 432);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 528);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);

@@ -27,9 +27,21 @@ fn screen_quad(b: &mut GltfBuilder, material: usize) {
 
 /// A black base (no specular layer either) whose material gets `ext_name` = `ext`, with `slot` in it naming a 2x1
 /// nearest texture of `left` and `right` texels: the left half of the view sees the first, the right the second.
-fn halves(ext_name: &'static str, mut ext: Value, slot: &str, left: [u8; 4], right: [u8; 4]) -> GltfBuilder {
+fn halves(ext_name: &'static str, ext: Value, slot: &str, left: [u8; 4], right: [u8; 4]) -> GltfBuilder {
+    halves_over([0.0; 3], ext_name, ext, slot, left, right)
+}
+
+/// `halves` over a Lambertian base of colour `base`.
+fn halves_over(
+    base: [f32; 3],
+    ext_name: &'static str,
+    mut ext: Value,
+    slot: &str,
+    left: [u8; 4],
+    right: [u8; 4],
+) -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let m = b.material("quad", [0.0; 3], [0.0; 3], false);
+    let m = b.material("quad", base, [0.0; 3], false);
     let image = b.png_image(2, 1, &[left, right]);
     let t = b.texture(image, json!({ "magFilter": NEAREST, "minFilter": NEAREST }));
     ext[slot] = json!({ "index": t });
@@ -144,6 +156,83 @@ fn clearcoat_and_sheen_textures_land_on_their_halves() {
     assert!(
         r.0 > 0.05 && l.0 < 0.3 * r.0,
         "smooth sheen left, rough right: {} and {}",
+        l.0,
+        r.0
+    );
+}
+
+// The textures of KHR_materials_specular and KHR_materials_transmission. Would catch a slot ignored, read from the
+// wrong channel, or the specular colour not decoded from sRGB into the layer's F0.
+#[test]
+fn specular_and_transmission_textures_land_on_their_halves() {
+    let white = Some([1.0; 3]);
+    let bsdf = pathwave::Estimator::Bsdf;
+    // specularTexture's A weighs the dielectric layer: over black, no layer is black.
+    let b = halves(
+        "KHR_materials_specular",
+        json!({ "specularFactor": 1.0 }),
+        "specularTexture",
+        [255, 255, 255, 0],
+        [0, 0, 0, 255],
+    );
+    let [l, r] = halves_of(&render(&b, white, 16, bsdf, 1));
+    eprintln!("specularTexture: left {l:?}, right {r:?}");
+    assert!(
+        l.0 == 0.0 && r.0 > 0.01,
+        "no layer left, a layer right: {} and {}",
+        l.0,
+        r.0
+    );
+    // specularColorTexture tints F0 (not F90, which stays the layer's weight: a black F0 still reflects a little at
+    // grazing): a red texel leaves green almost black.
+    let b = halves(
+        "KHR_materials_specular",
+        json!({ "specularFactor": 1.0 }),
+        "specularColorTexture",
+        [0, 0, 0, 255],
+        [255, 0, 0, 255],
+    );
+    let film = render(&b, white, 16, bsdf, 1);
+    let [l, r] = halves_of(&film);
+    let green_right = film.mean()[N - 1][1];
+    eprintln!("specularColorTexture: left {l:?}, right {r:?}, right green {green_right}");
+    assert!(
+        l.0 < 0.05 * r.0 && r.0 > 0.01 && green_right < 0.2 * r.0 as f32,
+        "black F0 left, red right: {} and {} (green {green_right})",
+        l.0,
+        r.0
+    );
+    // transmissionTexture's R: behind the quad an unlit red card, and nothing else lights the scene, so the diffuse
+    // half is black and the transmitting half shows the card through its thin sheet.
+    let mut b = halves_over(
+        [1.0; 3],
+        "KHR_materials_transmission",
+        json!({ "transmissionFactor": 1.0 }),
+        "transmissionTexture",
+        [0, 0, 0, 255],
+        [255, 0, 0, 255],
+    );
+    // Smooth, so the sheet passes the card straight through (a rough one spreads it past the card's edges).
+    b.material_json(0)["pbrMetallicRoughness"]["roughnessFactor"] = json!(0.0);
+    let card = b.pbr_material("card", [1.0, 0.0, 0.0], 0.0, 1.0, [0.0; 3], false);
+    b.material_json(card)["extensions"]["KHR_materials_unlit"] = json!({});
+    b.use_extension("KHR_materials_unlit");
+    b.quad(
+        "card",
+        [
+            [-3.0, 3.0, -1.0],
+            [-3.0, -3.0, -1.0],
+            [3.0, -3.0, -1.0],
+            [3.0, 3.0, -1.0],
+        ],
+        card,
+        Some([0.0, 0.0, 1.0]),
+    );
+    let [l, r] = halves_of(&render(&b, None, 16, bsdf, 2));
+    eprintln!("transmissionTexture: left {l:?}, right {r:?}");
+    assert!(
+        l.0 < 1e-3 && r.0 > 0.8,
+        "opaque left, the red card through the right: {} and {}",
         l.0,
         r.0
     );

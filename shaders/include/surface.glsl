@@ -64,6 +64,15 @@ Material material_at(Material m, uint tri, vec2 b) {
         m.params.y *= mr.g;
     }
     if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true).rgb;
+    if (scene_has(FEATURE_COAT)) {
+        if (slot_used(m.textures[TEX_SPECULAR])) m.params.w *= sample_slot(m.textures[TEX_SPECULAR], tri, b, false).a;
+        if (slot_used(m.textures[TEX_SPECULAR_COLOR])) {
+            m.specular_color.rgb *= sample_slot(m.textures[TEX_SPECULAR_COLOR], tri, b, true).rgb;
+        }
+    }
+    if (scene_has(FEATURE_TRANSMISSION) && slot_used(m.textures[TEX_TRANSMISSION])) {
+        m.transmission.x *= sample_slot(m.textures[TEX_TRANSMISSION], tri, b, false).r;
+    }
     if (scene_has(FEATURE_CLEARCOAT)) {
         if (slot_used(m.textures[TEX_CLEARCOAT])) m.clearcoat.x *= sample_slot(m.textures[TEX_CLEARCOAT], tri, b, false).r;
         if (slot_used(m.textures[TEX_CLEARCOAT_ROUGHNESS])) {

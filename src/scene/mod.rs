@@ -58,6 +58,11 @@ pub struct Material {
     pub normal_scale: f32,
     /// sRGB colour multiplying the emission.
     pub emissive_texture: Option<TextureRef>,
+    /// KHR_materials_specular: A multiplies `specular`, sRGB RGB multiplies `specular_color`.
+    pub specular_texture: Option<TextureRef>,
+    pub specular_color_texture: Option<TextureRef>,
+    /// KHR_materials_transmission: R multiplies `transmission`.
+    pub transmission_texture: Option<TextureRef>,
     /// KHR_materials_clearcoat (factor 0: none).
     pub clearcoat: Clearcoat,
     /// KHR_materials_sheen (black: none).
@@ -137,6 +142,9 @@ impl Material {
             self.clearcoat.normal_texture,
             self.sheen.color_texture,
             self.sheen.roughness_texture,
+            self.specular_texture,
+            self.specular_color_texture,
+            self.transmission_texture,
         ]
     }
 
@@ -169,6 +177,9 @@ impl Default for Material {
             normal_texture: None,
             normal_scale: 1.0,
             emissive_texture: None,
+            specular_texture: None,
+            specular_color_texture: None,
+            transmission_texture: None,
             clearcoat: Clearcoat::default(),
             sheen: Sheen::default(),
             unlit: false,

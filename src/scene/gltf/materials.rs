@@ -20,11 +20,14 @@ struct Dielectric {
     ior: f32,
     specular: f32,
     specular_color: Vec3,
+    specular_texture: Option<TextureRef>,
+    specular_color_texture: Option<TextureRef>,
 }
 
 /// KHR_materials_transmission and KHR_materials_volume.
 struct Transmission {
     transmission: f32,
+    texture: Option<TextureRef>,
     thin_walled: bool,
     attenuation: Vec3,
 }
@@ -99,6 +102,9 @@ impl Loader<'_> {
                 1.0
             },
             emissive_texture: slots.emissive,
+            specular_texture: if unlit { None } else { d.specular_texture },
+            specular_color_texture: if unlit { None } else { d.specular_color_texture },
+            transmission_texture: t.texture,
             clearcoat: if unlit { Clearcoat::default() } else { clearcoat },
             sheen: if unlit { Sheen::default() } else { sheen },
             unlit,
@@ -301,11 +307,13 @@ impl Loader<'_> {
             Some(s) => (s.specular_factor(), Vec3::from(s.specular_color_factor())),
             None => (1.0, Vec3::ONE),
         };
+        let (mut specular_texture, mut specular_color_texture) = (None, None);
         if let Some(s) = m.specular() {
-            if s.specular_texture().is_some() || s.specular_color_texture().is_some() {
-                self.warn(format!(
-                    "material '{name}': specular textures are ignored (only the factors are read)"
-                ));
+            if let Some(info) = s.specular_texture() {
+                specular_texture = self.info_ref(name, "specularTexture", &info)?;
+            }
+            if let Some(info) = s.specular_color_texture() {
+                specular_color_texture = self.info_ref(name, "specularColorTexture", &info)?;
             }
         }
         let finite = [pbr.metallic_factor(), pbr.roughness_factor(), ior, specular]
@@ -325,6 +333,8 @@ impl Loader<'_> {
             ior,
             specular,
             specular_color,
+            specular_texture,
+            specular_color_texture,
         })
     }
 
@@ -344,11 +354,10 @@ impl Loader<'_> {
             }
             _ => (true, Vec3::ZERO),
         };
-        if m.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
-            self.warn(format!(
-                "material '{name}': transmissionTexture is ignored (only the factor is read)"
-            ));
-        }
+        let texture = match m.transmission().and_then(|t| t.transmission_texture()) {
+            Some(info) => self.info_ref(name, "transmissionTexture", &info)?,
+            None => None,
+        };
         if !(transmission.is_finite() && attenuation.is_finite()) {
             return Err(scene_err(
                 self.path,
@@ -357,6 +366,7 @@ impl Loader<'_> {
         }
         Ok(Transmission {
             transmission,
+            texture,
             thin_walled,
             attenuation,
         })

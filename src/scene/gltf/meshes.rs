@@ -377,13 +377,23 @@ impl Loader<'_> {
             .into_iter()
             .map(Vec3::from)
             .collect();
-        // Quantised normals are only close to unit length.
-        let normals: Option<Vec<Vec3>> = if present.normals {
-            attribute(gltf::Semantic::Normals)
-                .and_then(|a| self.read_floats::<3>(&a))
-                .map(|n| n.into_iter().map(|n| Vec3::from(n).normalize_or_zero()).collect())
-        } else {
-            None
+        // Quantised normals are only close to unit length; float ones are used as the file gives them.
+        let normals: Option<Vec<Vec3>> = match attribute(gltf::Semantic::Normals) {
+            Some(a) if present.normals => {
+                let quantised = a.data_type() != DataType::F32;
+                self.read_floats::<3>(&a).map(|n| {
+                    n.into_iter()
+                        .map(|n| {
+                            if quantised {
+                                Vec3::from(n).normalize_or_zero()
+                            } else {
+                                Vec3::from(n)
+                            }
+                        })
+                        .collect()
+                })
+            }
+            _ => None,
         };
         let indices: Vec<u32> = match reader.read_indices() {
             Some(i) => i.into_u32().collect(),
