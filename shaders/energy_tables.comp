@@ -1,5 +1,5 @@
-// energy_tables: the GGX and sheen lobes' directional albedo per (cos theta, roughness) cell, from the BSDF's own
-// sampling and terms, for energy compensation and layering. Run once per device at start-up; the host adds the averages.
+// energy_tables: the GGX lobe's directional albedo per (cos theta, roughness) cell, from the BSDF's own sampling and
+// Smith terms, for energy compensation and layering (sheen_table fills the sheen's grid). Run once per device at start-up; the host adds the averages.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
@@ -35,14 +35,4 @@ void main() {
     }
     energy[cell] = e1 / float(ENERGY_SAMPLES);
     energy[ENERGY_RES * ENERGY_RES + cell] = e2 / float(ENERGY_SAMPLES);
-    // The sheen lobe cannot be sampled by itself: its albedo comes from cosine-weighted directions (f cos / pdf =
-    // f pi), stratified in the same sequence.
-    float es = 0.0;
-    for (uint k = 0u; k < ENERGY_SAMPLES; ++k) {
-        vec2 u = vec2((float(k) + 0.5) / float(ENERGY_SAMPLES), radical_inverse(k));
-        vec3 wi = sample_cosine_hemisphere(vec3(0.0, 0.0, 1.0), u);
-        if (wi.z <= 0.0) continue;
-        es += sheen_lobe(roughness, wo, wi) * PI;
-    }
-    energy[2u * ENERGY_RES * ENERGY_RES + cell] = es / float(ENERGY_SAMPLES);
 }

@@ -109,6 +109,8 @@ pub const MATERIAL_UNLIT: u32 = 1;
 pub const ENERGY_RES: u32 = 32;
 pub const ENERGY_SAMPLES: u32 = 4096;
 pub const ENERGY_GRIDS: u32 = 3;
+/// Samples of the Charlie distribution per Esheen cell.
+pub const SHEEN_ENERGY_SAMPLES: u32 = 4096;
 pub const ENERGY_TABLE_FLOATS: u32 = ENERGY_GRIDS * ENERGY_RES * ENERGY_RES + ENERGY_GRIDS * ENERGY_RES;
 
 /// Frame.flags bits.

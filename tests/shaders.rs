@@ -155,7 +155,8 @@ fn includes_decide_which_stages_are_stale() {
             "shade",
             "shade_texel",
             "shade_textured",
-            "shade_textured_texel"
+            "shade_textured_texel",
+            "sheen_table"
         ]
     );
     let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);

@@ -305,7 +305,8 @@ vec3 lobe_probabilities(Bsdf b, vec3 wo) {
     }
     float total = spec + diff + glass + coat;
     if (total <= 0.0) return vec3(0.0, 1.0, 0.0);
-    return vec3(glass, spec, coat) / total;
+    // Without a clear coat its share is a constant zero, which the lobe choice and the pdf then fold away.
+    return vec3(glass / total, spec / total, scene_has(FEATURE_CLEARCOAT) ? coat / total : 0.0);
 }
 
 // The visible-normal density of the microfacet normal m seen from wo: G1(wo) D(m) max(0, wo.m) / wo.z.

@@ -10,9 +10,9 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 impl Renderer {
-    /// Builds the tables once per renderer, at start-up.
+    /// Builds the GGX tables once per renderer, at start-up; the sheen grid waits for a scene with a sheen
+    /// (`ensure_sheen_table`).
     pub(super) fn build_energy_tables(&mut self) -> Result<Buffer, Error> {
-        let n = ENERGY_RES as usize;
         let floats = ENERGY_TABLE_FLOATS as usize;
         let mut energy = Buffer::new(
             &self.ctx,
@@ -21,10 +21,33 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
+        // Zeros first: the sheen grid is read as "no sheen energy" until it is built.
+        energy.upload(&self.ctx, bytemuck::cast_slice(&vec![0f32; floats]))?;
+        self.run_energy_pass(&mut energy, Stage::EnergyTables)?;
+        Ok(energy)
+    }
+
+    /// Builds the sheen grid the first time a scene has a sheen in any of its materials (not only the ones its
+    /// triangles use: the probes read any material).
+    pub(super) fn ensure_sheen_table(&mut self, scene: &crate::scene::Scene) -> Result<(), Error> {
+        if self.sheen_table || !scene.materials.iter().any(|m| m.sheen.color != glam::Vec3::ZERO) {
+            return Ok(());
+        }
+        let mut energy = self.energy.take().expect("built in Renderer::new");
+        let done = self.run_energy_pass(&mut energy, Stage::SheenTable);
+        self.energy = Some(energy);
+        done?;
+        self.sheen_table = true;
+        Ok(())
+    }
+
+    /// One table stage over every cell, then every grid's averages from the host.
+    fn run_energy_pass(&mut self, energy: &mut Buffer, stage: Stage) -> Result<(), Error> {
+        let n = ENERGY_RES as usize;
         let cells = ENERGY_RES * ENERGY_RES;
         self.run_kernel(
-            Kernel::of(Stage::EnergyTables),
-            &[(BINDING_ENERGY, &energy)],
+            Kernel::of(stage),
+            &[(BINDING_ENERGY, energy)],
             Frame {
                 path_count: cells,
                 ..Default::default()
@@ -32,7 +55,7 @@ impl Renderer {
             1,
         )?;
         let mut table: Vec<f32> = energy.download(&self.ctx)?;
-        table.truncate(floats);
+        table.truncate(ENERGY_TABLE_FLOATS as usize);
         let h = 1.0 / (n - 1) as f64;
         let grids = ENERGY_GRIDS as usize;
         for t in 0..grids {
@@ -46,7 +69,7 @@ impl Renderer {
             }
         }
         energy.upload(&self.ctx, bytemuck::cast_slice(&table))?;
-        Ok(energy)
+        Ok(())
     }
 
     /// The energy tables as the device uses them: E1, E2 and Esheen grids, then their averages (ENERGY_*).

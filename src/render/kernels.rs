@@ -20,6 +20,7 @@ pub enum Stage {
     Follow,
     Tonemap,
     EnergyTables,
+    SheenTable,
     ProbeTrace,
     ProbeBsdf,
     ProbeEnv,
@@ -29,7 +30,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 15] = [
+    pub const ALL: [Stage; 16] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -39,6 +40,7 @@ impl Stage {
         Stage::Follow,
         Stage::Tonemap,
         Stage::EnergyTables,
+        Stage::SheenTable,
         Stage::ProbeTrace,
         Stage::ProbeBsdf,
         Stage::ProbeEnv,
@@ -59,6 +61,7 @@ impl Stage {
             Stage::Follow => "follow",
             Stage::Tonemap => "tonemap",
             Stage::EnergyTables => "energy_tables",
+            Stage::SheenTable => "sheen_table",
             Stage::ProbeTrace => "probe_trace",
             Stage::ProbeBsdf => "probe_bsdf",
             Stage::ProbeEnv => "probe_env",

@@ -84,6 +84,8 @@ pub struct Renderer {
     stand_ins: StandIns,
     /// Built once per device at start-up; None only while it is being built.
     energy: Option<Buffer>,
+    /// Whether the energy buffer's sheen grid is built (the first scene with a sheen builds it).
+    sheen_table: bool,
     /// How traversal reads the BVH; Texel needs the scene's texel views.
     bvh_reads: BvhReads,
     options: RendererOptions,
@@ -144,6 +146,7 @@ impl Renderer {
             scene: uploaded.gpu,
             stand_ins,
             energy: None,
+            sheen_table: false,
             bvh_reads: uploaded.bvh_reads,
             options,
             schedule,
@@ -158,6 +161,7 @@ impl Renderer {
         };
         r.bind_scene_views();
         r.energy = Some(r.build_energy_tables()?);
+        r.ensure_sheen_table(scene)?;
         Ok(r)
     }
 
@@ -168,6 +172,7 @@ impl Renderer {
         // Uploaded before the old scene goes, so that a scene refused leaves the renderer as it was. No pass is in
         // flight between calls, and every pass binds the scene's buffers again.
         let uploaded = Uploaded::new(&self.ctx, scene, &self.options)?;
+        self.ensure_sheen_table(scene)?;
         self.scene = uploaded.gpu;
         self.bvh_reads = uploaded.bvh_reads;
         let env = scene.environment.as_ref();
