@@ -35,6 +35,9 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_texture_transform",
+    // Metadata (XMP packets): nothing in them changes the image, so reading past them is the whole of supporting them.
+    "KHR_xmp",
+    "KHR_xmp_json_ld",
 ];
 
 fn scene_err(path: &Path, message: impl Into<String>) -> Error {
