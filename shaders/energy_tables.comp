@@ -5,10 +5,6 @@
 #include "stage.glsl"
 #include "bsdf.glsl"
 
-float radical_inverse(uint i) {
-    return float(bitfieldReverse(i) >> 8u) * (1.0 / 16777216.0);
-}
-
 void main() {
     uint cell = gl_GlobalInvocationID.x;
     if (cell >= ENERGY_RES * ENERGY_RES) return;

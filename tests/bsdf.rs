@@ -409,19 +409,11 @@ fn energy_tables_match_the_sampled_single_scattering() {
     }
     // The device's sampled albedo of a white metal (single scattering) equals the table, read the way the shaders
     // read it (bilinear), which also checks the table's indexing.
-    let lookup = |mu: f32, rough: f32| {
-        let (x, y) = (mu * (n - 1) as f32, rough * (n - 1) as f32);
-        let (x0, y0) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let a = e1(x0, y0) * (1.0 - fx) + e1(x0 + 1, y0) * fx;
-        let b = e1(x0, y0 + 1) * (1.0 - fx) + e1(x0 + 1, y0 + 1) * fx;
-        a * (1.0 - fy) + b * fy
-    };
     for (mi, &rough) in ROUGHNESS.iter().enumerate() {
         for &deg in &INCIDENT_DEG {
             let wo = wo_at(deg);
             let (a, se) = albedo(&sample_with(&mut r, mi as u32, wo, 100_000, 7 + mi as u64, false));
-            let table = lookup(wo.z, rough) as f64;
+            let table = table_lookup(&t, 0, wo.z, rough);
             // Bilinear interpolation between cells adds up to ~0.01 where E changes fastest (grazing, rough).
             assert!(
                 (a - table).abs() < 4.0 * se + 0.012,
@@ -786,16 +778,7 @@ fn layers_keep_their_tabulated_energy_and_never_exceed_one() {
     }
     // Each layer alone: the sampled albedo is the table the layering subtracts.
     let t = r.energy_tables().unwrap();
-    let res = pathwave::constants::ENERGY_RES as usize;
-    let lookup = |grid: usize, mu: f32, rough: f32| {
-        let e = |i: usize, j: usize| t[grid * res * res + j * res + i];
-        let (x, y) = (mu * (res - 1) as f32, rough * (res - 1) as f32);
-        let (x0, y0) = ((x as usize).min(res - 2), (y as usize).min(res - 2));
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let a = e(x0, y0) * (1.0 - fx) + e(x0 + 1, y0) * fx;
-        let b = e(x0, y0 + 1) * (1.0 - fx) + e(x0 + 1, y0 + 1) * fx;
-        (a * (1.0 - fy) + b * fy) as f64
-    };
+    let lookup = |grid: usize, mu: f32, rough: f32| table_lookup(&t, grid, mu, rough);
     let mut alone = Vec::new();
     for rough in [0.2f32, 0.5, 1.0] {
         alone.push(sheened(black(), Vec3::ONE, rough));
@@ -824,6 +807,18 @@ fn layers_keep_their_tabulated_energy_and_never_exceed_one() {
             );
         }
     }
+}
+
+/// Grid `grid` of the energy tables at (cos theta, roughness), interpolated bilinearly as the shaders read it.
+fn table_lookup(t: &[f32], grid: usize, mu: f32, rough: f32) -> f64 {
+    let n = pathwave::constants::ENERGY_RES as usize;
+    let e = |i: usize, j: usize| t[grid * n * n + j * n + i];
+    let (x, y) = (mu * (n - 1) as f32, rough * (n - 1) as f32);
+    let (x0, y0) = ((x as usize).min(n - 2), (y as usize).min(n - 2));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let a = e(x0, y0) * (1.0 - fx) + e(x0 + 1, y0) * fx;
+    let b = e(x0, y0 + 1) * (1.0 - fx) + e(x0 + 1, y0 + 1) * fx;
+    (a * (1.0 - fy) + b * fy) as f64
 }
 
 fn lambert_white() -> Material {

@@ -229,12 +229,22 @@ float sheen_albedo(Bsdf b, float mu) {
     return max3(b.sheen_color) * energy_lookup(2u, mu, b.sheen_roughness);
 }
 
-// How much of the base (everything but the layers) is left at wo: the scale the layers put on it.
-float base_weight(Bsdf b, vec3 wo) {
+// The clear coat's albedo at wo (0 in scenes without one).
+float coat_albedo_at(Bsdf b, vec3 wo) {
+    return scene_has(FEATURE_CLEARCOAT) ? clearcoat_albedo(b, dot(wo, b.coat_n)) : 0.0;
+}
+
+// How much of the base (everything but the layers) is left at wo, given the coat's albedo there: the scale the layers
+// put on it.
+float base_weight_under(Bsdf b, vec3 wo, float coat) {
     float w = 1.0;
-    if (scene_has(FEATURE_CLEARCOAT)) w *= 1.0 - clearcoat_albedo(b, dot(wo, b.coat_n));
+    if (scene_has(FEATURE_CLEARCOAT)) w *= 1.0 - coat;
     if (scene_has(FEATURE_SHEEN)) w *= 1.0 - sheen_albedo(b, wo.z);
     return w;
+}
+
+float base_weight(Bsdf b, vec3 wo) {
+    return base_weight_under(b, wo, coat_albedo_at(b, wo));
 }
 
 // The coat lobe's f, for the integrator's cosine about the shading normal: the coat's own cosine replaces it, so the
@@ -295,11 +305,11 @@ vec3 lobe_probabilities(Bsdf b, vec3 wo) {
     float glass = (1.0 - b.metallic) * b.transmission;
     float coat = 0.0;
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
-        float w = base_weight(b, wo);
+        float cc = coat_albedo_at(b, wo);
+        float w = base_weight_under(b, wo, cc);
         spec *= w;
         diff *= w;
         glass *= w;
-        float cc = scene_has(FEATURE_CLEARCOAT) ? clearcoat_albedo(b, dot(wo, b.coat_n)) : 0.0;
         if (scene_has(FEATURE_SHEEN)) diff += (1.0 - cc) * luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
         coat = cc;
     }
@@ -385,8 +395,8 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z == 0.0) return vec3(0.0);
     vec3 f = base_eval(b, wo, wi);
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
-        float cc = scene_has(FEATURE_CLEARCOAT) ? clearcoat_albedo(b, dot(wo, b.coat_n)) : 0.0;
-        vec3 under = f * base_weight(b, wo);
+        float cc = coat_albedo_at(b, wo);
+        vec3 under = f * base_weight_under(b, wo, cc);
         if (scene_has(FEATURE_SHEEN) && wi.z > 0.0 && max3(b.sheen_color) > 0.0) {
             under += (1.0 - cc) * b.sheen_color * sheen_lobe(b.sheen_roughness, wo, wi);
         }

@@ -4,6 +4,11 @@
 
 const float PI = 3.14159265358979323846;
 
+// Van der Corput's sequence in base 2, 24 bits: the second coordinate of the energy tables' stratified samples.
+float radical_inverse(uint i) {
+    return float(bitfieldReverse(i) >> 8u) * (1.0 / 16777216.0);
+}
+
 // Orthonormal basis around a unit normal (Duff et al. 2017).
 void basis(vec3 n, out vec3 t, out vec3 b) {
     float s = n.z >= 0.0 ? 1.0 : -1.0;

@@ -201,10 +201,8 @@ pub fn unequal_lights() -> GltfBuilder {
     b
 }
 
-/// Spheres of glTF metallic-roughness materials: roughness 0 to 1 across, dielectric (top row) and metal (bottom row),
-/// over a grey floor under one large area light.
-pub fn material_grid() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
+/// The grey floor and the large area light above it that the sphere grids stand on.
+fn sphere_stage(b: &mut GltfBuilder) {
     let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
     let light = b.material("light", [0.0; 3], [6.0; 3], false);
     b.quad(
@@ -219,6 +217,13 @@ pub fn material_grid() -> GltfBuilder {
         light,
         Some([0.0, -1.0, 0.0]),
     );
+}
+
+/// Spheres of glTF metallic-roughness materials: roughness 0 to 1 across, dielectric (top row) and metal (bottom row),
+/// over a grey floor under one large area light.
+pub fn material_grid() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    sphere_stage(&mut b);
     let roughness = [0.0, 0.25, 0.5, 0.75, 1.0];
     for (row, (metallic, color)) in [(0.0, [0.8, 0.1, 0.1]), (1.0, [0.95, 0.64, 0.54])].iter().enumerate() {
         for (col, &r) in roughness.iter().enumerate() {
@@ -623,20 +628,7 @@ pub fn animated() -> GltfBuilder {
 /// unlit sphere of KHR_materials_unlit).
 pub fn layers() -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
-    let light = b.material("light", [0.0; 3], [6.0; 3], false);
-    b.quad(
-        "floor",
-        [[-6.0, 0.0, -4.0], [6.0, 0.0, -4.0], [6.0, 0.0, 4.0], [-6.0, 0.0, 4.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "light",
-        [[-3.0, 5.0, -1.5], [3.0, 5.0, -1.5], [3.0, 5.0, 1.5], [-3.0, 5.0, 1.5]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    sphere_stage(&mut b);
     b.use_extension("KHR_materials_clearcoat");
     b.use_extension("KHR_materials_sheen");
     b.use_extension("KHR_materials_unlit");
