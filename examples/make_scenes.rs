@@ -17,6 +17,8 @@ fn main() {
         ("textured.gltf", scenes::textured()),
         ("animated.gltf", scenes::animated()),
         ("layers.gltf", scenes::layers()),
+        ("anisotropy.gltf", scenes::anisotropy()),
+        ("iridescence.gltf", scenes::iridescence()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

@@ -20,7 +20,7 @@ void main() {
     float e2 = 0.0;
     for (uint k = 0u; k < ENERGY_SAMPLES; ++k) {
         vec2 u = vec2((float(k) + 0.5) / float(ENERGY_SAMPLES), radical_inverse(k));
-        vec3 h = sample_ggx_vndf(wo, alpha, u);
+        vec3 h = sample_ggx_vndf(wo, vec2(alpha), u);
         vec3 wi = reflect(-wo, h);
         if (wi.z <= 0.0) continue;
         // f cos / pdf for visible-normal sampling is G2 / G1(wo).

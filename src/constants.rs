@@ -73,9 +73,14 @@ pub const TEX_SHEEN_ROUGHNESS: u32 = 8;
 pub const TEX_SPECULAR: u32 = 9;
 pub const TEX_SPECULAR_COLOR: u32 = 10;
 pub const TEX_TRANSMISSION: u32 = 11;
-pub const TEX_SLOTS: u32 = 12;
-/// 16-byte texels per material (layout.glsl's Material is 528 bytes).
-pub const MATERIAL_TEXELS: u32 = 33;
+/// KHR_materials_anisotropy: a direction in tangent space (RG, linear) and a factor on the strength (B).
+pub const TEX_ANISOTROPY: u32 = 12;
+/// KHR_materials_iridescence: the factor (R) and the film's thickness between its minimum and maximum (G).
+pub const TEX_IRIDESCENCE: u32 = 13;
+pub const TEX_IRIDESCENCE_THICKNESS: u32 = 14;
+pub const TEX_SLOTS: u32 = 15;
+/// 16-byte texels per material (layout.glsl's Material is 656 bytes).
+pub const MATERIAL_TEXELS: u32 = 41;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
@@ -112,6 +117,18 @@ pub const ENERGY_GRIDS: u32 = 3;
 /// Samples of the Charlie distribution per Esheen cell.
 pub const SHEEN_ENERGY_SAMPLES: u32 = 4096;
 pub const ENERGY_TABLE_FLOATS: u32 = ENERGY_GRIDS * ENERGY_RES * ENERGY_RES + ENERGY_GRIDS * ENERGY_RES;
+/// The stretched GGX lobe's E1 and E2 (KHR_materials_anisotropy), after the isotropic tables: stretching adds two
+/// dimensions (wo's azimuth against the stretch, and a second roughness), so each grid is ANISO_RES_MU cosines x
+/// ANISO_RES_PHI azimuths over a quarter turn x ANISO_RES_ROUGH perceptual roughnesses along x the same across, each
+/// cell the mean of ANISO_ENERGY_SAMPLES samples; then each grid's hemispherical averages per roughness pair.
+pub const ANISO_RES_MU: u32 = 24;
+pub const ANISO_RES_PHI: u32 = 16;
+pub const ANISO_RES_ROUGH: u32 = 16;
+pub const ANISO_ENERGY_SAMPLES: u32 = 512;
+pub const ANISO_CELLS: u32 = ANISO_RES_MU * ANISO_RES_PHI * ANISO_RES_ROUGH * ANISO_RES_ROUGH;
+pub const ANISO_TABLE_FLOATS: u32 = 2 * ANISO_CELLS + 2 * ANISO_RES_ROUGH * ANISO_RES_ROUGH;
+/// The whole energy buffer: the isotropic tables, then the anisotropic ones.
+pub const ENERGY_BUFFER_FLOATS: u32 = ENERGY_TABLE_FLOATS + ANISO_TABLE_FLOATS;
 
 /// Frame.flags bits.
 pub const FLAG_ENERGY_COMPENSATION: u32 = 1;
@@ -161,6 +178,12 @@ pub const FEATURE_CLEARCOAT: u32 = 512;
 pub const FEATURE_SHEEN: u32 = 1024;
 /// Some material is unlit (KHR_materials_unlit).
 pub const FEATURE_UNLIT: u32 = 2048;
+/// Some material is anisotropic (KHR_materials_anisotropy strength above 0): the base's GGX lobes are stretched
+/// along a direction in the tangent plane, whose frame shading then builds from the mesh's tangents.
+pub const FEATURE_ANISOTROPY: u32 = 4096;
+/// Some material is iridescent (KHR_materials_iridescence factor above 0): a thin film's interference in the
+/// Fresnel terms of the base's dielectric reflection and metal.
+pub const FEATURE_IRIDESCENCE: u32 = 8192;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;

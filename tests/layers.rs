@@ -1,4 +1,4 @@
-//! KHR_materials_clearcoat, _sheen and _unlit through the loader and the renderer: each new texture slot lands on the
+//! KHR_materials_clearcoat, _sheen, _iridescence and _unlit through the loader and the renderer: each new texture slot lands on the
 //! pixels its texels cover, the clear coat's own normal map steers its highlight, unlit surfaces show and shed their
 //! colour for every estimator, and malformed extension JSON is refused with the material named.
 mod common;
@@ -238,6 +238,51 @@ fn specular_and_transmission_textures_land_on_their_halves() {
     );
 }
 
+/// Mean RGB over the left and the right half of the view.
+fn rgb_halves(film: &pathwave::Film) -> [[f64; 3]; 2] {
+    let mean = film.mean();
+    let mut out = [[0.0; 3]; 2];
+    for j in 0..N {
+        for i in 0..N {
+            for c in 0..3 {
+                out[usize::from(i >= N / 2)][c] += mean[j * N + i][c] as f64 / (N * N / 2) as f64;
+            }
+        }
+    }
+    out
+}
+
+// KHR_materials_iridescence's textures on a smooth grey metal (a mirror: the white environment's reflection is its
+// Fresnel, without noise). Would catch iridescenceTexture's R or iridescenceThicknessTexture's G ignored, read from
+// the wrong channel, or the thickness not blended between the minimum and maximum.
+#[test]
+fn iridescence_textures_land_on_their_halves() {
+    let white = Some([1.0; 3]);
+    let bsdf = pathwave::Estimator::Bsdf;
+    let grey_mirror = |b: &mut GltfBuilder| {
+        b.material_json(0)["pbrMetallicRoughness"] =
+            json!({ "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.0 });
+    };
+    let film =
+        json!({ "iridescenceFactor": 1.0, "iridescenceThicknessMinimum": 0.0, "iridescenceThicknessMaximum": 400.0 });
+    let spread = |c: [f64; 3]| c.iter().cloned().fold(f64::MIN, f64::max) - c.iter().cloned().fold(f64::MAX, f64::min);
+    for (slot, left, right) in [
+        ("iridescenceTexture", [0, 255, 255, 255], [255, 0, 0, 255]),
+        ("iridescenceThicknessTexture", [255, 0, 255, 255], [0, 255, 0, 255]),
+    ] {
+        let mut b = halves("KHR_materials_iridescence", film.clone(), slot, left, right);
+        grey_mirror(&mut b);
+        let [l, r] = rgb_halves(&render(&b, white, 4, bsdf, 1));
+        eprintln!("{slot}: left {l:?}, right {r:?}");
+        // No film (factor 0, or thickness 0): the grey metal's own Fresnel, near 0.5 head-on, the same in every channel.
+        assert!(
+            spread(l) < 1e-3 && (0.45..0.6).contains(&l[0]),
+            "{slot}: the left half has no film: {l:?}"
+        );
+        assert!(spread(r) > 0.05, "{slot}: a 400 nm film colours the right half: {r:?}");
+    }
+}
+
 // A rough coat over black under a directional light 45 degrees towards +x: the highlight seen head-on needs a coat
 // normal tilted 22.5 degrees towards the light. The coat's own normal map tilts it towards +x on one run and -x on the
 // other; the base has no map, so only the coat's can do this. Would catch clearcoatNormalTexture ignored, or the coat
@@ -372,6 +417,31 @@ fn malformed_layer_extensions_are_refused_naming_the_material() {
             "KHR_materials_sheen",
             json!({ "sheenRoughnessTexture": { "index": -1 } }),
             "sheenRoughnessTexture",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceIOR": "oily" }),
+            "iridescenceIOR",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceIOR": 0.5 }),
+            "iridescenceIOR",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceThicknessMaximum": -5.0 }),
+            "iridescenceThicknessMaximum",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceThicknessMinimum": 1e9 }),
+            "iridescenceThicknessMinimum",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceThicknessTexture": { "index": 7 } }),
+            "iridescenceThicknessTexture",
         ),
     ];
     for (ext_name, ext, key) in cases {

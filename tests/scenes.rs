@@ -14,6 +14,8 @@ fn scene_files_match_their_generator() {
         ("textured.gltf", common::scenes::textured()),
         ("animated.gltf", common::scenes::animated()),
         ("layers.gltf", common::scenes::layers()),
+        ("anisotropy.gltf", common::scenes::anisotropy()),
+        ("iridescence.gltf", common::scenes::iridescence()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(

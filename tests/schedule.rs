@@ -75,8 +75,14 @@ fn the_cornell_box_is_the_same_bytes_either_way_with_either_bvh_read() {
 fn glass_punctual_textured_alpha_and_layered_scenes_are_the_same_bytes_either_way() {
     // glass: delta reflection and refraction; punctual lights: delta lights; textured: the textured and alpha-tested
     // variants (MASK and BLEND in traversal, textures in shading and in emitters); layers: clear coats (delta and
-    // rough), sheens and an unlit surface.
-    for name in ["glass.gltf", "punctual-lights.gltf", "textured.gltf", "layers.gltf"] {
+    // rough), sheens and an unlit surface; anisotropy: stretched lobes in tangent frames; iridescence: thin films.
+    for name in [
+        "glass.gltf",
+        "punctual-lights.gltf",
+        "textured.gltf",
+        "layers.gltf",
+        "anisotropy.gltf",
+    ] {
         let mut r = renderer(&scenes_dir().join(name));
         assert_schedules_agree(name, &mut r, &settings(20, 16, 6, 11));
     }

@@ -144,6 +144,7 @@ fn includes_decide_which_stages_are_stale() {
     assert_eq!(
         bsdf,
         [
+            "aniso_table",
             "energy_tables",
             "follow",
             "follow_alpha",

@@ -67,7 +67,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 528 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 656 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
@@ -78,6 +78,9 @@ struct Material {
     vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w: MATERIAL_* bits
     vec4 clearcoat;      // KHR_materials_clearcoat: x factor, y roughness (perceptual), z its normal map's scale, w unused
     vec4 sheen;          // KHR_materials_sheen: rgb colour, w roughness (perceptual)
+    vec4 anisotropy;     // KHR_materials_anisotropy: x strength, yz its direction in tangent space (cos, sin), w unused
+    vec4 iridescence;    // KHR_materials_iridescence: x factor, y the film's IOR, z and w its thickness range (nm); at
+                         // a hit (material_at) w is the thickness there
     TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
 };
 
@@ -311,8 +314,10 @@ Material load_material(uint i) {
     m.alpha = FETCH(material_texels, b + 6u);
     m.clearcoat = FETCH(material_texels, b + 7u);
     m.sheen = FETCH(material_texels, b + 8u);
+    m.anisotropy = FETCH(material_texels, b + 9u);
+    m.iridescence = FETCH(material_texels, b + 10u);
     for (uint k = 0u; k < TEX_SLOTS; ++k) {
-        m.textures[k] = TextureSlot(FETCH(material_texels, b + 9u + 2u * k), FETCH(material_texels, b + 10u + 2u * k));
+        m.textures[k] = TextureSlot(FETCH(material_texels, b + 11u + 2u * k), FETCH(material_texels, b + 12u + 2u * k));
     }
     return m;
 }

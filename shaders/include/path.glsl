@@ -140,6 +140,15 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     // The shading frame: z along the shading normal on the incoming side.
     vec3 tx, ty;
     basis(ns, tx, ty);
+    // An anisotropic lobe is stretched along a direction given in the mesh's tangent frame: the shading frame is that
+    // frame (about the shading normal). Without tangents the lobe takes the arbitrary one.
+    if (scene_has(FEATURE_ANISOTROPY) && bsdf.anisotropic) {
+        vec3 t, bt;
+        if (tangent_frame(tri, uv, ns, inst, t, bt)) {
+            tx = t;
+            ty = bt;
+        }
+    }
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
     if (scene_has(FEATURE_CLEARCOAT) && bsdf.clearcoat > 0.0) {
         // The coat has its own normal map, or none: then it follows the mesh, not the base's map.

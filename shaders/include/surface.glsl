@@ -83,17 +83,33 @@ Material material_at(Material m, uint tri, vec2 b) {
         if (slot_used(m.textures[TEX_SHEEN_COLOR])) m.sheen.rgb *= sample_slot(m.textures[TEX_SHEEN_COLOR], tri, b, true).rgb;
         if (slot_used(m.textures[TEX_SHEEN_ROUGHNESS])) m.sheen.w *= sample_slot(m.textures[TEX_SHEEN_ROUGHNESS], tri, b, false).a;
     }
+    if (scene_has(FEATURE_ANISOTROPY) && slot_used(m.textures[TEX_ANISOTROPY])) {
+        // The texel's direction (RG) turned by the material's rotation (yz); a zero direction keeps the rotation's.
+        vec3 a = sample_slot(m.textures[TEX_ANISOTROPY], tri, b, false).rgb;
+        vec2 d = a.rg * 2.0 - 1.0;
+        vec2 r = m.anisotropy.yz;
+        d = vec2(r.x * d.x - r.y * d.y, r.y * d.x + r.x * d.y);
+        m.anisotropy.x *= a.b;
+        if (dot(d, d) > 1e-12) m.anisotropy.yz = normalize(d);
+    }
+    if (scene_has(FEATURE_IRIDESCENCE)) {
+        if (slot_used(m.textures[TEX_IRIDESCENCE])) m.iridescence.x *= sample_slot(m.textures[TEX_IRIDESCENCE], tri, b, false).r;
+        if (slot_used(m.textures[TEX_IRIDESCENCE_THICKNESS])) {
+            float g = sample_slot(m.textures[TEX_IRIDESCENCE_THICKNESS], tri, b, false).g;
+            m.iridescence.w = mix(m.iridescence.z, m.iridescence.w, g);
+        }
+    }
 #endif
     return m;
 }
 
-// The shading normal with the normal map in `slot` applied (x and y scaled by `scale`); ns is the interpolated vertex
-// normal (unit length, in the world). An instanced triangle's tangents are its mesh's: the instance takes them into
-// the world, and a mirroring one flips the bitangent relative to cross(normal, tangent), as placing a mirrored mesh
-// does.
-vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uint inst) {
+// The mesh's tangent frame at the hit, orthonormal about ns (unit, in the world): false where the triangle has no
+// usable tangent. An instanced triangle's tangents are its mesh's: the instance takes them into the world, and a
+// mirroring one flips the bitangent relative to cross(normal, tangent), as placing a mirrored mesh does.
+bool tangent_frame(uint tri, vec2 b, vec3 ns, uint inst, out vec3 t, out vec3 bt) {
+    t = vec3(0.0);
+    bt = vec3(0.0);
 #ifdef TEXTURED
-    if (!slot_used(slot)) return ns;
     TriTangents tt = load_tri_tangents(tri);
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
@@ -101,10 +117,23 @@ vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uin
         t4.xyz = rows_vector(I.world0, I.world1, I.world2, t4.xyz);
         if (I.info.y != 0u) t4.w = -t4.w;
     }
-    vec3 t = t4.xyz - ns * dot(ns, t4.xyz);
-    if (!(dot(t, t) > 1e-12)) return ns;
+    t = t4.xyz - ns * dot(ns, t4.xyz);
+    if (!(dot(t, t) > 1e-12)) return false;
     t = normalize(t);
-    vec3 bt = cross(ns, t) * (t4.w < 0.0 ? -1.0 : 1.0);
+    bt = cross(ns, t) * (t4.w < 0.0 ? -1.0 : 1.0);
+    return true;
+#else
+    return false;
+#endif
+}
+
+// The shading normal with the normal map in `slot` applied (x and y scaled by `scale`); ns is the interpolated vertex
+// normal (unit length, in the world).
+vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uint inst) {
+#ifdef TEXTURED
+    if (!slot_used(slot)) return ns;
+    vec3 t, bt;
+    if (!tangent_frame(tri, b, ns, inst, t, bt)) return ns;
     vec3 c = sample_slot(slot, tri, b, false).xyz * 2.0 - 1.0;
     c.xy *= scale;
     vec3 n = c.x * t + c.y * bt + c.z * ns;

@@ -10,10 +10,10 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 impl Renderer {
-    /// Builds the GGX tables once per renderer, at start-up; the sheen grid waits for a scene with a sheen
-    /// (`ensure_sheen_table`).
+    /// Builds the GGX tables once per renderer, at start-up; the sheen and anisotropic grids wait for a scene that
+    /// needs them (`ensure_layer_tables`).
     pub(super) fn build_energy_tables(&mut self) -> Result<Buffer, Error> {
-        let floats = ENERGY_TABLE_FLOATS as usize;
+        let floats = ENERGY_BUFFER_FLOATS as usize;
         let mut energy = Buffer::new(
             &self.ctx,
             "energy tables",
@@ -21,23 +21,62 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
-        // Zeros first: the sheen grid is read as "no sheen energy" until it is built.
+        // Zeros first: the sheen and anisotropic grids are read only by scenes that have them built.
         energy.upload(&self.ctx, bytemuck::cast_slice(&vec![0f32; floats]))?;
         self.run_energy_pass(&mut energy, Stage::EnergyTables)?;
         Ok(energy)
     }
 
     /// Builds the sheen grid the first time a scene has a sheen in any of its materials (not only the ones its
-    /// triangles use: the probes read any material).
-    pub(super) fn ensure_sheen_table(&mut self, scene: &crate::scene::Scene) -> Result<(), Error> {
-        if self.sheen_table || !scene.materials.iter().any(|m| m.sheen.color != glam::Vec3::ZERO) {
-            return Ok(());
+    /// triangles use: the probes read any material), and the anisotropic grids the first time one is anisotropic.
+    pub(super) fn ensure_layer_tables(&mut self, scene: &crate::scene::Scene) -> Result<(), Error> {
+        if !self.sheen_table && scene.materials.iter().any(|m| m.sheen.color != glam::Vec3::ZERO) {
+            let mut energy = self.energy.take().expect("built in Renderer::new");
+            let done = self.run_energy_pass(&mut energy, Stage::SheenTable);
+            self.energy = Some(energy);
+            done?;
+            self.sheen_table = true;
         }
-        let mut energy = self.energy.take().expect("built in Renderer::new");
-        let done = self.run_energy_pass(&mut energy, Stage::SheenTable);
-        self.energy = Some(energy);
-        done?;
-        self.sheen_table = true;
+        if !self.aniso_table && scene.materials.iter().any(|m| m.anisotropy.strength > 0.0) {
+            let mut energy = self.energy.take().expect("built in Renderer::new");
+            let done = self.run_aniso_pass(&mut energy);
+            self.energy = Some(energy);
+            done?;
+            self.aniso_table = true;
+        }
+        Ok(())
+    }
+
+    /// The anisotropic grids, then their averages from the host: over the quarter turn of azimuths and over the
+    /// projected hemisphere, by the trapezoid rule on the grid's points.
+    fn run_aniso_pass(&mut self, energy: &mut Buffer) -> Result<(), Error> {
+        self.run_kernel(
+            Kernel::of(Stage::AnisoTable),
+            &[(BINDING_ENERGY, energy)],
+            Frame {
+                path_count: ANISO_CELLS,
+                ..Default::default()
+            },
+            1,
+        )?;
+        let mut table: Vec<f32> = energy.download(&self.ctx)?;
+        table.truncate(ENERGY_BUFFER_FLOATS as usize);
+        let (m, p, r) = (ANISO_RES_MU as usize, ANISO_RES_PHI as usize, ANISO_RES_ROUGH as usize);
+        let cells = ANISO_CELLS as usize;
+        let base = ENERGY_TABLE_FLOATS as usize;
+        let trapezoid = |n: usize, f: &dyn Fn(usize) -> f64| {
+            let h = 1.0 / (n - 1) as f64;
+            (0..n - 1).map(|i| 0.5 * h * (f(i) + f(i + 1))).sum::<f64>()
+        };
+        for t in 0..2 {
+            for pair in 0..r * r {
+                let grid = &table[base + t * cells + pair * m * p..base + t * cells + (pair + 1) * m * p];
+                let hemisphere =
+                    |phi: usize| 2.0 * trapezoid(m, &|i| grid[phi * m + i] as f64 * i as f64 / (m - 1) as f64);
+                table[base + 2 * cells + t * r * r + pair] = trapezoid(p, &hemisphere) as f32;
+            }
+        }
+        energy.upload(&self.ctx, bytemuck::cast_slice(&table))?;
         Ok(())
     }
 
@@ -55,7 +94,7 @@ impl Renderer {
             1,
         )?;
         let mut table: Vec<f32> = energy.download(&self.ctx)?;
-        table.truncate(ENERGY_TABLE_FLOATS as usize);
+        table.truncate(ENERGY_BUFFER_FLOATS as usize);
         let h = 1.0 / (n - 1) as f64;
         let grids = ENERGY_GRIDS as usize;
         for t in 0..grids {
@@ -78,5 +117,12 @@ impl Renderer {
         let mut t: Vec<f32> = energy.download(&self.ctx)?;
         t.truncate(ENERGY_TABLE_FLOATS as usize);
         Ok(t)
+    }
+
+    /// The anisotropic grids and their averages (ANISO_*), zeros until a scene with anisotropy has built them.
+    pub fn aniso_energy_tables(&self) -> Result<Vec<f32>, Error> {
+        let energy = self.energy.as_ref().expect("built in Renderer::new");
+        let t: Vec<f32> = energy.download(&self.ctx)?;
+        Ok(t[ENERGY_TABLE_FLOATS as usize..ENERGY_BUFFER_FLOATS as usize].to_vec())
     }
 }

@@ -21,6 +21,7 @@ pub enum Stage {
     Tonemap,
     EnergyTables,
     SheenTable,
+    AnisoTable,
     ProbeTrace,
     ProbeBsdf,
     ProbeEnv,
@@ -30,7 +31,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 16] = [
+    pub const ALL: [Stage; 17] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -41,6 +42,7 @@ impl Stage {
         Stage::Tonemap,
         Stage::EnergyTables,
         Stage::SheenTable,
+        Stage::AnisoTable,
         Stage::ProbeTrace,
         Stage::ProbeBsdf,
         Stage::ProbeEnv,
@@ -62,6 +64,7 @@ impl Stage {
             Stage::Tonemap => "tonemap",
             Stage::EnergyTables => "energy_tables",
             Stage::SheenTable => "sheen_table",
+            Stage::AnisoTable => "aniso_table",
             Stage::ProbeTrace => "probe_trace",
             Stage::ProbeBsdf => "probe_bsdf",
             Stage::ProbeEnv => "probe_env",

@@ -86,6 +86,7 @@ pub struct Renderer {
     energy: Option<Buffer>,
     /// Whether the energy buffer's sheen grid is built (the first scene with a sheen builds it).
     sheen_table: bool,
+    aniso_table: bool,
     /// How traversal reads the BVH; Texel needs the scene's texel views.
     bvh_reads: BvhReads,
     options: RendererOptions,
@@ -147,6 +148,7 @@ impl Renderer {
             stand_ins,
             energy: None,
             sheen_table: false,
+            aniso_table: false,
             bvh_reads: uploaded.bvh_reads,
             options,
             schedule,
@@ -161,7 +163,7 @@ impl Renderer {
         };
         r.bind_scene_views();
         r.energy = Some(r.build_energy_tables()?);
-        r.ensure_sheen_table(scene)?;
+        r.ensure_layer_tables(scene)?;
         Ok(r)
     }
 
@@ -172,7 +174,7 @@ impl Renderer {
         // Uploaded before the old scene goes, so that a scene refused leaves the renderer as it was. No pass is in
         // flight between calls, and every pass binds the scene's buffers again.
         let uploaded = Uploaded::new(&self.ctx, scene, &self.options)?;
-        self.ensure_sheen_table(scene)?;
+        self.ensure_layer_tables(scene)?;
         self.scene = uploaded.gpu;
         self.bvh_reads = uploaded.bvh_reads;
         let env = scene.environment.as_ref();

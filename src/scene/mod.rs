@@ -67,6 +67,10 @@ pub struct Material {
     pub clearcoat: Clearcoat,
     /// KHR_materials_sheen (black: none).
     pub sheen: Sheen,
+    /// KHR_materials_anisotropy (strength 0: none).
+    pub anisotropy: Anisotropy,
+    /// KHR_materials_iridescence (factor 0: none).
+    pub iridescence: Iridescence,
     /// KHR_materials_unlit: the surface shows its base colour (times texture and vertex colour) to every ray that
     /// reaches it, camera or bounce, and reflects nothing. It is not a light: next-event estimation never aims at it.
     pub unlit: bool,
@@ -112,6 +116,44 @@ pub struct Sheen {
     pub roughness_texture: Option<TextureRef>,
 }
 
+/// The base's specular lobes (dielectric, metal, glass) stretched along a direction in the tangent plane: brushed
+/// metal, hair-like highlights. The GGX alpha along the direction is mix(alpha, 1, strength^2), across it alpha.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Anisotropy {
+    pub strength: f32,
+    /// Radians, counter-clockwise from the tangent towards the bitangent.
+    pub rotation: f32,
+    /// RG: a direction in tangent space (then rotated by `rotation`), B multiplies the strength. Linear.
+    pub texture: Option<TextureRef>,
+}
+
+/// A thin dielectric film over the base (soap bubbles, oil on water, beetles): its interference colours the Fresnel
+/// of the base's dielectric reflection and metal (Belcour and Barla 2017, as the extension approximates it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Iridescence {
+    pub factor: f32,
+    pub ior: f32,
+    /// The film's thickness in nanometres: `thickness_max` without a thickness texture, else between the two by G.
+    pub thickness_min: f32,
+    pub thickness_max: f32,
+    /// R multiplies the factor.
+    pub texture: Option<TextureRef>,
+    pub thickness_texture: Option<TextureRef>,
+}
+
+impl Default for Iridescence {
+    fn default() -> Self {
+        Iridescence {
+            factor: 0.0,
+            ior: 1.3,
+            thickness_min: 100.0,
+            thickness_max: 400.0,
+            texture: None,
+            thickness_texture: None,
+        }
+    }
+}
+
 /// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AlphaMode {
@@ -145,12 +187,30 @@ impl Material {
             self.specular_texture,
             self.specular_color_texture,
             self.transmission_texture,
+            self.anisotropy.texture,
+            self.iridescence.texture,
+            self.iridescence.thickness_texture,
         ]
     }
 
-    /// The normal map whose texture coordinates the tangents follow: the base's, else the clear coat's.
-    pub fn tangent_texture(&self) -> Option<TextureRef> {
-        self.normal_texture.or(self.clearcoat.normal_texture)
+    /// The texture coordinate set the tangents follow, for a material that needs tangents: the base's normal map's,
+    /// else the clear coat's, else the anisotropy texture's; an anisotropic material without any takes set 0, as
+    /// MikkTSpace does.
+    pub fn tangent_set(&self) -> Option<u32> {
+        let mapped = self
+            .normal_texture
+            .or(self.clearcoat.normal_texture)
+            .or(self.anisotropy.texture);
+        match mapped {
+            Some(r) => Some(r.tex_coord),
+            None if self.anisotropy.strength > 0.0 => Some(0),
+            None => None,
+        }
+    }
+
+    /// Whether shading reads the primitive's texture coordinates: for a texture, or for tangents made from them.
+    pub fn reads_texcoords(&self) -> bool {
+        self.texture_refs().iter().any(Option::is_some) || self.tangent_set().is_some()
     }
 }
 
@@ -182,6 +242,8 @@ impl Default for Material {
             transmission_texture: None,
             clearcoat: Clearcoat::default(),
             sheen: Sheen::default(),
+            anisotropy: Anisotropy::default(),
+            iridescence: Iridescence::default(),
             unlit: false,
         }
     }

@@ -324,8 +324,8 @@ impl Scene {
             let first = soup.len();
             identity.push_primitive(p, &mut soup);
             // In the mesh's space, once for all its instances (each takes them into the world when shading).
-            if let (Some(r), None) = (self.materials[p.material as usize].tangent_texture(), &p.tangents) {
-                soup.generate_tangents(first, r.tex_coord as usize);
+            if let (Some(set), None) = (self.materials[p.material as usize].tangent_set(), &p.tangents) {
+                soup.generate_tangents(first, set as usize);
             }
         }
         soup
@@ -390,8 +390,8 @@ impl Scene {
                         });
                     }
                 }
-                if let (Some(r), None) = (self.materials[p.material as usize].tangent_texture(), &p.tangents) {
-                    soup.generate_tangents(first, r.tex_coord as usize);
+                if let (Some(set), None) = (self.materials[p.material as usize].tangent_set(), &p.tangents) {
+                    soup.generate_tangents(first, set as usize);
                 }
             }
         }
@@ -406,8 +406,8 @@ impl Scene {
                 placement.push_primitive(p, soup);
                 // Generated per instance on world-space triangles, as the loader did before meshes were shared: the
                 // same tangents to the last bit. The two-level BVH moves this to object space, once per mesh.
-                if let (Some(r), None) = (self.materials[p.material as usize].tangent_texture(), &p.tangents) {
-                    soup.generate_tangents(first, r.tex_coord as usize);
+                if let (Some(set), None) = (self.materials[p.material as usize].tangent_set(), &p.tangents) {
+                    soup.generate_tangents(first, set as usize);
                 }
             }
         }

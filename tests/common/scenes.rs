@@ -661,3 +661,76 @@ pub fn layers() -> GltfBuilder {
     b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
 }
+
+/// KHR_materials_anisotropy on UV spheres (the tangent runs around the equator): front row brushed aluminium of
+/// roughness 0.3 at strength 0, 0.5 and 1, then strength 1 turned a quarter (stretched from pole to pole); back row
+/// a brushed copper of roughness 0.1, an anisotropic white plastic and an anisotropic rough glass. Lit by the sphere
+/// stage's area light and a small point light, whose highlights show the stretch.
+pub fn anisotropy() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    sphere_stage(&mut b);
+    b.use_extension("KHR_materials_anisotropy");
+    let quarter = std::f32::consts::FRAC_PI_2;
+    let front = [
+        ("aluminium, isotropic", 0.0, 0.0),
+        ("aluminium, strength 0.5", 0.5, 0.0),
+        ("aluminium, strength 1", 1.0, 0.0),
+        ("aluminium, strength 1 turned a quarter", 1.0, quarter),
+    ];
+    for (col, (name, strength, rotation)) in front.into_iter().enumerate() {
+        let m = b.pbr_material(name, [0.91, 0.92, 0.92], 1.0, 0.3, [0.0; 3], false);
+        b.material_json(m)["extensions"]["KHR_materials_anisotropy"] =
+            serde_json::json!({ "anisotropyStrength": strength, "anisotropyRotation": rotation });
+        b.textured_sphere(name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+    }
+    let copper = b.pbr_material("brushed copper", [0.95, 0.64, 0.54], 1.0, 0.1, [0.0; 3], false);
+    let plastic = b.pbr_material("anisotropic plastic", [0.8, 0.8, 0.8], 0.0, 0.2, [0.0; 3], false);
+    let glass = b.glass_material("anisotropic glass", [1.0, 1.0, 1.0], 1.5, 0.2, false, None);
+    for (col, m) in [copper, plastic, glass].into_iter().enumerate() {
+        b.material_json(m)["extensions"]["KHR_materials_anisotropy"] =
+            serde_json::json!({ "anisotropyStrength": 0.8, "anisotropyRotation": 0.0 });
+        let name = format!("back {col}");
+        b.textured_sphere(&name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+    }
+    b.punctual(
+        serde_json::json!({ "type": "point" }),
+        [1.0; 3],
+        30.0,
+        [2.5, 3.0, 3.0],
+        [0.0, 0.0, 0.0, 1.0],
+    );
+    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}
+
+/// KHR_materials_iridescence: front row a near-black plastic under a soap film (IOR 1.33) 200, 350, 500 and 700 nm
+/// thick; back row a grey metal under a film of IOR 1.8 and 300 nm, copper under 1.5 and 450 nm, and a white plastic
+/// under 2.0 and 250 nm. The sphere stage's area light and an environment-free sky: the colours are the films'.
+pub fn iridescence() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    sphere_stage(&mut b);
+    b.use_extension("KHR_materials_iridescence");
+    let film = |b: &mut GltfBuilder, m: usize, ior: f32, thickness: f32| {
+        b.material_json(m)["extensions"]["KHR_materials_iridescence"] = serde_json::json!({
+            "iridescenceFactor": 1.0, "iridescenceIOR": ior, "iridescenceThicknessMaximum": thickness
+        });
+    };
+    for (col, thickness) in [200.0f32, 350.0, 500.0, 700.0].into_iter().enumerate() {
+        let name = format!("soap film {thickness} nm");
+        let m = b.pbr_material(&name, [0.02, 0.02, 0.02], 0.0, 0.15, [0.0; 3], false);
+        film(&mut b, m, 1.33, thickness);
+        b.sphere(&name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+    }
+    let back = [
+        ("grey metal, film 1.8 300 nm", [0.6, 0.6, 0.6], 1.0, 1.8, 300.0),
+        ("copper, film 1.5 450 nm", [0.95, 0.64, 0.54], 1.0, 1.5, 450.0),
+        ("white plastic, film 2.0 250 nm", [0.8, 0.8, 0.8], 0.0, 2.0, 250.0),
+    ];
+    for (col, (name, color, metallic, ior, thickness)) in back.into_iter().enumerate() {
+        let m = b.pbr_material(name, color, metallic, 0.25, [0.0; 3], false);
+        film(&mut b, m, ior, thickness);
+        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+    }
+    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}

@@ -74,6 +74,12 @@ impl PackedScene {
         if any(|m| m.sheen[..3].iter().any(|&c| c != 0.0)) {
             bits |= FEATURE_SHEEN;
         }
+        if any(|m| m.anisotropy[0] != 0.0) {
+            bits |= FEATURE_ANISOTROPY;
+        }
+        if any(|m| m.iridescence[0] != 0.0) {
+            bits |= FEATURE_IRIDESCENCE;
+        }
         if any(|m| m.alpha[3].to_bits() & MATERIAL_UNLIT != 0) {
             bits |= FEATURE_UNLIT;
         }
@@ -171,6 +177,18 @@ fn gpu_material(m: &Material) -> GpuMaterial {
         ],
         clearcoat: [m.clearcoat.factor, m.clearcoat.roughness, m.clearcoat.normal_scale, 0.0],
         sheen: v4(m.sheen.color, m.sheen.roughness),
+        anisotropy: [
+            m.anisotropy.strength,
+            m.anisotropy.rotation.cos(),
+            m.anisotropy.rotation.sin(),
+            0.0,
+        ],
+        iridescence: [
+            m.iridescence.factor,
+            m.iridescence.ior,
+            m.iridescence.thickness_min,
+            m.iridescence.thickness_max,
+        ],
         textures: m.texture_refs().map(slot),
     }
 }
@@ -479,11 +497,8 @@ fn pack_triangles(
     order: &[u32],
 ) -> Option<PackedTriangles> {
     let n = soup.len();
-    let textured = scene
-        .materials
-        .iter()
-        .any(|m| m.texture_refs().iter().any(Option::is_some));
-    let normal_mapped = scene.materials.iter().any(|m| m.tangent_texture().is_some());
+    let textured = scene.materials.iter().any(Material::reads_texcoords);
+    let normal_mapped = scene.materials.iter().any(|m| m.tangent_set().is_some());
     let mut t = PackedTriangles {
         tri_verts: try_vec(n)?,
         tri_shading: try_vec(n)?,

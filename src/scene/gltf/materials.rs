@@ -2,7 +2,7 @@
 use super::{scene_err, uri, Loader};
 use crate::error::Error;
 use crate::scene::texture::{self, Texture, TextureRef};
-use crate::scene::{AlphaMode, Clearcoat, Material, Sheen};
+use crate::scene::{AlphaMode, Anisotropy, Clearcoat, Iridescence, Material, Sheen};
 use glam::Vec3;
 use gltf::json::Value;
 
@@ -70,6 +70,8 @@ impl Loader<'_> {
         let t = self.transmission(&name, m)?;
         let clearcoat = self.clearcoat(&name, m)?;
         let sheen = self.sheen(&name, m)?;
+        let anisotropy = self.anisotropy(&name, m)?;
+        let iridescence = self.iridescence(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
         let mut pbr_metallic = pbr.metallic_factor().clamp(0.0, 1.0);
         let mut specular = d.specular.clamp(0.0, 1.0);
@@ -107,6 +109,8 @@ impl Loader<'_> {
             transmission_texture: t.texture,
             clearcoat: if unlit { Clearcoat::default() } else { clearcoat },
             sheen: if unlit { Sheen::default() } else { sheen },
+            anisotropy: if unlit { Anisotropy::default() } else { anisotropy },
+            iridescence: if unlit { Iridescence::default() } else { iridescence },
             unlit,
         });
         Ok(())
@@ -174,6 +178,66 @@ impl Loader<'_> {
             roughness: self.json_factor(name, what, ext, "sheenRoughnessFactor", 0.0)?,
             color_texture: self.json_texture(name, what, ext, "sheenColorTexture")?,
             roughness_texture: self.json_texture(name, what, ext, "sheenRoughnessTexture")?,
+        })
+    }
+
+    /// KHR_materials_anisotropy, read from its JSON.
+    fn anisotropy(&mut self, name: &str, m: &gltf::Material) -> Result<Anisotropy, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_anisotropy") else {
+            return Ok(Anisotropy::default());
+        };
+        let what = "KHR_materials_anisotropy";
+        let rotation = match ext.get("anisotropyRotation") {
+            None => 0.0,
+            // Any angle is meaningful, but one beyond a million radians has lost its fraction of a turn in f32.
+            Some(v) => v.as_f64().filter(|x| x.is_finite() && x.abs() <= 1e6).ok_or_else(|| {
+                scene_err(
+                    self.path,
+                    format!("material '{name}': {what}.anisotropyRotation is not a finite angle in radians"),
+                )
+            })? as f32,
+        };
+        Ok(Anisotropy {
+            strength: self.json_factor(name, what, ext, "anisotropyStrength", 0.0)?,
+            rotation,
+            texture: self.json_texture(name, what, ext, "anisotropyTexture")?,
+        })
+    }
+
+    /// KHR_materials_iridescence, read from its JSON.
+    fn iridescence(&mut self, name: &str, m: &gltf::Material) -> Result<Iridescence, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_iridescence") else {
+            return Ok(Iridescence::default());
+        };
+        let what = "KHR_materials_iridescence";
+        let d = Iridescence::default();
+        // A film's IOR of at least 1 and a thickness of at most 100 um (thousands of wavelengths: any thicker and the
+        // interference has long averaged out), so the phase stays finite.
+        let number = |key: &str, default: f32, lo: f64, hi: f64| -> Result<f32, Error> {
+            match ext.get(key) {
+                None => Ok(default),
+                Some(v) => v
+                    .as_f64()
+                    .filter(|x| x.is_finite() && (lo..=hi).contains(x))
+                    .map(|x| x as f32)
+                    .ok_or_else(|| {
+                        scene_err(
+                            self.path,
+                            format!("material '{name}': {what}.{key} is not a number in [{lo}, {hi}]"),
+                        )
+                    }),
+            }
+        };
+        let ior = number("iridescenceIOR", d.ior, 1.0, 10.0)?;
+        let thickness_min = number("iridescenceThicknessMinimum", d.thickness_min, 0.0, 1e5)?;
+        let thickness_max = number("iridescenceThicknessMaximum", d.thickness_max, 0.0, 1e5)?;
+        Ok(Iridescence {
+            factor: self.json_factor(name, what, ext, "iridescenceFactor", 0.0)?,
+            ior,
+            thickness_min,
+            thickness_max,
+            texture: self.json_texture(name, what, ext, "iridescenceTexture")?,
+            thickness_texture: self.json_texture(name, what, ext, "iridescenceThicknessTexture")?,
         })
     }
 

@@ -309,7 +309,7 @@ impl Loader<'_> {
         mat: &Material,
         present: &mut Present,
     ) -> Result<(), Error> {
-        if mat.texture_refs().iter().any(Option::is_some) {
+        if mat.reads_texcoords() {
             for (set, slot) in present.texcoords.iter_mut().enumerate() {
                 if let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) {
                     let what = format!("TEXCOORD_{set}");
@@ -326,7 +326,7 @@ impl Loader<'_> {
                 }
             }
         }
-        if mat.tangent_texture().is_some() {
+        if mat.tangent_set().is_some() {
             if let Some(acc) = prim.get(&gltf::Semantic::Tangents) {
                 present.tangents =
                     self.check_attribute(&acc, "TANGENT", UNIT_TYPES, Dimensions::Vec4)? == Contents::Data;
