@@ -19,6 +19,7 @@ fn main() {
         ("layers.gltf", scenes::layers()),
         ("anisotropy.gltf", scenes::anisotropy()),
         ("iridescence.gltf", scenes::iridescence()),
+        ("translucency.gltf", scenes::translucency()),
     ] {
         b.write(&dir.join(name));
         println!("wrote scenes/{name}");

@@ -78,9 +78,12 @@ pub const TEX_ANISOTROPY: u32 = 12;
 /// KHR_materials_iridescence: the factor (R) and the film's thickness between its minimum and maximum (G).
 pub const TEX_IRIDESCENCE: u32 = 13;
 pub const TEX_IRIDESCENCE_THICKNESS: u32 = 14;
-pub const TEX_SLOTS: u32 = 15;
-/// 16-byte texels per material (layout.glsl's Material is 656 bytes).
-pub const MATERIAL_TEXELS: u32 = 41;
+/// KHR_materials_diffuse_transmission: the factor (A) and the colour (sRGB RGB).
+pub const TEX_DIFFUSE_TRANSMISSION: u32 = 15;
+pub const TEX_DIFFUSE_TRANSMISSION_COLOR: u32 = 16;
+pub const TEX_SLOTS: u32 = 17;
+/// 16-byte texels per material (layout.glsl's Material is 736 bytes).
+pub const MATERIAL_TEXELS: u32 = 46;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
@@ -184,6 +187,9 @@ pub const FEATURE_ANISOTROPY: u32 = 4096;
 /// Some material is iridescent (KHR_materials_iridescence factor above 0): a thin film's interference in the
 /// Fresnel terms of the base's dielectric reflection and metal.
 pub const FEATURE_IRIDESCENCE: u32 = 8192;
+/// Some material transmits diffusely (KHR_materials_diffuse_transmission factor above 0): part of the base's diffuse
+/// lobe goes through the surface (leaves, paper, lamp shades, wax).
+pub const FEATURE_DIFFUSE_TRANSMISSION: u32 = 16384;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;

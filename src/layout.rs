@@ -147,11 +147,11 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 656 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 736 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour, transmission (factor, thin), absorption,
 /// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
 /// (colour, roughness), anisotropy (strength, cos and sin of the rotation), iridescence (factor, film IOR, thickness
-/// minimum and maximum in nm), then one texture slot per TEX_*.
+/// minimum and maximum in nm), diffuse transmission (colour, factor), then one texture slot per TEX_*.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -166,6 +166,7 @@ pub struct GpuMaterial {
     pub sheen: [f32; 4],
     pub anisotropy: [f32; 4],
     pub iridescence: [f32; 4],
+    pub diffuse_transmission: [f32; 4],
     pub textures: [TextureSlot; crate::constants::TEX_SLOTS as usize],
 }
 
@@ -303,7 +304,7 @@ const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 656);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 736);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);

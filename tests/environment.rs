@@ -406,3 +406,46 @@ fn iridescent_materials_vanish_in_a_white_furnace() {
         );
     }
 }
+
+// A white diffuse transmitter loses nothing: whatever it sends through the surface comes back out (a solid sphere's
+// inside is white too, and light bounces in it until it leaves), so with paths long enough the furnace is 1, thin or
+// volumetric. Would catch the transmitted share lost (the furnace would fall to 1 - factor/2 and below), added on top
+// of the reflection (above 1), or absorbed in a volume without an attenuation colour.
+#[test]
+fn diffuse_transmitters_vanish_in_a_white_furnace() {
+    use pathwave::scene::DiffuseTransmission;
+    let lambert = |factor: f32, thin: bool| Material {
+        metallic: 0.0,
+        specular: 0.0,
+        thin_walled: thin,
+        diffuse_transmission: DiffuseTransmission {
+            factor,
+            ..DiffuseTransmission::default()
+        },
+        ..Material::default()
+    };
+    let plastic = Material {
+        metallic: 0.0,
+        roughness: 0.4,
+        thin_walled: false,
+        diffuse_transmission: DiffuseTransmission {
+            factor: 0.7,
+            ..DiffuseTransmission::default()
+        },
+        ..Material::default()
+    };
+    for (name, material) in [
+        ("thin white lambert, half through", lambert(0.5, true)),
+        ("solid white lambert, all through", lambert(1.0, false)),
+        ("solid white plastic 0.4, 0.7 through", plastic),
+    ] {
+        // The default depth (64 bounces, Russian roulette from the third) is unbounded for this purpose.
+        let (mean, se, pixels) = white_furnace(material, 128, false);
+        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
+        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
+        assert!(
+            (mean - 1.0).abs() <= 0.005 + 4.0 * se,
+            "{name}: {mean} +- {se} is not 1"
+        );
+    }
+}

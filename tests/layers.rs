@@ -1,4 +1,4 @@
-//! KHR_materials_clearcoat, _sheen, _iridescence and _unlit through the loader and the renderer: each new texture slot lands on the
+//! KHR_materials_clearcoat, _sheen, _iridescence, _diffuse_transmission and _unlit through the loader and the renderer: each new texture slot lands on the
 //! pixels its texels cover, the clear coat's own normal map steers its highlight, unlit surfaces show and shed their
 //! colour for every estimator, and malformed extension JSON is refused with the material named.
 mod common;
@@ -280,6 +280,53 @@ fn iridescence_textures_land_on_their_halves() {
             "{slot}: the left half has no film: {l:?}"
         );
         assert!(spread(r) > 0.05, "{slot}: a 400 nm film colours the right half: {r:?}");
+    }
+}
+
+// KHR_materials_diffuse_transmission's textures: behind a thin white Lambertian quad an unlit red card, and nothing
+// else lights the scene, so what the view sees is the card through the quad's diffuse transmission. Would catch
+// diffuseTransmissionTexture's A or diffuseTransmissionColorTexture's (sRGB) RGB ignored or read from the wrong
+// channel.
+#[test]
+fn diffuse_transmission_textures_land_on_their_halves() {
+    let bsdf = pathwave::Estimator::Bsdf;
+    for (slot, left, right) in [
+        ("diffuseTransmissionTexture", [255, 255, 255, 0], [0, 0, 0, 255]),
+        ("diffuseTransmissionColorTexture", [0, 0, 0, 255], [255, 255, 255, 255]),
+    ] {
+        let mut b = halves_over(
+            [1.0; 3],
+            "KHR_materials_diffuse_transmission",
+            json!({ "diffuseTransmissionFactor": 1.0 }),
+            slot,
+            left,
+            right,
+        );
+        let card = b.pbr_material("card", [1.0, 0.0, 0.0], 0.0, 1.0, [0.0; 3], false);
+        b.material_json(card)["extensions"]["KHR_materials_unlit"] = json!({});
+        b.use_extension("KHR_materials_unlit");
+        b.quad(
+            "card",
+            [
+                [-30.0, 30.0, -1.0],
+                [-30.0, -30.0, -1.0],
+                [30.0, -30.0, -1.0],
+                [30.0, 30.0, -1.0],
+            ],
+            card,
+            Some([0.0, 0.0, 1.0]),
+        );
+        let film = render(&b, None, 64, bsdf, 2);
+        let [l, r] = halves_of(&film);
+        let green_right = film.mean()[N - 1][1];
+        eprintln!("{slot}: left {l:?}, right {r:?}, right green {green_right}");
+        // The card fills nearly all of the far hemisphere, so the quad passes nearly all of its red.
+        assert!(l.0 < 1e-3, "{slot}: nothing through the left half: {}", l.0);
+        assert!(
+            r.0 > 0.9 && green_right == 0.0,
+            "{slot}: the red card through the right half: {} (green {green_right})",
+            r.0
+        );
     }
 }
 

@@ -16,6 +16,7 @@ fn scene_files_match_their_generator() {
         ("layers.gltf", common::scenes::layers()),
         ("anisotropy.gltf", common::scenes::anisotropy()),
         ("iridescence.gltf", common::scenes::iridescence()),
+        ("translucency.gltf", common::scenes::translucency()),
     ] {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(

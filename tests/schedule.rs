@@ -75,7 +75,7 @@ fn the_cornell_box_is_the_same_bytes_either_way_with_either_bvh_read() {
 fn glass_punctual_textured_alpha_and_layered_scenes_are_the_same_bytes_either_way() {
     // glass: delta reflection and refraction; punctual lights: delta lights; textured: the textured and alpha-tested
     // variants (MASK and BLEND in traversal, textures in shading and in emitters); layers: clear coats (delta and
-    // rough), sheens and an unlit surface; anisotropy: stretched lobes in tangent frames; iridescence: thin films.
+    // rough), sheens and an unlit surface; anisotropy: stretched lobes in tangent frames; iridescence: thin films; translucency: diffuse transmission, thin and solid.
     for name in [
         "glass.gltf",
         "punctual-lights.gltf",

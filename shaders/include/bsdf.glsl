@@ -1,5 +1,5 @@
 // The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior, _specular, _transmission, _volume, and
-// _anisotropy, _iridescence, and the _sheen and _clearcoat layers over it):
+// _anisotropy, _iridescence, _diffuse_transmission, and the _sheen and _clearcoat layers over it):
 // eval, sample and pdf live together here, in the shading frame (z = normal on wo's side), so they cannot drift apart.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
@@ -35,6 +35,8 @@ struct Bsdf {
     float film_ior;
     float film_thickness; // nm
     float outside_ior;    // above the film: air, or the clear coat's 1.5
+    float diffuse_transmission; // KHR_materials_diffuse_transmission: the share of the diffuse lobe that passes
+    vec3 dt_color;
 };
 
 // The smallest alpha across an anisotropic lobe: a line-shaped distribution has no finite density.
@@ -74,6 +76,8 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.film_ior = m.iridescence.y;
     b.film_thickness = m.iridescence.w;
     b.outside_ior = b.clearcoat > 0.0 ? 1.5 : 1.0;
+    b.diffuse_transmission = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? m.diffuse_transmission.w : 0.0;
+    b.dt_color = m.diffuse_transmission.rgb;
     if (b.anisotropic) {
         float s = m.anisotropy.x;
         b.aniso_alpha = vec2(mix(b.alpha, 1.0, s * s), max(b.alpha, ANISO_MIN_ALPHA));
@@ -512,7 +516,9 @@ vec3 lobe_probabilities(Bsdf b, vec3 wo) {
     vec3 fd = dielectric_fresnel(b, wo.z);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
-    float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(b.base_color);
+    vec3 tint = b.base_color;
+    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) tint = mix(b.base_color, b.dt_color, b.diffuse_transmission);
+    float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(tint);
     if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
         diff += b.metallic * (1.0 - spec_energy(b, 0u, wo)) * luminance(b.base_color);
     }
@@ -588,12 +594,21 @@ vec3 base_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 glass_f = vec3(0.0);
     float glass_pdf;
     if (glass_w > 0.0) glass_eval_pdf(b, wo, wi, glass_f, glass_pdf);
-    if (wi.z < 0.0) return glass_w * glass_f;
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
+    if (wi.z < 0.0) {
+        vec3 below = glass_w * glass_f;
+        // Diffuse transmission: Lambertian on the far side, through the dielectric layer on both ways as the diffuse
+        // reflection is (so the two share the energy the layer lets in).
+        if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
+            below += opaque * b.diffuse_transmission * coat_transmittance(b, wo, flip_z(wi)) * b.dt_color / PI;
+        }
+        return below;
+    }
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     vec3 fd = dielectric_fresnel(b, c);
     vec3 diffuse = opaque * coat_transmittance(b, wo, wi) * b.base_color / PI;
+    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) diffuse *= 1.0 - b.diffuse_transmission;
     if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo, wi);
     // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).
     if (bsdf_is_delta(b) || (opaque * b.specular == 0.0 && b.metallic == 0.0)) return diffuse + glass_w * glass_f;
@@ -629,8 +644,14 @@ float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
         glass_eval_pdf(b, wo, wi, f, glass_pdf);
         pdf += p.x * glass_pdf;
     }
-    if (wi.z < 0.0) return pdf;
-    pdf += (1.0 - p.x - p.y - p.z) * wi.z / PI;
+    // The cosine lobe sends diffuse_transmission of its samples through the surface.
+    if (wi.z < 0.0) {
+        if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) pdf += (1.0 - p.x - p.y - p.z) * b.diffuse_transmission * -wi.z / PI;
+        return pdf;
+    }
+    float cosine = (1.0 - p.x - p.y - p.z) * wi.z / PI;
+    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) cosine *= 1.0 - b.diffuse_transmission;
+    pdf += cosine;
     if (scene_has(FEATURE_CLEARCOAT) && p.z > 0.0) pdf += p.z * clearcoat_pdf(b, wo, wi);
     if (scene_has(FEATURE_COAT | FEATURE_METAL) && !bsdf_is_delta(b)) {
         // Visible-normal sampling then reflection: D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
@@ -744,6 +765,11 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
         if (s.wi.z <= 0.0 || dot(s.wi, b.coat_n) <= 0.0) return false;
     } else {
         s.wi = sample_cosine_hemisphere(vec3(0.0, 0.0, 1.0), u.xy);
+        if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
+            // u.z again, rescaled over the cosine lobe's share, chooses through or back.
+            float u_t = (u.z - (p.x + p.y + p.z)) / max(1.0 - p.x - p.y - p.z, 1e-12);
+            if (u_t < b.diffuse_transmission) s.wi = flip_z(s.wi);
+        }
     }
     s.pdf = bsdf_pdf(b, wo, s.wi);
     if (!(s.pdf > 0.0)) return false;

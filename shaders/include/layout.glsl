@@ -67,7 +67,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 656 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 736 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
@@ -81,6 +81,7 @@ struct Material {
     vec4 anisotropy;     // KHR_materials_anisotropy: x strength, yz its direction in tangent space (cos, sin), w unused
     vec4 iridescence;    // KHR_materials_iridescence: x factor, y the film's IOR, z and w its thickness range (nm); at
                          // a hit (material_at) w is the thickness there
+    vec4 diffuse_transmission; // KHR_materials_diffuse_transmission: rgb colour, w factor
     TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
 };
 
@@ -316,8 +317,9 @@ Material load_material(uint i) {
     m.sheen = FETCH(material_texels, b + 8u);
     m.anisotropy = FETCH(material_texels, b + 9u);
     m.iridescence = FETCH(material_texels, b + 10u);
+    m.diffuse_transmission = FETCH(material_texels, b + 11u);
     for (uint k = 0u; k < TEX_SLOTS; ++k) {
-        m.textures[k] = TextureSlot(FETCH(material_texels, b + 11u + 2u * k), FETCH(material_texels, b + 12u + 2u * k));
+        m.textures[k] = TextureSlot(FETCH(material_texels, b + 12u + 2u * k), FETCH(material_texels, b + 13u + 2u * k));
     }
     return m;
 }

@@ -129,8 +129,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     }
     alive = alive && bounce < frame.max_depth;
 
-    // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert).
-    if (scene_has(FEATURE_TRANSMISSION) && !front && m.transmission.x > 0.0 && m.transmission.y < 0.5) {
+    // A ray leaving a volumetric object has crossed its inside: absorption over that segment (Beer-Lambert), whether
+    // it entered by refraction or diffusely.
+    bool enters = (scene_has(FEATURE_TRANSMISSION) && m.transmission.x > 0.0) ||
+                  (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && m.diffuse_transmission.w > 0.0);
+    if (enters && !front && m.transmission.y < 0.5) {
         beta *= exp(-m.attenuation.rgb * hit.x);
     }
     Bsdf bsdf = bsdf_from_material(m, front);

@@ -92,6 +92,14 @@ Material material_at(Material m, uint tri, vec2 b) {
         m.anisotropy.x *= a.b;
         if (dot(d, d) > 1e-12) m.anisotropy.yz = normalize(d);
     }
+    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) {
+        if (slot_used(m.textures[TEX_DIFFUSE_TRANSMISSION])) {
+            m.diffuse_transmission.w *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION], tri, b, false).a;
+        }
+        if (slot_used(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR])) {
+            m.diffuse_transmission.rgb *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR], tri, b, true).rgb;
+        }
+    }
     if (scene_has(FEATURE_IRIDESCENCE)) {
         if (slot_used(m.textures[TEX_IRIDESCENCE])) m.iridescence.x *= sample_slot(m.textures[TEX_IRIDESCENCE], tri, b, false).r;
         if (slot_used(m.textures[TEX_IRIDESCENCE_THICKNESS])) {

@@ -71,6 +71,8 @@ pub struct Material {
     pub anisotropy: Anisotropy,
     /// KHR_materials_iridescence (factor 0: none).
     pub iridescence: Iridescence,
+    /// KHR_materials_diffuse_transmission (factor 0: none).
+    pub diffuse_transmission: DiffuseTransmission,
     /// KHR_materials_unlit: the surface shows its base colour (times texture and vertex colour) to every ray that
     /// reaches it, camera or bounce, and reflects nothing. It is not a light: next-event estimation never aims at it.
     pub unlit: bool,
@@ -154,6 +156,29 @@ impl Default for Iridescence {
     }
 }
 
+/// Part of the base's diffuse lobe passes through the surface, Lambertian on the other side, tinted by `color`:
+/// to the far side of a thin sheet, or (with KHR_materials_volume) into the object, absorbed on the way like glass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiffuseTransmission {
+    pub factor: f32,
+    pub color: Vec3,
+    /// A multiplies the factor.
+    pub texture: Option<TextureRef>,
+    /// sRGB RGB multiplies the colour.
+    pub color_texture: Option<TextureRef>,
+}
+
+impl Default for DiffuseTransmission {
+    fn default() -> Self {
+        DiffuseTransmission {
+            factor: 0.0,
+            color: Vec3::ONE,
+            texture: None,
+            color_texture: None,
+        }
+    }
+}
+
 /// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AlphaMode {
@@ -190,6 +215,8 @@ impl Material {
             self.anisotropy.texture,
             self.iridescence.texture,
             self.iridescence.thickness_texture,
+            self.diffuse_transmission.texture,
+            self.diffuse_transmission.color_texture,
         ]
     }
 
@@ -244,6 +271,7 @@ impl Default for Material {
             sheen: Sheen::default(),
             anisotropy: Anisotropy::default(),
             iridescence: Iridescence::default(),
+            diffuse_transmission: DiffuseTransmission::default(),
             unlit: false,
         }
     }

@@ -734,3 +734,76 @@ pub fn iridescence() -> GltfBuilder {
     b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
 }
+
+/// KHR_materials_diffuse_transmission: front row solid spheres (KHR_materials_volume) of a white wax transmitting all
+/// of its diffuse lobe, one absorbing towards orange inside, and a green jade under a clear dielectric; back row thin
+/// white sheets (paper) passing 0.2, 0.5 and 1.0 of their diffuse light, lit from behind by a second area light.
+pub fn translucency() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    sphere_stage(&mut b);
+    b.use_extension("KHR_materials_diffuse_transmission");
+    b.use_extension("KHR_materials_volume");
+    let translucent =
+        |b: &mut GltfBuilder, m: usize, factor: f32, color: [f32; 3], volume: Option<serde_json::Value>| {
+            let ext = &mut b.material_json(m)["extensions"];
+            ext["KHR_materials_diffuse_transmission"] =
+                serde_json::json!({ "diffuseTransmissionFactor": factor, "diffuseTransmissionColorFactor": color });
+            if let Some(v) = volume {
+                ext["KHR_materials_volume"] = v;
+            }
+        };
+    let front = [
+        (
+            "white wax",
+            [0.9, 0.9, 0.9],
+            1.0,
+            [1.0, 1.0, 1.0],
+            serde_json::json!({ "thicknessFactor": 1.0 }),
+        ),
+        (
+            "orange wax",
+            [0.9, 0.9, 0.9],
+            1.0,
+            [1.0, 1.0, 1.0],
+            serde_json::json!({ "thicknessFactor": 1.0, "attenuationColor": [1.0, 0.5, 0.2], "attenuationDistance": 0.3 }),
+        ),
+        (
+            "jade",
+            [0.3, 0.7, 0.4],
+            0.8,
+            [0.4, 0.9, 0.5],
+            serde_json::json!({ "thicknessFactor": 1.0 }),
+        ),
+    ];
+    for (col, (name, base, factor, color, volume)) in front.into_iter().enumerate() {
+        let m = b.pbr_material(name, base, 0.0, if col == 2 { 0.1 } else { 0.6 }, [0.0; 3], false);
+        translucent(&mut b, m, factor, color, Some(volume));
+        b.sphere(name, [-1.2 + 1.2 * col as f32, 0.5, 0.9], 0.5, m);
+    }
+    for (col, factor) in [0.2f32, 0.5, 1.0].into_iter().enumerate() {
+        let name = format!("paper {factor}");
+        let m = b.material(&name, [0.9, 0.9, 0.85], [0.0; 3], true);
+        translucent(&mut b, m, factor, [1.0, 0.95, 0.8], None);
+        let x = -1.6 + 1.2 * col as f32;
+        b.quad(
+            &name,
+            [
+                [x, 0.0, -0.8],
+                [x + 1.0, 0.0, -0.8],
+                [x + 1.0, 1.4, -0.8],
+                [x, 1.4, -0.8],
+            ],
+            m,
+            Some([0.0, 0.0, 1.0]),
+        );
+    }
+    let back = b.material("back light", [0.0; 3], [1.5; 3], false);
+    b.quad(
+        "back light",
+        [[-3.0, 0.2, -2.5], [3.0, 0.2, -2.5], [3.0, 2.0, -2.5], [-3.0, 2.0, -2.5]],
+        back,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.camera([0.0, 2.2, 6.5], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}

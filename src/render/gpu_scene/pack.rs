@@ -80,6 +80,9 @@ impl PackedScene {
         if any(|m| m.iridescence[0] != 0.0) {
             bits |= FEATURE_IRIDESCENCE;
         }
+        if any(|m| m.diffuse_transmission[3] != 0.0) {
+            bits |= FEATURE_DIFFUSE_TRANSMISSION;
+        }
         if any(|m| m.alpha[3].to_bits() & MATERIAL_UNLIT != 0) {
             bits |= FEATURE_UNLIT;
         }
@@ -189,6 +192,7 @@ fn gpu_material(m: &Material) -> GpuMaterial {
             m.iridescence.thickness_min,
             m.iridescence.thickness_max,
         ],
+        diffuse_transmission: v4(m.diffuse_transmission.color, m.diffuse_transmission.factor),
         textures: m.texture_refs().map(slot),
     }
 }

@@ -2,7 +2,7 @@
 use super::{scene_err, uri, Loader};
 use crate::error::Error;
 use crate::scene::texture::{self, Texture, TextureRef};
-use crate::scene::{AlphaMode, Anisotropy, Clearcoat, Iridescence, Material, Sheen};
+use crate::scene::{AlphaMode, Anisotropy, Clearcoat, DiffuseTransmission, Iridescence, Material, Sheen};
 use glam::Vec3;
 use gltf::json::Value;
 
@@ -72,6 +72,7 @@ impl Loader<'_> {
         let sheen = self.sheen(&name, m)?;
         let anisotropy = self.anisotropy(&name, m)?;
         let iridescence = self.iridescence(&name, m)?;
+        let diffuse_transmission = self.diffuse_transmission(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
         let mut pbr_metallic = pbr.metallic_factor().clamp(0.0, 1.0);
         let mut specular = d.specular.clamp(0.0, 1.0);
@@ -111,6 +112,11 @@ impl Loader<'_> {
             sheen: if unlit { Sheen::default() } else { sheen },
             anisotropy: if unlit { Anisotropy::default() } else { anisotropy },
             iridescence: if unlit { Iridescence::default() } else { iridescence },
+            diffuse_transmission: if unlit {
+                DiffuseTransmission::default()
+            } else {
+                diffuse_transmission
+            },
             unlit,
         });
         Ok(())
@@ -154,24 +160,12 @@ impl Loader<'_> {
         let what = "KHR_materials_sheen";
         let color = match ext.get("sheenColorFactor") {
             None => Vec3::ZERO,
-            Some(v) => {
-                let c = v
-                    .as_array()
-                    .filter(|a| a.len() == 3)
-                    .and_then(|a| {
-                        a.iter()
-                            .map(|x| x.as_f64().map(|x| x as f32))
-                            .collect::<Option<Vec<f32>>>()
-                    })
-                    .map(|c| Vec3::new(c[0], c[1], c[2]))
-                    .filter(|c| c.is_finite());
-                c.ok_or_else(|| {
-                    scene_err(
-                        self.path,
-                        format!("material '{name}': {what}.sheenColorFactor is not three finite numbers"),
-                    )
-                })?
-            }
+            Some(v) => json_color(v).ok_or_else(|| {
+                scene_err(
+                    self.path,
+                    format!("material '{name}': {what}.sheenColorFactor is not three finite numbers"),
+                )
+            })?,
         };
         Ok(Sheen {
             color: color.clamp(Vec3::ZERO, Vec3::ONE),
@@ -238,6 +232,29 @@ impl Loader<'_> {
             thickness_max,
             texture: self.json_texture(name, what, ext, "iridescenceTexture")?,
             thickness_texture: self.json_texture(name, what, ext, "iridescenceThicknessTexture")?,
+        })
+    }
+
+    /// KHR_materials_diffuse_transmission, read from its JSON.
+    fn diffuse_transmission(&mut self, name: &str, m: &gltf::Material) -> Result<DiffuseTransmission, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_diffuse_transmission") else {
+            return Ok(DiffuseTransmission::default());
+        };
+        let what = "KHR_materials_diffuse_transmission";
+        let color = match ext.get("diffuseTransmissionColorFactor") {
+            None => Vec3::ONE,
+            Some(v) => json_color(v).ok_or_else(|| {
+                scene_err(
+                    self.path,
+                    format!("material '{name}': {what}.diffuseTransmissionColorFactor is not three finite numbers"),
+                )
+            })?,
+        };
+        Ok(DiffuseTransmission {
+            factor: self.json_factor(name, what, ext, "diffuseTransmissionFactor", 0.0)?,
+            color: color.clamp(Vec3::ZERO, Vec3::ONE),
+            texture: self.json_texture(name, what, ext, "diffuseTransmissionTexture")?,
+            color_texture: self.json_texture(name, what, ext, "diffuseTransmissionColorTexture")?,
         })
     }
 
@@ -544,4 +561,14 @@ impl Loader<'_> {
             gltf::image::Source::Uri { uri, .. } => uri::image_bytes(self.uris, uri),
         }
     }
+}
+
+/// Three finite numbers of an extension's JSON, as a colour.
+fn json_color(v: &Value) -> Option<Vec3> {
+    let a = v.as_array().filter(|a| a.len() == 3)?;
+    let c = a
+        .iter()
+        .map(|x| x.as_f64().map(|x| x as f32))
+        .collect::<Option<Vec<f32>>>()?;
+    Some(Vec3::new(c[0], c[1], c[2])).filter(|c| c.is_finite())
 }
