@@ -37,7 +37,36 @@ struct Bsdf {
     float outside_ior;    // above the film: air, or the clear coat's 1.5
     float diffuse_transmission; // KHR_materials_diffuse_transmission: the share of the diffuse lobe that passes
     vec3 dt_color;
+    // Hemispherical averages a stretched lobe or a film needs on every evaluation, computed once per hit (see
+    // bsdf_averages): inlined at each evaluation they made every stage's pipeline several times larger before
+    // specialisation folded them away.
+    vec3 coat_avg;
+    float metal_e_avg;
+    vec3 metal_f_avg;
 };
+
+vec3 coat_average(Bsdf b);
+float spec_energy_average(Bsdf b, uint table);
+vec3 film_average(Bsdf b, vec3 f0, bool albedo);
+float film_weight(Bsdf b);
+
+// Only where a lobe is stretched or filmed: the isotropic averages are two table reads, cheaper at their use.
+bool bsdf_needs_averages() {
+    return scene_has(FEATURE_ANISOTROPY | FEATURE_IRIDESCENCE);
+}
+
+void bsdf_averages(inout Bsdf b) {
+    b.coat_avg = vec3(0.0);
+    b.metal_e_avg = 0.0;
+    b.metal_f_avg = vec3(0.0);
+    if (!bsdf_needs_averages()) return;
+    if (b.specular > 0.0) b.coat_avg = coat_average(b);
+    if (b.metallic > 0.0) {
+        b.metal_e_avg = spec_energy_average(b, 0u);
+        b.metal_f_avg = b.base_color + (vec3(1.0) - b.base_color) / 21.0;
+        if (film_weight(b) > 0.0) b.metal_f_avg = mix(b.metal_f_avg, film_average(b, b.base_color, false), film_weight(b));
+    }
+}
 
 // The smallest alpha across an anisotropic lobe: a line-shaped distribution has no finite density.
 const float ANISO_MIN_ALPHA = 1e-3;
@@ -84,6 +113,7 @@ Bsdf bsdf_from_material(Material m, bool front) {
         // A stretched lobe is a mirror only when both of its axes are; its energy has tables of its own.
         b.alpha = b.aniso_alpha.x;
     }
+    bsdf_averages(b);
     return b;
 }
 
@@ -282,7 +312,8 @@ float aniso_lookup(uint table, float mu, float phi, vec2 rough) {
     vec4 f = vec4(x - float(x0), y - float(y0), z - vec2(z0));
     uint base = ENERGY_TABLE_FLOATS + table * ANISO_CELLS;
     float result = 0.0;
-    for (uint c = 0u; c < 16u; ++c) {
+    // Kept a loop: unrolled at each of its uses it was most of a pipeline's size.
+    [[dont_unroll]] for (uint c = 0u; c < 16u; ++c) {
         uvec4 d = uvec4(c & 1u, (c >> 1u) & 1u, (c >> 2u) & 1u, (c >> 3u) & 1u);
         vec4 w = mix(vec4(1.0) - f, f, vec4(d));
         uint k = x0 + d.x + ANISO_RES_MU * (y0 + d.y + ANISO_RES_PHI * (z0.x + d.z + ANISO_RES_ROUGH * (z0.y + d.w)));
@@ -338,7 +369,7 @@ vec3 film_average(Bsdf b, vec3 f0, bool albedo) {
     const vec4 x = vec4(0.0694318, 0.3300095, 0.6699905, 0.9305682);
     const vec4 w = vec4(0.1739274, 0.3260726, 0.3260726, 0.1739274);
     vec3 sum = vec3(0.0);
-    for (uint k = 0u; k < 4u; ++k) {
+    [[dont_unroll]] for (uint k = 0u; k < 4u; ++k) {
         float mu = x[k];
         vec3 f = albedo ? film_albedo(b, f0, vec3(sqrt(1.0 - mu * mu), 0.0, mu))
                         : thin_film_fresnel(b.outside_ior, b.film_ior, b.film_thickness, f0, mu);
@@ -373,7 +404,7 @@ vec3 coat_average(Bsdf b) {
 vec3 coat_transmittance(Bsdf b, vec3 wo, vec3 wi) {
     // No coat (KHR_materials_specular weight 0, as in a pure Lambertian): nothing to look up.
     if (b.specular == 0.0) return vec3(1.0);
-    vec3 avg = coat_average(b);
+    vec3 avg = bsdf_needs_averages() ? b.coat_avg : coat_average(b);
     return (vec3(1.0) - coat_albedo(b, wo)) * (vec3(1.0) - coat_albedo(b, wi)) / max(vec3(1.0) - avg, vec3(1e-6));
 }
 
@@ -381,10 +412,9 @@ vec3 coat_transmittance(Bsdf b, vec3 wo, vec3 wi) {
 // lobe coloured by the average Fresnel. Zero for a mirror (it loses nothing).
 vec3 metal_multiple_scattering(Bsdf b, vec3 wo, vec3 wi) {
     if (!b.compensate || bsdf_is_delta(b)) return vec3(0.0);
-    float e_avg = spec_energy_average(b, 0u);
+    float e_avg = bsdf_needs_averages() ? b.metal_e_avg : spec_energy_average(b, 0u);
     if (e_avg >= 1.0) return vec3(0.0);
-    vec3 f_avg = b.base_color + (vec3(1.0) - b.base_color) / 21.0;
-    if (film_weight(b) > 0.0) f_avg = mix(f_avg, film_average(b, b.base_color, false), film_weight(b));
+    vec3 f_avg = bsdf_needs_averages() ? b.metal_f_avg : b.base_color + (vec3(1.0) - b.base_color) / 21.0;
     vec3 f_ms = f_avg * f_avg * e_avg / (vec3(1.0) - f_avg * (1.0 - e_avg));
     float lobe = (1.0 - spec_energy(b, 0u, wo)) * (1.0 - spec_energy(b, 0u, wi)) / (PI * (1.0 - e_avg));
     return f_ms * lobe;

@@ -3,6 +3,7 @@
 #define LAYOUT_GLSL
 
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #include "shared_constants.glsl"
 
 // 48 bytes (3 texels): an interior node, holding its BVH_WIDTH children's boxes quantised to 8 bits per bound on a grid

@@ -101,6 +101,23 @@ impl Stage {
         )
     }
 
+    /// Stages built only when first run: the probes (tests and tools ask for them; probe_bsdf, with every lobe live,
+    /// alone cost every renderer 1.2 s of start-up on lavapipe) and the tables a scene with a sheen or a stretched lobe
+    /// asks for. The others that do not render are built with the renderer.
+    fn on_demand(self) -> bool {
+        matches!(
+            self,
+            Stage::ProbeTrace
+                | Stage::ProbeBsdf
+                | Stage::ProbeEnv
+                | Stage::ProbeRand
+                | Stage::ProbeLightPick
+                | Stage::ProbeConstants
+                | Stage::SheenTable
+                | Stage::AnisoTable
+        )
+    }
+
     /// Stages that keep every feature whatever the scene, but the BVH's own FEATURE_DEEP_STACK (so probe_trace
     /// traverses as the render stages do): probes test device functions with parameters of their own, and the
     /// energy tables integrate the full BSDF.
@@ -233,8 +250,8 @@ pub struct Kernels {
 }
 
 impl Kernels {
-    /// Builds the stages that do not render (probes, energy tables, tone map) now, the render stages when a pass
-    /// first needs them, specialised for `features`.
+    /// Builds the energy tables' and the tone map's stages now; the render stages when a pass first needs them,
+    /// specialised for `features`, and the probes and layer tables when first run (`Stage::on_demand`).
     pub fn new(ctx: &Context, spirv: &[(&str, &[u8])], features: u32) -> Result<Self, Error> {
         let mut me = Kernels {
             pipelines: Pipelines::new(ctx, std::mem::size_of::<Frame>() as u32)?,
@@ -246,7 +263,7 @@ impl Kernels {
             let kernel = Kernel::from_name(name)
                 .ok_or_else(|| Error::Vulkan(format!("built-in shader {name} is no known stage or variant")))?;
             me.spirv.insert(kernel, spv.to_vec());
-            if !kernel.stage.renders() {
+            if !kernel.stage.renders() && !kernel.stage.on_demand() {
                 me.build(ctx, kernel)?;
             }
         }
