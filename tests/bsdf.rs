@@ -1264,7 +1264,8 @@ fn iridescent_eval_pdf_and_sample_agree_and_are_reciprocal() {
 }
 
 // Would catch: a film whose reflectance exceeds 1, or a base under the film that is not given what the film leaves
-// (weighted by the bare coat's albedo instead, a white plastic under the IOR 2.2 film returns up to 1.2). A mirror's
+// (weighted by the bare coat's albedo instead, about 1.2 in blue under the IOR 2.2, 150 nm film, which reflects 0.27
+// where bare glass reflects 0.04). A mirror's
 // film albedo is exact, so smooth films keep at most all energy; under rough lobes the film's albedo is approximated
 // (its reflectance at the lobe's mean Schlick cosine). Over this sweep that measures 0.98 to 1.02 up to 60 degrees
 // and 0.965 to 1.039 at 85 (roughness 0.8, IOR 1.8, 600 nm), so rough films are held to 5 % of 1: the approximation's
