@@ -3,6 +3,7 @@
 mod common;
 
 use common::gltf_builder::GltfBuilder;
+use common::stats::beyond_noise;
 use serde_json::{json, Value};
 
 const N: usize = 16;
@@ -52,20 +53,6 @@ fn render(b: &GltfBuilder, seed: u32) -> pathwave::Film {
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     common::render(&mut r, &common::settings(N as u32, N as u32, 64, seed))
-}
-
-/// Channels that differ by more than five standard errors (plus `floor`) between two renders.
-fn beyond_noise(a: &pathwave::Film, b: &pathwave::Film, floor: f32) -> u32 {
-    let (ma, mb) = (a.mean(), b.mean());
-    let (va, vb) = (a.sample_variance(), b.sample_variance());
-    let mut bad = 0;
-    for i in 0..ma.len() {
-        for c in 0..3 {
-            let se = ((va[i][c] + vb[i][c]) / a.spp as f32).sqrt();
-            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + floor) as u32;
-        }
-    }
-    bad
 }
 
 /// How far the highlight reaches along x and along y: the image's second moments about its brightest pixel.

@@ -4,6 +4,7 @@
 mod common;
 
 use common::gltf_builder::GltfBuilder;
+use common::stats::beyond_noise;
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
 use pathwave::constants::{FEATURE_INSTANCES, NO_HIT, NO_INSTANCE};
@@ -78,21 +79,6 @@ fn renderer(scene: &Scene, instancing: Instancing) -> Renderer {
         ..Default::default()
     };
     Renderer::with_options(scene, ctx, options).unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// Pixel channels of two renders with the same samples per pixel whose means differ by more than five standard
-/// errors of the difference of two independent means, plus `floor`.
-fn beyond_noise(a: &pathwave::Film, b: &pathwave::Film, floor: f32) -> u32 {
-    let (ma, mb) = (a.mean(), b.mean());
-    let (va, vb) = (a.sample_variance(), b.sample_variance());
-    let mut bad = 0;
-    for i in 0..ma.len() {
-        for c in 0..3 {
-            let se = ((va[i][c] + vb[i][c]) / a.spp as f32).sqrt();
-            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + floor) as u32;
-        }
-    }
-    bad
 }
 
 /// Catches: rays not moved into the instance's space (or moved by the wrong matrix), distances measured in object

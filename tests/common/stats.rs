@@ -111,3 +111,18 @@ pub fn image_mean_and_stderr(film: &pathwave::Film) -> (f64, f64) {
     let v: f64 = var.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / film.spp as f64 / (p * p);
     (m, v.sqrt())
 }
+
+/// Pixel channels of two renders with the same samples per pixel whose means differ by more than five standard
+/// errors of the difference of two independent means, plus `floor`.
+pub fn beyond_noise(a: &pathwave::Film, b: &pathwave::Film, floor: f32) -> u32 {
+    let (ma, mb) = (a.mean(), b.mean());
+    let (va, vb) = (a.sample_variance(), b.sample_variance());
+    let mut bad = 0;
+    for i in 0..ma.len() {
+        for c in 0..3 {
+            let se = ((va[i][c] + vb[i][c]) / a.spp as f32).sqrt();
+            bad += ((ma[i][c] - mb[i][c]).abs() > 5.0 * se + floor) as u32;
+        }
+    }
+    bad
+}
