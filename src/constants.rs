@@ -145,6 +145,9 @@ pub const FLAG_FUSED_SUMS: u32 = 8;
 /// The camera is the scene's own and moves over the shutter: camera rays take its keys from the motion buffer
 /// instead of the frame's camera (bits 4 and 5 are the estimator's).
 pub const FLAG_CAMERA_MOTION: u32 = 64;
+/// The camera is orthographic: camera rays start across an image plane frame_half_height() high and all run along
+/// its forward axis.
+pub const FLAG_ORTHOGRAPHIC: u32 = 128;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both

@@ -326,8 +326,9 @@ pub struct FrameCamera {
     pub right: glam::Vec3,
     pub up: glam::Vec3,
     pub forward: glam::Vec3,
-    /// tan(yfov / 2).
-    pub tan_half_fov: f32,
+    /// Half the image plane's height (`Projection::half_height`): tan(yfov / 2) at distance 1, or an orthographic
+    /// camera's ymag.
+    pub half_height: f32,
     /// Width / height of the image.
     pub aspect: f32,
     /// Thin-lens radius; 0 is a pinhole.
@@ -344,7 +345,7 @@ impl Frame {
     pub fn with_camera(self, c: &FrameCamera) -> Frame {
         let v = |v: glam::Vec3, w: f32| [v.x, v.y, v.z, w];
         Frame {
-            cam_origin: v(c.origin, c.tan_half_fov),
+            cam_origin: v(c.origin, c.half_height),
             cam_right: v(c.right, c.aspect),
             cam_up: v(c.up, c.aperture),
             cam_forward: v(c.forward, c.focus_distance),

@@ -81,6 +81,82 @@ fn yfov_is_vertical_and_the_width_follows_the_aspect_ratio() {
     }
 }
 
+/// Two equal strips x in [-0.5, 0.5], a near one (z = -1) in the top half and a far one (z = -6) in the bottom half,
+/// seen by an orthographic camera at `eye_z` (ymag 1) and, when `perspective` is on, a perspective camera after it.
+fn orthographic_strips(eye_z: f32, perspective: bool) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let m = b.material("strip", [0.0; 3], [1.0; 3], false);
+    for (name, y, z) in [("near", [0.15, 0.85], -1.0), ("far", [-0.85, -0.15], -6.0)] {
+        b.quad(
+            name,
+            [[-0.5, y[0], z], [0.5, y[0], z], [0.5, y[1], z], [-0.5, y[1], z]],
+            m,
+            Some([0.0, 0.0, 1.0]),
+        );
+    }
+    // xmag 3 disagrees with the image's aspect ratio on purpose: the width follows the image, as for yfov.
+    b.orthographic_camera([0.0, 0.0, eye_z], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 3.0, 1.0);
+    if perspective {
+        b.camera([0.0, 0.0, eye_z], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 90.0);
+    }
+    b
+}
+
+/// Columns of row `y` that see an emitter.
+fn lit_columns(px: &[[f32; 3]], w: usize, y: usize) -> Vec<usize> {
+    (0..w).filter(|&x| px[y * w + x][0] > 0.0).collect()
+}
+
+#[test]
+fn an_orthographic_camera_sees_sizes_independent_of_depth() {
+    // ymag 1 at 40x20 (aspect 2): the image spans x in [-2, 2], y in [-1, 1] at every depth, so both strips, 1 wide,
+    // cover exactly columns 15..25 whatever their distance or the camera's (a perspective camera halves the far one).
+    // Would catch rays that diverge, a wrong extent or aspect, xmag being read for the width, or a flipped image.
+    let (w, h) = (40usize, 20usize);
+    for eye_z in [0.0, 3.0] {
+        let b = orthographic_strips(eye_z, false);
+        let px = render_direct(&b, w as u32, h as u32);
+        for y in [3, 6, 13, 16] {
+            assert_eq!(
+                lit_columns(&px, w, y),
+                (15..25).collect::<Vec<_>>(),
+                "camera at z = {eye_z}, row {y}: {:?}",
+                px[y * w..(y + 1) * w].iter().map(|p| p[0]).collect::<Vec<_>>()
+            );
+        }
+        // Rows 0 (y in [0.9, 1]), 9 and 10 (y in [-0.1, 0.1]) are clear of both strips.
+        assert!([0, 9, 10].iter().all(|&y| lit_columns(&px, w, y).is_empty()));
+    }
+}
+
+#[test]
+fn camera_picks_between_an_orthographic_and_a_perspective_camera() {
+    use pathwave::scene::Projection;
+    let b = orthographic_strips(3.0, true);
+    let (_dir, path) = common::write_temp(&b, "cameras.gltf");
+    let ortho = pathwave::scene::load(&path, None).unwrap();
+    assert_eq!(ortho.camera_count, 2);
+    assert_eq!(ortho.camera.unwrap().projection, Projection::Orthographic { ymag: 1.0 });
+    let persp = pathwave::scene::load(&path, Some(1)).unwrap();
+    assert_eq!(
+        persp.camera.unwrap().projection,
+        Projection::Perspective { yfov: 90f32.to_radians() }
+    );
+    assert!(pathwave::scene::load(&path, Some(2)).is_err(), "there is no third camera");
+    // The perspective camera (yfov 90: x in [-2d, 2d], y in [-d, d] at depth d) sees the near strip, 4 away, over
+    // x in [-0.125, 0.125] and y in [0.0375, 0.2125]: in row 8 (y in [0.1, 0.2]) columns 19 and 20 whole and a
+    // quarter of 18 and 21. The orthographic one sees it in row 3 over columns 15..25.
+    let whole = |scene: &pathwave::scene::Scene, row: usize| {
+        let mut r = common::scene_renderer(scene);
+        let mut s = common::settings(40, 20, 4, 0);
+        s.max_depth = Some(0);
+        let px = common::render(&mut r, &s).mean();
+        (0..40).filter(|&x| px[row * 40 + x][0] == 1.0).collect::<Vec<_>>()
+    };
+    assert_eq!(whole(&persp, 8), vec![19, 20]);
+    assert_eq!(whole(&ortho, 3), (15..25).collect::<Vec<_>>());
+}
+
 /// Emitters whose edge runs down the image centre: a near one (z = -2) in the top half, a far one (z = -8) below.
 fn two_edges() -> GltfBuilder {
     let mut b = GltfBuilder::new();

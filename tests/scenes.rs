@@ -48,7 +48,7 @@ fn cornell_box_has_the_classic_layout() {
     let soup = scene.flatten();
     assert_eq!(soup.len(), 32);
     let cam = scene.camera.expect("the Cornell box has its camera");
-    assert!((cam.yfov.to_degrees() - 39.3077).abs() < 1e-3);
+    assert!((cam.projection.half_height().atan().to_degrees() * 2.0 - 39.3077).abs() < 1e-3);
     let (_, _, forward) = cam.basis();
     assert!(
         (forward - glam::Vec3::Z).length() < 1e-5,

@@ -1,5 +1,5 @@
-// Where paths start: camera rays (a jittered point in the pixel, box filter, through a pinhole or a thin lens) and the
-// path state they begin.
+// Where paths start: camera rays (a jittered point in the pixel, box filter, through a pinhole, an orthographic image
+// plane or a thin lens) and the path state they begin.
 #ifndef CAMERA_GLSL
 #define CAMERA_GLSL
 
@@ -17,7 +17,7 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
     uint px = xy.x;
     uint py = xy.y;
     vec2 j = pixel_jitter(pixel, s);
-    float tan_half = frame_tan_half_fov();
+    float half_height = frame_half_height();
     float aspect = frame_aspect();
     vec3 right = frame.cam_right.xyz, up = frame.cam_up.xyz, forward = frame.cam_forward.xyz;
     origin = frame.cam_origin.xyz;
@@ -34,9 +34,14 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
         forward = normalize(toward(a.n0.xyz, b.n0.xyz, f));
     }
     // Row 0 is the top of the image.
-    float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * tan_half * aspect;
-    float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * tan_half;
-    d = normalize(sx * right + sy * up + forward);
+    float sx = (2.0 * (float(px) + j.x) / float(frame.width) - 1.0) * half_height * aspect;
+    float sy = (1.0 - 2.0 * (float(py) + j.y) / float(frame.height)) * half_height;
+    if ((frame.flags & FLAG_ORTHOGRAPHIC) != 0u) {
+        origin += sx * right + sy * up;
+        d = forward;
+    } else {
+        d = normalize(sx * right + sy * up + forward);
+    }
     float aperture = frame_aperture();
     if (scene_has(FEATURE_LENS) && aperture > 0.0) {
         // Thin lens: every ray through the lens meets the pinhole ray on the plane of focus.

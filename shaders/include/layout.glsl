@@ -177,7 +177,7 @@ struct Frame {
 
 layout(push_constant) uniform PushConstants { Frame frame; };
 // The camera's scalars ride in the basis vectors' w (Frame::with_camera in src/layout.rs writes them).
-float frame_tan_half_fov() { return frame.cam_origin.w; }
+float frame_half_height() { return frame.cam_origin.w; }
 float frame_aspect() { return frame.cam_right.w; }
 float frame_aperture() { return frame.cam_up.w; }
 float frame_focus_distance() { return frame.cam_forward.w; }

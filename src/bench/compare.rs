@@ -3,7 +3,7 @@ use super::terrain;
 use crate::bvh::Ray;
 use crate::error::Error;
 use crate::render::{RenderSettings, Renderer};
-use crate::scene::{self, Scene};
+use crate::scene::{self, Projection, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use glam::Vec3;
 use serde_json::{json, Value};
@@ -307,13 +307,16 @@ fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(P
         std::fs::write(&ply, bytes).map_err(err)?;
         meshes.push(mesh);
     }
+    let Projection::Perspective { yfov } = camera.projection else {
+        return Err(err("the comparison renderers are given perspective cameras only"));
+    };
     let (_, up, forward) = camera.basis();
     let o = camera.origin();
     let camera = json!({
         "origin": o.to_array(),
         "target": (o + forward).to_array(),
         "up": up.to_array(),
-        "yfov_deg": camera.yfov.to_degrees(),
+        "yfov_deg": yfov.to_degrees(),
         "width": size.0,
         "height": size.1,
     });

@@ -300,11 +300,10 @@ impl Renderer {
     /// The distance along the view direction to the first surface under image position (x, y) in [0, 1]^2 (0, 0 at
     /// the top left), for click-to-focus; None when the ray escapes.
     pub fn focus_distance_at(&mut self, x: f32, y: f32, aspect: f32) -> Result<Option<f32>, Error> {
-        let (right, up, forward) = self.camera.basis();
-        let t = (self.camera.yfov * 0.5).tan();
-        let dir = (forward + right * ((2.0 * x - 1.0) * t * aspect) + up * ((1.0 - 2.0 * y) * t)).normalize();
+        let (_, _, forward) = self.camera.basis();
+        let (origin, dir) = self.camera.ray(x, y, aspect);
         let ray = crate::bvh::Ray {
-            origin: self.camera.origin(),
+            origin,
             dir,
             tmin: 0.0,
             tmax: f32::INFINITY,

@@ -240,7 +240,7 @@ impl Renderer {
             right,
             up,
             forward,
-            tan_half_fov: (self.camera.yfov * 0.5).tan(),
+            half_height: self.camera.projection.half_height(),
             aspect: s.width as f32 / s.height as f32,
             aperture: s.aperture,
             focus_distance: s.focus_distance.unwrap_or(self.default_focus),
@@ -259,7 +259,8 @@ impl Renderer {
                 | flag(
                     self.scene.camera_moves && self.scene_camera == Some(self.camera),
                     FLAG_CAMERA_MOTION,
-                ),
+                )
+                | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)

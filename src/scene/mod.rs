@@ -277,11 +277,35 @@ impl Default for Material {
     }
 }
 
-/// A pinhole camera in world space; the vertical field of view is fixed, the horizontal follows the image.
+/// A camera in world space; its vertical extent is fixed, the horizontal follows the image's aspect ratio.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub world_from_camera: Mat4,
-    pub yfov: f32,
+    pub projection: Projection,
+}
+
+/// How a camera maps the image to rays: glTF's two projections.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Rays from one point; `yfov` is the vertical field of view in radians, in (0, pi).
+    Perspective { yfov: f32 },
+    /// Parallel rays along the view direction from an image plane `2 ymag` high (glTF's ymag, in scene units).
+    Orthographic { ymag: f32 },
+}
+
+impl Projection {
+    /// Half the image plane's height: at distance 1 for a perspective camera (tan(yfov / 2)), in scene units for an
+    /// orthographic one. What the generate stage scales the pixel's position by.
+    pub fn half_height(&self) -> f32 {
+        match *self {
+            Projection::Perspective { yfov } => (yfov * 0.5).tan(),
+            Projection::Orthographic { ymag } => ymag,
+        }
+    }
+
+    pub fn is_orthographic(&self) -> bool {
+        matches!(self, Projection::Orthographic { .. })
+    }
 }
 
 impl Camera {
@@ -294,7 +318,7 @@ impl Camera {
         let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
         Camera {
             world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
-            yfov,
+            projection: Projection::Perspective { yfov },
         }
     }
 
@@ -310,7 +334,20 @@ impl Camera {
                 (-forward).extend(0.0),
                 eye.extend(1.0),
             ),
-            yfov,
+            projection: Projection::Perspective { yfov },
+        }
+    }
+
+    /// The ray through image position (x, y) in [0, 1]^2 (0, 0 at the top left) of an image `aspect` wide per
+    /// unit of height, through the lens's centre: origin and unit direction. The host's twin of camera_ray in
+    /// camera.glsl (click-to-focus, tests).
+    pub fn ray(&self, x: f32, y: f32, aspect: f32) -> (Vec3, Vec3) {
+        let (right, up, forward) = self.basis();
+        let h = self.projection.half_height();
+        let plane = right * ((2.0 * x - 1.0) * h * aspect) + up * ((1.0 - 2.0 * y) * h);
+        match self.projection {
+            Projection::Perspective { .. } => (self.origin(), (forward + plane).normalize()),
+            Projection::Orthographic { .. } => (self.origin() + plane, forward),
         }
     }
 

@@ -1,7 +1,7 @@
 //! The file's node hierarchy with its animations, skins and morph targets, and `Scene::pose`, which places the
 //! scene at a time: instances, deformed meshes, cameras and lights.
 use super::animation::{Animation, Property, Trs};
-use super::{Camera, Instance, Mesh, Primitive, PunctualKind, PunctualLight, Scene};
+use super::{Camera, Instance, Mesh, Primitive, Projection, PunctualKind, PunctualLight, Scene};
 use crate::error::Error;
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
@@ -28,8 +28,8 @@ pub struct Node {
     /// Index into `Scene::meshes`.
     pub mesh: Option<usize>,
     pub skin: Option<usize>,
-    /// A perspective camera: its glTF index and vertical field of view.
-    pub camera: Option<(usize, f32)>,
+    /// A camera: its glTF index and projection.
+    pub camera: Option<(usize, Projection)>,
     pub light: Option<LightSpec>,
     /// The node's morph-target weights, or its mesh's defaults (empty without targets).
     pub weights: Vec<f32>,
@@ -64,7 +64,7 @@ pub struct Rig {
     pub skins: Vec<Skin>,
     /// `Scene::meshes[..file_meshes]` are the file's; `pose` appends the deformed (skinned or morphed) ones.
     pub file_meshes: usize,
-    /// The Nth perspective camera in node order that `pose` makes the scene's camera (default: the first).
+    /// The Nth camera in node order that `pose` makes the scene's camera (default: the first).
     pub camera_choice: Option<usize>,
     /// What the scene is posed with now.
     pub posed: PoseTime,
@@ -217,7 +217,7 @@ impl Scene {
                     intensity: light.intensity,
                 });
             }
-            if let Some((index, yfov)) = node.camera {
+            if let Some((index, projection)) = node.camera {
                 if let Err(why) = Camera::check_transform(&w) {
                     return Err(self.pose_err(
                         pose,
@@ -226,7 +226,7 @@ impl Scene {
                 }
                 cameras.push(Camera {
                     world_from_camera: w,
-                    yfov,
+                    projection,
                 });
             }
             let Some(m) = node.mesh else { continue };
@@ -277,7 +277,7 @@ impl Scene {
             None => cameras.first().copied(),
             Some(i) => Some(*cameras.get(i).ok_or_else(|| Error::Scene {
                 path: self.path.clone(),
-                message: format!("--camera {i}: the file has {} perspective camera(s)", cameras.len()),
+                message: format!("--camera {i}: the file has {} camera(s)", cameras.len()),
             })?),
         };
         Ok(Placed {

@@ -3,7 +3,7 @@ mod swapchain;
 
 use crate::error::Error;
 use crate::render::{RenderSettings, Renderer, Session};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, Projection, Scene};
 use crate::shaders::{ShaderDir, ShaderWatcher};
 use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
 use glam::{Mat4, Vec3};
@@ -100,7 +100,7 @@ struct App {
 struct Orbit {
     eye: Vec3,
     target: Vec3,
-    yfov: f32,
+    projection: Projection,
 }
 
 impl Orbit {
@@ -109,7 +109,7 @@ impl Orbit {
         Orbit {
             eye: c.origin(),
             target: c.origin() + forward * distance,
-            yfov: c.yfov,
+            projection: c.projection,
         }
     }
 
@@ -128,7 +128,7 @@ impl Orbit {
                 (-forward).extend(0.0),
                 self.eye.extend(1.0),
             ),
-            yfov: self.yfov,
+            projection: self.projection,
         }
     }
 
@@ -148,15 +148,23 @@ impl Orbit {
 
     fn pan(&mut self, dx: f32, dy: f32) {
         let (right, up, _) = self.basis();
-        let d = (self.eye - self.target).length();
+        // What a drag across the view moves it by: the image plane's size at the target.
+        let d = match self.projection {
+            Projection::Perspective { .. } => (self.eye - self.target).length(),
+            Projection::Orthographic { ymag } => ymag,
+        };
         let shift = (-right * dx + up * dy) * d;
         self.eye += shift;
         self.target += shift;
     }
 
+    /// Moves in toward the target; an orthographic view, which distance does not change, shrinks its image plane.
     fn zoom(&mut self, steps: f32) {
         let offset = self.eye - self.target;
         self.eye = self.target + offset * 0.9f32.powf(steps);
+        if let Projection::Orthographic { ymag } = &mut self.projection {
+            *ymag *= 0.9f32.powf(steps);
+        }
     }
 
     fn fly(&mut self, local: Vec3) {

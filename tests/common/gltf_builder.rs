@@ -488,12 +488,23 @@ impl GltfBuilder {
 
     /// A perspective camera at `eye` looking at `target`; yfov in degrees.
     pub fn camera(&mut self, eye: [f32; 3], target: [f32; 3], up: [f32; 3], yfov_deg: f32) {
+        let camera = json!({ "type": "perspective", "perspective": { "yfov": yfov_deg.to_radians(), "znear": 0.01, "aspectRatio": 1.0 } });
+        self.place_camera(camera, eye, target, up);
+    }
+
+    /// An orthographic camera at `eye` looking at `target`, its image plane `2 ymag` high (xmag as given).
+    pub fn orthographic_camera(&mut self, eye: [f32; 3], target: [f32; 3], up: [f32; 3], xmag: f32, ymag: f32) {
+        let camera = json!({ "type": "orthographic", "orthographic": { "xmag": xmag, "ymag": ymag, "znear": 0.0, "zfar": 100.0 } });
+        self.place_camera(camera, eye, target, up);
+    }
+
+    fn place_camera(&mut self, camera: serde_json::Value, eye: [f32; 3], target: [f32; 3], up: [f32; 3]) {
         // glTF cameras look down -Z with +Y up.
         let forward = (Vec3::from(target) - Vec3::from(eye)).normalize();
         let right = forward.cross(Vec3::from(up)).normalize();
         let true_up = right.cross(forward);
         let rot = Quat::from_mat3(&Mat3::from_cols(right, true_up, -forward)).normalize();
-        self.cameras.push(json!({ "type": "perspective", "perspective": { "yfov": yfov_deg.to_radians(), "znear": 0.01, "aspectRatio": 1.0 } }));
+        self.cameras.push(camera);
         self.nodes.push(json!({ "name": "camera", "camera": self.cameras.len() - 1, "translation": eye, "rotation": rot.to_array() }));
     }
 

@@ -9,7 +9,7 @@ mod validate;
 
 use super::animation::Trs;
 use super::rig::{LightSpec, Node};
-use super::{Material, PoseTime, PunctualKind, Scene};
+use super::{Material, PoseTime, Projection, PunctualKind, Scene};
 use crate::error::Error;
 use glam::{Mat4, Quat, Vec3};
 use std::collections::{HashMap, HashSet};
@@ -56,7 +56,7 @@ pub const DEFAULT_MAX_TEXTURE_PIXELS: u64 = 8192 * 8192;
 /// How a scene is read: which camera, and how far its file may reach.
 #[derive(Clone, Debug)]
 pub struct LoadOptions {
-    /// The Nth perspective camera in node order (default: the first).
+    /// The Nth camera in node order (default: the first).
     pub camera: Option<usize>,
     /// Lets buffer and image URIs name files outside the scene's folder (absolute paths, `..`, `file:`).
     pub allow_outside_paths: bool,
@@ -156,7 +156,7 @@ struct Loader<'a> {
     max_texture_pixels: u64,
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
-    /// Perspective cameras placed so far, for the warning when there is none.
+    /// Cameras placed so far, for the warning when there is none.
     cameras: usize,
     /// glTF texture index to scene texture (None: no readable image); glTF image index to scene image.
     texture_map: HashMap<usize, Option<usize>>,
@@ -231,7 +231,7 @@ impl Loader<'_> {
         // With animations, at their start (time 0, every channel), as viewers show a file before it plays.
         self.scene.pose(PoseTime::default())?;
         if self.cameras == 0 {
-            self.warn("the file has no perspective camera; using one that frames the scene".into());
+            self.warn("the file has no camera; using one that frames the scene".into());
         }
         if self.scene.is_empty() {
             return Err(scene_err(self.path, "the scene has no triangles to render"));
@@ -338,26 +338,35 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// A perspective camera's index and field of view; others are ignored with a warning.
-    fn camera(&mut self, cam: &gltf::Camera) -> Option<(usize, f32)> {
-        match cam.projection() {
+    /// A camera's index and projection; one whose projection cannot form an image is ignored with a warning.
+    fn camera(&mut self, cam: &gltf::Camera) -> Option<(usize, Projection)> {
+        let (projection, problem) = match cam.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let yfov = p.yfov();
-                if yfov > 0.0 && yfov < std::f32::consts::PI {
-                    self.cameras += 1;
-                    return Some((cam.index(), yfov));
-                }
-                self.warn(format!(
-                    "camera {}: yfov {yfov} is out of range and the camera is ignored",
-                    cam.index()
-                ));
+                (
+                    Projection::Perspective { yfov },
+                    (!(yfov > 0.0 && yfov < std::f32::consts::PI)).then(|| format!("yfov {yfov} is out of range")),
+                )
             }
-            gltf::camera::Projection::Orthographic(_) => self.warn(format!(
-                "camera {}: orthographic cameras are not supported and it is ignored",
-                cam.index()
-            )),
+            // glTF says ymag should not be negative and must not be zero; a negative one is read as its size.
+            gltf::camera::Projection::Orthographic(o) => {
+                let ymag = o.ymag().abs();
+                (
+                    Projection::Orthographic { ymag },
+                    (!(ymag.is_normal() && ymag < f32::MAX)).then(|| format!("ymag {} is zero or not finite", o.ymag())),
+                )
+            }
+        };
+        match problem {
+            None => {
+                self.cameras += 1;
+                Some((cam.index(), projection))
+            }
+            Some(why) => {
+                self.warn(format!("camera {}: {why} and the camera is ignored", cam.index()));
+                None
+            }
         }
-        None
     }
 
     fn punctual(&mut self, light: &gltf::khr_lights_punctual::Light) -> Result<LightSpec, Error> {
