@@ -140,9 +140,14 @@ fn camera_picks_between_an_orthographic_and_a_perspective_camera() {
     let persp = pathwave::scene::load(&path, Some(1)).unwrap();
     assert_eq!(
         persp.camera.unwrap().projection,
-        Projection::Perspective { yfov: 90f32.to_radians() }
+        Projection::Perspective {
+            yfov: 90f32.to_radians()
+        }
     );
-    assert!(pathwave::scene::load(&path, Some(2)).is_err(), "there is no third camera");
+    assert!(
+        pathwave::scene::load(&path, Some(2)).is_err(),
+        "there is no third camera"
+    );
     // The perspective camera (yfov 90: x in [-2d, 2d], y in [-d, d] at depth d) sees the near strip, 4 away, over
     // x in [-0.125, 0.125] and y in [0.0375, 0.2125]: in row 8 (y in [0.1, 0.2]) columns 19 and 20 whole and a
     // quarter of 18 and 21. The orthographic one sees it in row 3 over columns 15..25.

@@ -2,7 +2,9 @@
 //! (tests/data/gltfpack, made by ci/make-packed-scenes.sh: u16 positions under a dequantising node transform, i8
 //! normals, u16 normalized texture coordinates, quantised morph targets, skin weights and rotations) and with `-cc`
 //! (tests/data/gltfpack-cc: the same, meshopt-compressed with the octahedral, quaternion and exponential filters)
-//! render like the originals.
+//! render like the originals; so does KHR_draco_mesh_compression as `gltf-pipeline -d` writes it (tests/data/draco,
+//! made by the same script: edgebreaker connectivity, quantised positions, normals, texture coordinates, joints
+//! and weights).
 mod common;
 
 use pathwave::scene::{load, PoseTime};
@@ -30,6 +32,14 @@ fn gltfpack_output_renders_like_the_original() {
 #[test]
 fn meshopt_compressed_output_renders_like_the_original() {
     compare_with_originals("gltfpack-cc");
+}
+
+// Would catch decoded attributes landing on the wrong accessor (positions as normals), Draco's point order not
+// followed by every attribute (or by uncompressed morph targets), quantised values left undequantised, or the
+// decoded faces' winding flipped (one-sided emitters go dark).
+#[test]
+fn draco_compressed_output_renders_like_the_original() {
+    compare_with_originals("draco");
 }
 
 fn compare_with_originals(dir: &str) {
@@ -105,4 +115,122 @@ fn malformed_meshopt_views_are_refused_naming_the_view() {
             "{want}: {e}"
         );
     }
+}
+
+/// tests/data/draco/cornell-box.gltf, its JSON mutated by `mutate` (the first primitive, its Draco extension and the
+/// document), written to a temporary folder.
+fn mutated_draco(mutate: impl Fn(&mut serde_json::Value)) -> (tempfile::TempDir, std::path::PathBuf) {
+    let original = std::fs::read_to_string(data("draco", "cornell-box.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&original).unwrap();
+    mutate(&mut json);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.gltf");
+    std::fs::write(&path, json.to_string()).unwrap();
+    (dir, path)
+}
+
+// Hostile Draco primitives: each is refused naming the mesh, the primitive and the extension, with no panic.
+#[test]
+fn malformed_draco_primitives_are_refused_naming_them() {
+    type Mutation = fn(&mut serde_json::Value);
+    let cases: [(&str, Mutation); 7] = [
+        ("bufferView 99 does not exist", |j| {
+            j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"] = 99.into()
+        }),
+        ("the stream has no attribute 7", |j| {
+            j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"]["POSITION"] =
+                7.into()
+        }),
+        ("compresses NORMAL, which the primitive does not name", |j| {
+            j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"]["NORMAL"] =
+                1.into()
+        }),
+        ("POSITION is not compressed", |j| {
+            j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"] =
+                serde_json::json!({})
+        }),
+        ("only triangle lists", |j| {
+            j["meshes"][0]["primitives"][0]["mode"] = 5.into()
+        }),
+        ("points where the accessors declare", |j| {
+            let a = j["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+                .as_u64()
+                .unwrap() as usize;
+            j["accessors"][a]["count"] = 3.into();
+        }),
+        ("does not decode", |j| {
+            let v = j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"]
+                .as_u64()
+                .unwrap() as usize;
+            // The stream starts 5 bytes in, past its "DRACO" magic.
+            j["bufferViews"][v]["byteOffset"] = (j["bufferViews"][v]["byteOffset"].as_u64().unwrap_or(0) + 5).into();
+        }),
+    ];
+    for (want, mutate) in cases {
+        let (_dir, path) = mutated_draco(mutate);
+        let e = load(&path, None).map(|_| ()).expect_err(want).to_string();
+        assert!(
+            e.contains("KHR_draco_mesh_compression") && e.contains(want),
+            "{want}: {e}"
+        );
+    }
+}
+
+// Every byte of a Draco stream overwritten in turn (and a few random runs): the decoder refuses or decodes
+// something, bounded by the accessors, and never panics, hangs or allocates past what the file declares.
+#[test]
+fn corrupt_draco_streams_never_panic() {
+    let original = std::fs::read_to_string(data("draco", "glass.gltf")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&original).unwrap();
+    let uri = json["buffers"][0]["uri"].as_str().unwrap();
+    let bytes = base64_decode(uri.split_once(',').unwrap().1);
+    let prim = &json["meshes"][1]["primitives"][0];
+    let v = prim["extensions"]["KHR_draco_mesh_compression"]["bufferView"]
+        .as_u64()
+        .unwrap() as usize;
+    let start = json["bufferViews"][v]["byteOffset"].as_u64().unwrap_or(0) as usize;
+    let len = json["bufferViews"][v]["byteLength"].as_u64().unwrap() as usize;
+    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        rng
+    };
+    let (mut refused, mut read) = (0, 0);
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..160 {
+        let mut b = bytes.clone();
+        // The first 64 cases walk the stream's header byte by byte; the rest scatter 8 random bytes over it.
+        if k < 64 {
+            b[start + k % len] ^= 0xff;
+        } else {
+            for _ in 0..8 {
+                b[start + (next() as usize) % len] = next() as u8;
+            }
+        }
+        let mut j = json.clone();
+        j["buffers"][0]["uri"] = format!("data:application/octet-stream;base64,{}", base64_encode(&b)).into();
+        let path = dir.path().join("corrupt.gltf");
+        std::fs::write(&path, j.to_string()).unwrap();
+        match load(&path, None) {
+            Ok(_) => read += 1,
+            Err(e) => {
+                assert!(e.to_string().contains("corrupt.gltf"), "{e}");
+                refused += 1
+            }
+        }
+    }
+    eprintln!("corrupt Draco streams: {refused} refused, {read} read");
+    assert!(refused > 0, "corruption must be noticed at least sometimes");
+}
+
+fn base64_decode(s: &str) -> Vec<u8> {
+    use base64::Engine;
+    base64::engine::general_purpose::STANDARD.decode(s).unwrap()
+}
+
+fn base64_encode(b: &[u8]) -> String {
+    use base64::Engine;
+    base64::engine::general_purpose::STANDARD.encode(b)
 }

@@ -88,19 +88,23 @@ impl Image {
     }
 }
 
-/// Decodes PNG or JPEG (by content, whatever the mimeType says) into RGBA8; 16-bit images are rounded to 8 bits.
-/// The size is read from the header and checked against `max_pixels` (and `MAX_IMAGE_SIDE`) before any texel is
-/// decoded, so a small file cannot make the reader allocate gigabytes. Errors are sentences for the caller.
+/// Decodes PNG, JPEG, WebP (EXT_texture_webp) or KTX2 with Basis Universal (KHR_texture_basisu), by content
+/// whatever the mimeType says, into RGBA8; 16-bit images are rounded to 8 bits. The size is read from the header
+/// and checked against `max_pixels` (and `MAX_IMAGE_SIDE`) before any texel is decoded, so a small file cannot make
+/// the reader allocate gigabytes. Errors are sentences for the caller.
 pub fn decode(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
+    if bytes.starts_with(&KTX2_MAGIC) {
+        return decode_ktx2(bytes, max_pixels);
+    }
     let reader = || {
         image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
             .map_err(|e| format!("cannot read the image: {e}"))
     };
     match reader()?.format() {
-        Some(image::ImageFormat::Png | image::ImageFormat::Jpeg) => {}
-        Some(f) => return Err(format!("{f:?} images are not glTF textures (PNG or JPEG)")),
-        None => return Err("the image is neither PNG nor JPEG".into()),
+        Some(image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::WebP) => {}
+        Some(f) => return Err(format!("{f:?} images are not glTF textures (PNG, JPEG, WebP or KTX2)")),
+        None => return Err("the image is not PNG, JPEG, WebP or KTX2".into()),
     }
     let (width, height) = reader()?
         .into_dimensions()
@@ -118,6 +122,121 @@ pub fn decode(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
     let (width, height) = rgba.dimensions();
     let texels = rgba.pixels().map(|p| p.0).collect();
     Ok(Image { width, height, texels })
+}
+
+/// The identifier a KTX 2.0 file opens with.
+const KTX2_MAGIC: [u8; 12] = [
+    0xAB, b'K', b'T', b'X', b' ', b'2', b'0', 0xBB, b'\r', b'\n', 0x1A, b'\n',
+];
+
+/// A KTX2 file of Basis Universal data (ETC1S with BasisLZ, or UASTC, either optionally Zstandard-compressed: what
+/// KHR_texture_basisu allows), its first mip level transcoded to RGBA8 by the `basisu` crate. The texels come out as
+/// stored, sRGB-encoded or linear, like a PNG's: the material slot says which. KHR_texture_basisu requires the
+/// top-left origin glTF uses, so no flip.
+fn decode_ktx2(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
+    let side = |at: usize| {
+        bytes
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let (width, height) = side(20).zip(side(24)).ok_or("the KTX2 file is truncated")?;
+    check_size(width, height, max_pixels, "--max-texture-pixels")?;
+    check_ktx2_layout(bytes, width, height)?;
+    // The transcoder is new and ports C++ that trusted its input; a panic on a file the checks above let through is
+    // this file's error, not the loader's end.
+    std::panic::catch_unwind(|| transcode_ktx2(bytes, width, height))
+        .unwrap_or_else(|_| Err("the KTX2 file is malformed (the transcoder failed on it)".into()))
+}
+
+fn transcode_ktx2(bytes: &[u8], width: u32, height: u32) -> Result<Image, String> {
+    let why = |e: basisu::Error| format!("{e:?}");
+    let ktx2 = basisu::Transcoder::new(bytes).map_err(|e| format!("cannot read the KTX2 file: {}", why(e)))?;
+    if ktx2.layer_count() > 1 || ktx2.face_count() > 1 || ktx2.is_video() {
+        return Err("the KTX2 file is an array, a cube map or a video; a glTF texture is one 2D image".into());
+    }
+    if ktx2.base_dimensions() != (width, height) {
+        return Err("the KTX2 file's header is inconsistent".into());
+    }
+    let target = basisu::TargetFormat::Rgba32;
+    if !ktx2.supports(target) {
+        return Err(format!(
+            "the KTX2 file holds {:?} data, which is not Basis Universal ETC1S or UASTC",
+            ktx2.source_format()
+        ));
+    }
+    let rgba = (ktx2.transcode(0, target, basisu::DecodeFlags::NONE))
+        .map_err(|e| format!("cannot transcode the KTX2 file: {}", why(e)))?;
+    if rgba.len() != 4 * width as usize * height as usize {
+        return Err(format!("the KTX2 file's first level is not {width}x{height}"));
+    }
+    let texels = rgba.chunks_exact(4).map(|t| [t[0], t[1], t[2], t[3]]).collect();
+    Ok(Image { width, height, texels })
+}
+
+/// What the transcoder trusts of a KTX2 file's layout, checked: every region the index names inside the file, the
+/// key/value entries each inside the region with their padding, every level inside the file, and a Zstandard
+/// level's uncompressedByteLength the UASTC size of its dimensions (16 bytes per 4x4 block). Unchecked, a corrupted
+/// length made the transcoder allocate 120 TB and abort, and a key/value entry ending off alignment made it index
+/// past its slice.
+fn check_ktx2_layout(bytes: &[u8], width: u32, height: u32) -> Result<(), String> {
+    let u32_at = |o: usize| {
+        bytes
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    let u64_at = |o: usize| {
+        bytes
+            .get(o..o + 8)
+            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+    };
+    const TRUNCATED: &str = "the KTX2 file is truncated";
+    let levels = u32_at(40).ok_or(TRUNCATED)?.max(1);
+    let scheme = u32_at(44).ok_or(TRUNCATED)?;
+    if levels > 32 - width.max(height).leading_zeros() {
+        return Err(format!(
+            "the KTX2 file declares {levels} mip levels for a {width}x{height} image"
+        ));
+    }
+    let inside = |offset: u64, length: u64| offset.checked_add(length).is_some_and(|end| end <= bytes.len() as u64);
+    let region = |at: usize| Some((u32_at(at)? as u64, u32_at(at + 4)? as u64));
+    let (dfd, kvd) = (region(48).ok_or(TRUNCATED)?, region(56).ok_or(TRUNCATED)?);
+    let sgd = (u64_at(64).zip(u64_at(72))).ok_or(TRUNCATED)?;
+    for (what, (offset, length)) in [("descriptor", dfd), ("key/value data", kvd), ("global data", sgd)] {
+        if !inside(offset, length) {
+            return Err(format!("the KTX2 file's {what} lies past its end"));
+        }
+    }
+    // Each key/value entry: a u32 length, that many bytes, then padding to a multiple of 4 from the file's start.
+    let (mut p, end) = (kvd.0 as usize, (kvd.0 + kvd.1) as usize);
+    while p < end {
+        let length = u32_at(p)
+            .filter(|_| end - p >= 4)
+            .ok_or("the KTX2 file's key/value data is malformed")?;
+        p = (p + 4)
+            .checked_add(length as usize)
+            .map(|q| q.next_multiple_of(4))
+            .filter(|&q| length >= 2 && q <= end)
+            .ok_or("the KTX2 file's key/value data is malformed")?;
+    }
+    const ZSTANDARD: u32 = 2;
+    for level in 0..levels {
+        let at = 80 + 24 * level as usize;
+        let (offset, length, uncompressed) = (u64_at(at), u64_at(at + 8), u64_at(at + 16));
+        let (Some(offset), Some(length), Some(uncompressed)) = (offset, length, uncompressed) else {
+            return Err(TRUNCATED.into());
+        };
+        if offset.checked_add(length).is_none_or(|end| end > bytes.len() as u64) {
+            return Err(format!("the KTX2 file's mip level {level} lies past its end"));
+        }
+        let blocks = |side: u32| (side >> level).max(1).div_ceil(4) as u64;
+        if scheme == ZSTANDARD && uncompressed != 16 * blocks(width) * blocks(height) {
+            return Err(format!(
+                "the KTX2 file's mip level {level} claims {uncompressed} bytes uncompressed, not the {} its size takes",
+                16 * blocks(width) * blocks(height)
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Refuses an empty image, one with a side past `MAX_IMAGE_SIDE`, or one of more than `max_pixels` pixels

@@ -470,7 +470,7 @@ impl Loader<'_> {
     }
 
     /// Resolves one material slot, loading the texture's image on first use. `None`, with a warning, when the slot
-    /// cannot be honoured: no core-glTF image (e.g. a KTX2 or WebP source in an extension) or a TEXCOORD set past 1.
+    /// cannot be honoured: a texture without an image or a TEXCOORD set past 1.
     fn texture_ref(
         &mut self,
         material: &str,
@@ -503,7 +503,7 @@ impl Loader<'_> {
         };
         if texture.is_none() {
             self.warn(format!(
-                "material '{material}': {slot} uses texture {} whose image is not PNG or JPEG in core glTF; it is ignored",
+                "material '{material}': {slot} uses texture {}, which names no image; it is ignored",
                 tex.index()
             ));
         }
@@ -514,8 +514,36 @@ impl Loader<'_> {
         }))
     }
 
+    /// The image a texture samples: the one its KHR_texture_basisu or EXT_texture_webp names when it names one
+    /// (pathwave reads both, and the core source is then only a fallback for viewers that cannot), else its core
+    /// source. None when it has neither.
+    fn texture_source(&self, tex: &gltf::Texture) -> Result<Option<usize>, Error> {
+        for ext in ["KHR_texture_basisu", "EXT_texture_webp"] {
+            let Some(value) = tex.extension_value(ext) else {
+                continue;
+            };
+            let source = value.get("source");
+            let image = (source.and_then(Value::as_u64))
+                .and_then(|i| usize::try_from(i).ok())
+                .filter(|&i| i < self.document.images().len());
+            return match image {
+                Some(image) => Ok(Some(image)),
+                None => Err(scene_err(
+                    self.path,
+                    format!(
+                        "texture {}: {ext}'s source ({}) is not an image of the file",
+                        tex.index(),
+                        source.map_or("missing".to_string(), |s| s.to_string())
+                    ),
+                )),
+            };
+        }
+        Ok(tex.source().map(|s| s.index()))
+    }
+
     fn load_texture(&mut self, tex: &gltf::Texture) -> Result<Option<usize>, Error> {
-        let Some(source) = tex.source() else {
+        let document = self.document;
+        let Some(source) = self.texture_source(tex)?.and_then(|i| document.images().nth(i)) else {
             return Ok(None);
         };
         let image = match self.image_map.get(&source.index()) {

@@ -1,5 +1,6 @@
 //! The glTF reader: refuses malformed files with a clear error, then takes in nodes, meshes, materials and lights.
 mod animation;
+mod draco;
 mod materials;
 mod meshes;
 mod meshopt;
@@ -23,6 +24,8 @@ use validate::{parse, pre_validate, validate};
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
+    "EXT_texture_webp",
+    "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
@@ -37,6 +40,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
+    "KHR_texture_basisu",
     "KHR_texture_transform",
     // Metadata (XMP packets): nothing in them changes the image, so reading past them is the whole of supporting them.
     "KHR_xmp",
@@ -127,6 +131,14 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     let uris = UriPolicy::new(path.parent().unwrap_or(Path::new(".")), options.allow_outside_paths);
     let mut buffers = import_buffers(path, &uris, &document, blob)?;
     meshopt::decompress(path, &document, &mut buffers)?;
+    let document = match draco::used(&document) {
+        true => {
+            let mut json = document.into_json();
+            draco::decompress(path, &mut json, &mut buffers)?;
+            gltf::Document::from_json_without_validation(json)
+        }
+        false => document,
+    };
     let mut scene = Scene {
         path: path.to_path_buf(),
         ..Default::default()
@@ -353,7 +365,8 @@ impl Loader<'_> {
                 let ymag = o.ymag().abs();
                 (
                     Projection::Orthographic { ymag },
-                    (!(ymag.is_normal() && ymag < f32::MAX)).then(|| format!("ymag {} is zero or not finite", o.ymag())),
+                    (!(ymag.is_normal() && ymag < f32::MAX))
+                        .then(|| format!("ymag {} is zero or not finite", o.ymag())),
                 )
             }
         };
