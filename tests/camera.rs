@@ -110,8 +110,8 @@ fn lit_columns(px: &[[f32; 3]], w: usize, y: usize) -> Vec<usize> {
 #[test]
 fn an_orthographic_camera_sees_sizes_independent_of_depth() {
     // ymag 1 at 40x20 (aspect 2): the image spans x in [-2, 2], y in [-1, 1] at every depth, so both strips, 1 wide,
-    // cover exactly columns 15..25 whatever their distance or the camera's (a perspective camera halves the far one).
-    // Would catch rays that diverge, a wrong extent or aspect, xmag being read for the width, or a flipped image.
+    // cover exactly columns 15..25 whatever their distance or the camera's (a perspective one shows the far one a sixth
+    // as wide as the near one). Would catch rays that diverge, a wrong extent or aspect, xmag being read for the width, or a flipped image.
     let (w, h) = (40usize, 20usize);
     for eye_z in [0.0, 3.0] {
         let b = orthographic_strips(eye_z, false);

@@ -284,7 +284,7 @@ fn a_scene_without_lights_renders_black_with_a_warning() {
         "missing the no-light warning: {err}"
     );
     assert!(
-        err.contains("no perspective camera"),
+        err.contains("the file has no camera"),
         "missing the no-camera warning: {err}"
     );
     let (_, _, px) = pathwave::output::read_exr(&out).unwrap();

@@ -261,7 +261,7 @@ fn cases() -> Vec<Case> {
         ),
         (
             "requires extension",
-            Box::new(set("extensionsRequired", json!(["KHR_draco_mesh_compression"]))),
+            Box::new(set("extensionsRequired", json!(["EXT_no_such_extension"]))),
         ),
         (
             "POSITION",
