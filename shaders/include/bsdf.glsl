@@ -540,9 +540,12 @@ bool refract_dir(vec3 wo, vec3 n, float eta, out vec3 wt) {
 }
 
 // Lobe selection: the probability of the glass lobe (rough dielectric interface), of the specular reflections
-// (coat and metal) and of the clear coat; the rest goes to the cosine lobe that samples everything diffuse-like,
-// sheen included.
-vec3 lobe_probabilities(Bsdf b, vec3 wo) {
+// (coat and metal), of the clear coat and of the sheen; the rest goes to the cosine lobe that samples everything
+// diffuse-like. The sheen is sampled uniformly over the hemisphere: its lobe peaks at grazing wi, where the cosine
+// lobe's samples are rare. Estimating its albedo at grazing wo (cos 0.05), a uniform sample's standard deviation is
+// 2.8, 2.3, 2.6 and 3.4 times smaller than a cosine sample's at roughness 0.1, 0.3, 0.6 and 1 (1.1 to 4.1 times over
+// cos 0.2 to 0.9).
+vec4 lobe_probabilities(Bsdf b, vec3 wo) {
     vec3 fd = dielectric_fresnel(b, wo.z);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
@@ -554,19 +557,26 @@ vec3 lobe_probabilities(Bsdf b, vec3 wo) {
     }
     float glass = (1.0 - b.metallic) * b.transmission;
     float coat = 0.0;
+    float sheen = 0.0;
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
         float cc = coat_albedo_at(b, wo);
         float w = base_weight_under(b, wo, cc);
         spec *= w;
         diff *= w;
         glass *= w;
-        if (scene_has(FEATURE_SHEEN)) diff += (1.0 - cc) * luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
+        if (scene_has(FEATURE_SHEEN)) sheen = (1.0 - cc) * luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
         coat = cc;
     }
-    float total = spec + diff + glass + coat;
-    if (total <= 0.0) return vec3(0.0, 1.0, 0.0);
-    // Without a clear coat its share is a constant zero, which the lobe choice and the pdf then fold away.
-    return vec3(glass / total, spec / total, scene_has(FEATURE_CLEARCOAT) ? coat / total : 0.0);
+    float total = spec + diff + glass + coat + sheen;
+    if (total <= 0.0) return vec4(0.0, 1.0, 0.0, 0.0);
+    // Without a clear coat or a sheen its share is a constant zero, which the lobe choice and the pdf then fold away.
+    return vec4(glass / total, spec / total, scene_has(FEATURE_CLEARCOAT) ? coat / total : 0.0,
+                scene_has(FEATURE_SHEEN) ? sheen / total : 0.0);
+}
+
+// The cosine lobe's share of the samples: what the other lobes leave.
+float cosine_share(vec4 p) {
+    return 1.0 - p.x - p.y - p.z - p.w;
 }
 
 // The visible-normal density of the base's microfacet normal m seen from wo: G1(wo) D(m) max(0, wo.m) / wo.z.
@@ -666,7 +676,7 @@ vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
 // Solid-angle density with which bsdf_sample returns wi (delta lobes have none).
 float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
-    vec3 p = lobe_probabilities(b, wo);
+    vec4 p = lobe_probabilities(b, wo);
     float pdf = 0.0;
     if (p.x > 0.0) {
         vec3 f;
@@ -676,12 +686,13 @@ float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
     }
     // The cosine lobe sends diffuse_transmission of its samples through the surface.
     if (wi.z < 0.0) {
-        if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) pdf += (1.0 - p.x - p.y - p.z) * b.diffuse_transmission * -wi.z / PI;
+        if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) pdf += cosine_share(p) * b.diffuse_transmission * -wi.z / PI;
         return pdf;
     }
-    float cosine = (1.0 - p.x - p.y - p.z) * wi.z / PI;
+    float cosine = cosine_share(p) * wi.z / PI;
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) cosine *= 1.0 - b.diffuse_transmission;
     pdf += cosine;
+    if (scene_has(FEATURE_SHEEN)) pdf += p.w / (2.0 * PI);
     if (scene_has(FEATURE_CLEARCOAT) && p.z > 0.0) pdf += p.z * clearcoat_pdf(b, wo, wi);
     if (scene_has(FEATURE_COAT | FEATURE_METAL) && !bsdf_is_delta(b)) {
         // Visible-normal sampling then reflection: D_wo(h) / (4 wo.h) = G1(wo) D(h) / (4 wo.z).
@@ -730,7 +741,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     s.pdf = 0.0;
     s.delta = false;
     if (wo.z <= 0.0) return false;
-    vec3 p = lobe_probabilities(b, wo);
+    vec4 p = lobe_probabilities(b, wo);
     // What the layers leave of the base, for the base's delta lobes (whose weights are not evaluated).
     float under = base_weight(b, wo);
     if (scene_has(FEATURE_TRANSMISSION) && u.z < p.x) {
@@ -793,11 +804,13 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
         }
         s.wi = from_coat(b, reflect(-o, sample_ggx_vndf(o, vec2(b.coat_alpha), u.xy)));
         if (s.wi.z <= 0.0 || dot(s.wi, b.coat_n) <= 0.0) return false;
+    } else if (scene_has(FEATURE_SHEEN) && u.z < p.x + p.y + p.z + p.w) {
+        s.wi = sample_uniform_hemisphere(u.xy);
     } else {
         s.wi = sample_cosine_hemisphere(vec3(0.0, 0.0, 1.0), u.xy);
         if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
             // u.z again, rescaled over the cosine lobe's share, chooses through or back.
-            float u_t = (u.z - (p.x + p.y + p.z)) / max(1.0 - p.x - p.y - p.z, 1e-12);
+            float u_t = (u.z - (p.x + p.y + p.z + p.w)) / max(cosine_share(p), 1e-12);
             if (u_t < b.diffuse_transmission) s.wi = flip_z(s.wi);
         }
     }

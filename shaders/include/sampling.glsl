@@ -41,6 +41,13 @@ vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
     return normalize(disk.x * t + disk.y * b + z * n);
 }
 
+// Uniform direction on the hemisphere about +z (pdf 1 / 2 pi).
+vec3 sample_uniform_hemisphere(vec2 u) {
+    float r = sqrt(max(0.0, 1.0 - u.x * u.x));
+    float phi = 2.0 * PI * u.y;
+    return vec3(r * cos(phi), r * sin(phi), u.x);
+}
+
 float pdf_cosine_hemisphere(vec3 n, vec3 w) {
     return max(dot(n, w), 0.0) / PI;
 }
