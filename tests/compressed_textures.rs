@@ -4,6 +4,7 @@
 //! reference decoder (dwebp, the upstream Basis transcoder) makes of every image in reference/.
 mod common;
 
+use common::mutate::below;
 use pathwave::scene::texture::{self, Image};
 use pathwave::scene::{load, Scene};
 use serde_json::Value;
@@ -151,19 +152,13 @@ fn broken_images_are_refused_naming_the_image() {
                 "{dir} image {i} cut at {cut}"
             );
         }
-        let mut rng = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
+        let mut rng = common::rng::Rng(0x2545_f491_4f6c_dd1d);
         let mut refused = 0;
         for _ in 0..200 {
             let mut b = bytes.clone();
             for _ in 0..4 {
-                let k = 12 + next() as usize % (b.len() - 12);
-                b[k] = next() as u8;
+                let k = 12 + below(&mut rng, b.len() - 12);
+                b[k] = below(&mut rng, 256) as u8;
             }
             refused += texture::decode(&b, 1 << 26).is_err() as u32;
         }

@@ -7,6 +7,7 @@
 //! and weights).
 mod common;
 
+use common::mutate::below;
 use pathwave::scene::{load, PoseTime};
 
 fn data(dir: &str, name: &str) -> std::path::PathBuf {
@@ -233,13 +234,7 @@ fn corrupt_draco_streams_never_panic() {
         .unwrap() as usize;
     let start = json["bufferViews"][v]["byteOffset"].as_u64().unwrap_or(0) as usize;
     let len = json["bufferViews"][v]["byteLength"].as_u64().unwrap() as usize;
-    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        rng ^= rng << 13;
-        rng ^= rng >> 7;
-        rng ^= rng << 17;
-        rng
-    };
+    let mut rng = common::rng::Rng(0x9e37_79b9_7f4a_7c15);
     let (mut refused, mut read) = (0, 0);
     let dir = tempfile::tempdir().unwrap();
     for k in 0..160 {
@@ -249,7 +244,7 @@ fn corrupt_draco_streams_never_panic() {
             b[start + k % len] ^= 0xff;
         } else {
             for _ in 0..8 {
-                b[start + (next() as usize) % len] = next() as u8;
+                b[start + below(&mut rng, len)] = below(&mut rng, 256) as u8;
             }
         }
         let mut j = json.clone();
