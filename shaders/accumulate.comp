@@ -1,8 +1,10 @@
 // accumulate: add each pixel's samples of this pass to its running sum and sum of squares, in sample order, so the sum
-// is the same bytes however samples are grouped into passes.
+// is the same bytes however samples are grouped into passes. The exact film (FEATURE_EXACT_FILM) adds them as
+// fixed-point integers instead, whose sums are the same bits in any order.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
+#include "film.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -10,19 +12,34 @@ void main() {
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint pixel = frame.pixel_offset + i;
     uint pixels = frame.width * frame.height;
-    if ((frame.flags & FLAG_FUSED_SUMS) != 0u) {
+    bool fused = (frame.flags & FLAG_FUSED_SUMS) != 0u;
+    uint dropped = 0u;
+    if (scene_has(FEATURE_EXACT_FILM)) {
+        // follow left the pass's sums in the pixel's slot; the wavefront's samples wait in their paths.
+        ExactSums pass = exact_zero();
+        if (fused) {
+            pass = exact_load_slot(i);
+        } else {
+            for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
+                dropped += exact_add(pass, path_get(PATH_RADIANCE, path).rgb);
+            }
+        }
+        ExactSums sums = exact_load_film(pixel);
+        exact_merge(sums, pass);
+        exact_store_film(pixel, sums);
+    } else if (fused) {
         // follow added the samples itself, in the same order with the same arithmetic.
         film[pixel] = path_get(PATH_RADIANCE, i);
         film[pixels + pixel] = path_get(PATH_THROUGHPUT, i);
         return;
+    } else {
+        vec4 sum = film[pixel];
+        vec4 sum_sq = film[pixels + pixel];
+        for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
+            dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
+        }
+        film[pixel] = sum;
+        film[pixels + pixel] = sum_sq;
     }
-    vec4 sum = film[pixel];
-    vec4 sum_sq = film[pixels + pixel];
-    uint dropped = 0u;
-    for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-        dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
-    }
-    film[pixel] = sum;
-    film[pixels + pixel] = sum_sq;
     if (dropped != 0u) atomicAdd(counters.nonfinite, dropped);
 }

@@ -9,6 +9,7 @@
 #include "stage.glsl"
 #include "path.glsl"
 #include "traverse.glsl"
+#include "film.glsl"
 
 // follow_first_row(): the first sample row (slots row * pass_pixels + pixel) of this dispatch; it takes the rows up to
 // path_count / pass_pixels (the host sets path_count per dispatch).
@@ -32,9 +33,17 @@ void main() {
         // same bytes): kept here and stored once, not a sample at a time, since each store to a storage buffer is a
         // loop over the lanes on lavapipe. The first dispatch of a pass starts from the film, later ones from where
         // the one before left them (FLAG_FUSED_SUMS).
+        // The exact film's sums (FEATURE_EXACT_FILM) are order-free, so a pass's start from zero and accumulate adds
+        // them to the film.
         uint pixels = frame.width * frame.height;
-        vec4 sum = follow_first_row() == 0u ? film[pixel] : path_get(PATH_RADIANCE, i);
-        vec4 sum_sq = follow_first_row() == 0u ? film[pixels + pixel] : path_get(PATH_THROUGHPUT, i);
+        vec4 sum, sum_sq;
+        ExactSums exact;
+        if (scene_has(FEATURE_EXACT_FILM)) {
+            exact = follow_first_row() == 0u ? exact_zero() : exact_load_slot(i);
+        } else {
+            sum = follow_first_row() == 0u ? film[pixel] : path_get(PATH_RADIANCE, i);
+            sum_sq = follow_first_row() == 0u ? film[pixels + pixel] : path_get(PATH_THROUGHPUT, i);
+        }
         // A lane whose path ends starts its next sample in the same iteration, so lanes stay busy until the last
         // samples; the wavefront gets the same by compacting its queues.
         while (path < end) {
@@ -51,15 +60,23 @@ void main() {
             }
             bounce++;
             if (!alive) {
-                dropped += film_add(sum, sum_sq, v.radiance);
+                if (scene_has(FEATURE_EXACT_FILM)) {
+                    dropped += exact_add(exact, v.radiance);
+                } else {
+                    dropped += film_add(sum, sum_sq, v.radiance);
+                }
                 path += frame.pass_pixels;
                 s++;
                 bounce = 0u;
                 v = start_path(xy, pixel, s);
             }
         }
-        path_set(PATH_RADIANCE, i, sum);
-        path_set(PATH_THROUGHPUT, i, sum_sq);
+        if (scene_has(FEATURE_EXACT_FILM)) {
+            exact_store_slot(i, exact);
+        } else {
+            path_set(PATH_RADIANCE, i, sum);
+            path_set(PATH_THROUGHPUT, i, sum_sq);
+        }
     }
     // lavapipe (gallivm) guards against endless loops by ending every loop of an invocation once their iterations
     // together reach 65535, silently. Once spent, that budget stops every loop after one step, so a two-step loop

@@ -136,3 +136,83 @@ pub fn parse_frames(s: &str) -> Result<(u32, u32), String> {
 pub fn parse_shutter(s: &str) -> Result<f32, String> {
     number(s, 0.0, 3600.0, false)
 }
+
+/// `A..B`: sample indices A to B-1 of every pixel, at most SPP_LIMIT of them, B within u32.
+pub fn parse_samples(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not A..B (sample indices A to B-1, e.g. 0..64)");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let first: u32 = a.trim().parse().map_err(|_| bad())?;
+    let end: u32 = b.trim().parse().map_err(|_| bad())?;
+    if first >= end {
+        return Err(format!("'{s}' holds no sample: A must be below B"));
+    }
+    if end - first > SPP_LIMIT {
+        return Err(format!("'{s}' is more than {SPP_LIMIT} samples per pixel"));
+    }
+    Ok((first, end))
+}
+
+/// Which of N parts a render is: `I/N` with I from 0 to N-1, or `auto/N`, I then being the scheduler's array index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// None: `auto`, read from the environment when the render starts (`Part::index`).
+    pub index: Option<u32>,
+    pub count: u32,
+}
+
+/// The variables job arrays number their tasks by, from 0: Slurm, Kubernetes Indexed Jobs, AWS Batch.
+pub const ARRAY_INDEX_VARIABLES: [&str; 3] = [
+    "SLURM_ARRAY_TASK_ID",
+    "JOB_COMPLETION_INDEX",
+    "AWS_BATCH_JOB_ARRAY_INDEX",
+];
+
+pub fn parse_part(s: &str) -> Result<Part, String> {
+    let bad = || format!("'{s}' is not I/N (e.g. 0/4) or auto/N");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let count = positive(n.trim()).map_err(|e| format!("'{s}': N: {e}"))?;
+    if count > 1_000_000 {
+        return Err(format!("'{s}': more than a million parts"));
+    }
+    let index = match i.trim() {
+        "auto" => None,
+        i => Some(i.parse::<u32>().map_err(|_| bad())?),
+    };
+    if index.is_some_and(|i| i >= count) {
+        return Err(format!("'{s}': parts count from 0, so I must be below N"));
+    }
+    Ok(Part { index, count })
+}
+
+impl Part {
+    /// The part's index: given, or the first job-array variable set (checked like a given one).
+    pub fn index(&self) -> Result<u32, String> {
+        if let Some(i) = self.index {
+            return Ok(i);
+        }
+        let (name, value) = (ARRAY_INDEX_VARIABLES.iter())
+            .find_map(|v| std::env::var(v).ok().map(|value| (*v, value)))
+            .ok_or_else(|| {
+                format!(
+                    "--part auto/{}: none of {} is set; give the index as --part I/{}",
+                    self.count,
+                    ARRAY_INDEX_VARIABLES.join(", "),
+                    self.count
+                )
+            })?;
+        match value.trim().parse::<u32>() {
+            Ok(i) if i < self.count => Ok(i),
+            _ => Err(format!(
+                "--part auto/{}: {name}={value} is not an index from 0 to {}",
+                self.count,
+                self.count - 1
+            )),
+        }
+    }
+
+    /// The part's share of `total` items (samples or frames): contiguous, in order, sizes differing by at most one.
+    pub fn range(index: u32, count: u32, total: u64) -> std::ops::Range<u64> {
+        let at = |k: u64| k * total / count as u64;
+        at(index as u64)..at(index as u64 + 1)
+    }
+}

@@ -148,6 +148,8 @@ pub const FLAG_CAMERA_MOTION: u32 = 64;
 /// The camera is orthographic: camera rays start across an image plane frame_half_height() high and all run along
 /// its forward axis.
 pub const FLAG_ORTHOGRAPHIC: u32 = 128;
+/// The film is the exact one (FEATURE_EXACT_FILM): the host reads this flag to specialise the render stages.
+pub const FLAG_EXACT_FILM: u32 = 256;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -193,6 +195,10 @@ pub const FEATURE_IRIDESCENCE: u32 = 8192;
 /// Some material transmits diffusely (KHR_materials_diffuse_transmission factor above 0): part of the base's diffuse
 /// lobe goes through the surface (leaves, paper, lamp shades, wax).
 pub const FEATURE_DIFFUSE_TRANSMISSION: u32 = 16384;
+/// The render keeps the exact film (film.glsl): fixed-point integer sums that merge to the same bits however the
+/// samples are split (--film-stats, --samples, --part). A render setting, like FEATURE_LENS; renders without it keep
+/// the float film and its speed.
+pub const FEATURE_EXACT_FILM: u32 = 32768;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;
@@ -281,6 +287,16 @@ pub const QUEUE_COUNT: u32 = 3;
 
 /// The film: a vec4 running sum (rgb, sample count in w) per pixel, then a vec4 running sum of squares per pixel.
 pub const FILM_BYTES_PER_PIXEL: u32 = 32;
+
+/// The exact film (FEATURE_EXACT_FILM, film.glsl): 16-byte texels per pixel (112 bytes): three 128-bit sums, three
+/// 160-bit sums of squares, and the sample count.
+pub const EXACT_FILM_TEXELS: u32 = 7;
+/// The exact film's sums count units of 2^-EXACT_SUM_BITS: down to 5e-20, and up to 2^63 (9.2e18) in a pixel.
+pub const EXACT_SUM_BITS: u32 = 64;
+/// Its sums of squares count units of 2^-EXACT_SQUARE_BITS: squares down to 3.6e-15, and up to 2^112 (5.2e33).
+pub const EXACT_SQUARE_BITS: u32 = 48;
+/// The exact film's count word: set once a pixel's sums overflowed (the host refuses such a film).
+pub const EXACT_OVERFLOW: u32 = 0x80000000;
 
 /// Frame.bounce of the probe kernels (probe_mode() in layout.glsl): what each asks of the device function it tests.
 pub const PROBE_SAMPLE: u32 = 0;

@@ -7,6 +7,7 @@ use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
 use std::path::PathBuf;
 
 mod cli_values;
+mod film_cli;
 mod interrupt;
 use cli_values::*;
 use std::time::Instant;
@@ -38,6 +39,9 @@ enum Command {
         #[command(flatten)]
         limits: LoadArgs,
     },
+    /// Merge film files of disjoint sample ranges of one render (`render --samples` or `--part`) into one film
+    /// file, bit-identical to rendering their union at once.
+    Merge(film_cli::MergeArgs),
     /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
     Bench(BenchArgs),
     /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
@@ -303,6 +307,20 @@ struct RenderArgs {
     /// With --frames: skip the frames whose every output file exists already.
     #[arg(long, requires = "frames")]
     resume: bool,
+    /// Render only sample indices A to B-1 of every pixel (the samples a full render takes there) into a film file
+    /// (EXR with film statistics); `pathwave merge` joins parts of disjoint ranges. Instead of --spp.
+    #[arg(long, value_parser = parse_samples, conflicts_with_all = ["spp", "part"])]
+    samples: Option<(u32, u32)>,
+    /// Render the I-th (from 0) of N contiguous shares of --spp's samples into a film file, or with --frames the I-th
+    /// of N shares of the frames. `auto/N` takes I from the job array: SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX
+    /// (Kubernetes Indexed Jobs) or AWS_BATCH_JOB_ARRAY_INDEX.
+    #[arg(long, value_parser = parse_part)]
+    part: Option<Part>,
+    /// Write film statistics into every EXR output: exact per-pixel sums of the samples and their squares, the
+    /// sample count, and what rendered it, so `pathwave merge` and `pathwave diff` can use it. Implied by
+    /// --samples, and by --part without --frames.
+    #[arg(long)]
+    film_stats: bool,
 }
 
 /// One image a render writes: which frame (None: not a sequence), at what time, into which files.
@@ -313,8 +331,83 @@ struct Shot {
 }
 
 impl RenderArgs {
-    /// The images to render: one at --time, or one per frame of --frames with its numbered file names.
+    /// Whether the render keeps the exact film and writes film files.
+    fn film_stats(&self) -> bool {
+        self.film_stats || self.samples.is_some() || (self.part.is_some() && self.frames.is_none())
+    }
+
+    /// The first sample index and the samples per pixel: --samples, this part's share of --spp, or all of --spp.
+    fn sample_range(&self) -> Result<(u32, u32)> {
+        match (self.samples, self.part) {
+            (Some((a, b)), _) => Ok((a, b - a)),
+            (None, Some(part)) if self.frames.is_none() => {
+                let index = part.index().map_err(|e| anyhow::anyhow!(e))?;
+                let r = Part::range(index, part.count, self.spp as u64);
+                if r.is_empty() {
+                    bail!(
+                        "--part {index}/{}: {} samples per pixel give part {index} none; use at most {} parts",
+                        part.count,
+                        self.spp,
+                        self.spp
+                    );
+                }
+                Ok((r.start as u32, (r.end - r.start) as u32))
+            }
+            _ => Ok((0, self.spp)),
+        }
+    }
+
+    /// The options that change the image, as given, for a film file's metadata (its fingerprints hold the rest):
+    /// they name what differs when parts are refused. Nothing machine-specific: parts render on many machines.
+    fn film_settings(&self) -> Vec<(String, String)> {
+        let c = &self.common;
+        let opt = |v: Option<String>| v.unwrap_or_else(|| "default".into());
+        [
+            ("size", format!("{}x{}", self.size.0, self.size.1)),
+            ("max-depth", opt(c.max_depth.map(|d| d.to_string()))),
+            ("estimator", format!("{:?}", self.estimator).to_lowercase()),
+            ("energy-compensation", (!self.no_energy_compensation).to_string()),
+            ("camera", opt(c.camera.map(|n| n.to_string()))),
+            ("aperture", c.aperture.to_string()),
+            ("focus-distance", opt(c.focus_distance.map(|f| f.to_string()))),
+            ("time", opt(c.time.map(|t| t.to_string()))),
+            ("shutter", c.shutter.to_string()),
+            ("animation", opt(c.animation.clone())),
+            ("variant", opt(c.limits.variant.clone())),
+            (
+                "env-color",
+                opt(c.env.env_color.map(|rgb| format!("{},{},{}", rgb[0], rgb[1], rgb[2]))),
+            ),
+            ("env-intensity", c.env.env_intensity.to_string()),
+            ("env-rotation", c.env.env_rotation.to_string()),
+            ("hide-env", c.env.hide_env.to_string()),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+    }
+
+    /// The images to render: one at --time, or one per frame of --frames (this part's share of them, with --part)
+    /// with its numbered file names.
     fn shots(&self) -> Result<Vec<Shot>> {
+        let mut shots = self.all_shots()?;
+        if let (Some(part), Some(_)) = (self.part, self.frames) {
+            let index = part.index().map_err(|e| anyhow::anyhow!(e))?;
+            let r = Part::range(index, part.count, shots.len() as u64);
+            if r.is_empty() {
+                bail!(
+                    "--part {index}/{}: {} frames give part {index} none; use at most {} parts",
+                    part.count,
+                    shots.len(),
+                    shots.len()
+                );
+            }
+            shots = shots.drain(r.start as usize..r.end as usize).collect();
+        }
+        Ok(shots)
+    }
+
+    fn all_shots(&self) -> Result<Vec<Shot>> {
         let Some((first, last)) = self.frames else {
             return Ok(vec![Shot {
                 frame: None,
@@ -347,16 +440,18 @@ impl RenderArgs {
 
 fn main() {
     let cli = Cli::parse();
+    let error_code = 1;
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::View(args) => view(args),
         Command::Info { scene, devices, limits } => info(scene, devices, &limits),
         Command::ExportShaders { dir } => export_shaders(dir),
         Command::Bench(args) => bench(args),
+        Command::Merge(args) => film_cli::merge(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
-        std::process::exit(1);
+        std::process::exit(error_code);
     }
 }
 
@@ -368,10 +463,17 @@ fn render(args: RenderArgs) -> Result<()> {
             output::check_writable(out)?;
         }
     }
+    let (first_sample, spp) = args.sample_range()?;
     interrupt::install()?;
     let start = Instant::now();
     let mut scene = args.common.load_at(shots[0].time)?;
-    let mut renderer = Renderer::new(&scene, &args.common.device.clone().unwrap_or_default())?;
+    let options = pathwave::render::RendererOptions {
+        fingerprint: args.film_stats(),
+        ..pathwave::render::RendererOptions::from_env()?
+    };
+    let device = args.common.device.clone().unwrap_or_default();
+    let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
+    let mut renderer = Renderer::with_options(&scene, ctx, options)?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
@@ -393,7 +495,9 @@ fn render(args: RenderArgs) -> Result<()> {
     let settings = RenderSettings {
         width: args.size.0,
         height: args.size.1,
-        spp: args.spp,
+        spp,
+        first_sample,
+        exact_film: args.film_stats(),
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
         ..args.common.settings()
@@ -480,7 +584,7 @@ fn render_and_write(
     shot: &Shot,
     start: Instant,
 ) -> Result<()> {
-    let bar = ProgressBar::new(args.spp as u64);
+    let bar = ProgressBar::new(settings.spp as u64);
     let prefix = match shot.frame {
         Some(k) => format!("frame {k} "),
         None => String::new(),
@@ -512,7 +616,19 @@ fn render_and_write(
         );
     }
     let pixels = film.mean();
-    output::write_images(&shot.outputs, film.width, film.height, &pixels, args.exposure)?;
+    let meta = match &film.exact {
+        Some(exact) => Some(film_cli::film_meta(renderer, settings, exact, args.film_settings())?),
+        None => None,
+    };
+    let film_stats = (film.exact.as_ref().zip(meta.as_ref())).map(|(film, meta)| output::Stats { film, meta });
+    output::write_images_with(
+        &shot.outputs,
+        film.width,
+        film.height,
+        &pixels,
+        args.exposure,
+        film_stats,
+    )?;
     let names: Vec<String> = shot.outputs.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
@@ -524,8 +640,17 @@ fn render_and_write(
         stats.summary()
     );
     if film.spp < settings.spp {
+        let (a, done, b) = (
+            settings.first_sample,
+            settings.first_sample + film.spp,
+            settings.first_sample + settings.spp,
+        );
+        let rest = match film.exact {
+            Some(_) => format!(" (samples {a}..{done}; render --samples {done}..{b} and merge them to finish)"),
+            None => String::new(),
+        };
         bail!(
-            "interrupted: wrote {} with {} of {} samples per pixel",
+            "interrupted: wrote {} with {} of {} samples per pixel{rest}",
             names.join(", "),
             film.spp,
             settings.spp

@@ -2,6 +2,16 @@
 use crate::error::Error;
 use std::path::Path;
 
+pub mod film_file;
+pub use film_file::{read_film, FilmFile, FilmMeta};
+
+/// What EXR outputs carry besides the mean: the exact film and what made it (a film file, see `film_file`).
+#[derive(Clone, Copy)]
+pub struct Stats<'a> {
+    pub film: &'a crate::render::film::ExactFilm,
+    pub meta: &'a FilmMeta,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
     Exr,
@@ -94,13 +104,28 @@ pub fn write_images<P: AsRef<Path>>(
     rgb: &[[f32; 3]],
     exposure: f32,
 ) -> Result<(), Error> {
+    write_images_with(paths, width, height, rgb, exposure, None)
+}
+
+/// `write_images`, with the EXR outputs carrying `stats` when given (film files); PNG outputs hold the image only.
+pub fn write_images_with<P: AsRef<Path>>(
+    paths: &[P],
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    exposure: f32,
+    stats: Option<Stats>,
+) -> Result<(), Error> {
     assert_eq!(rgb.len(), width as usize * height as usize);
     let mut encoded = Vec::with_capacity(paths.len());
     for path in paths {
         let path = path.as_ref();
         let format = format_of(path)?;
         let tmp = temporary_beside(path, format)?;
-        encode(&tmp, path, format, width, height, rgb, exposure)?;
+        match (format, stats) {
+            (Format::Exr, Some(s)) => film_file::encode_film(tmp.path(), path, width, height, rgb, s.film, s.meta)?,
+            _ => encode(&tmp, path, format, width, height, rgb, exposure)?,
+        }
         encoded.push((path, tmp));
     }
     let mut placed: Vec<&Path> = Vec::with_capacity(encoded.len());

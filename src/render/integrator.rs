@@ -99,7 +99,12 @@ impl Renderer {
     /// submission, the wavefront in batches of bounces that end once no path is left.
     pub(super) fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
         let lens = if frame.aperture() > 0.0 { FEATURE_LENS } else { 0 };
-        self.kernels.set_features(self.scene.features | lens);
+        let exact = if frame.flags & FLAG_EXACT_FILM != 0 {
+            FEATURE_EXACT_FILM
+        } else {
+            0
+        };
+        self.kernels.set_features(self.scene.features | lens | exact);
         let variant = self.scene_variant();
         let follow_rows = self.follow.rows;
         let Renderer {

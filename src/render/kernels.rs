@@ -296,6 +296,23 @@ impl Kernels {
         })
     }
 
+    /// BLAKE3 of the SPIR-V of every render stage and variant, as this renderer would build them (built-in or
+    /// loaded from a shader folder): part of what a film file names its render by.
+    pub fn render_fingerprint(&self) -> String {
+        let mut kernels: Vec<(String, &Vec<u8>)> = (self.spirv.iter())
+            .filter(|(k, _)| k.stage.renders())
+            .map(|(k, spv)| (k.name(), spv))
+            .collect();
+        kernels.sort();
+        let mut hasher = blake3::Hasher::new();
+        for (name, spv) in kernels {
+            hasher.update(name.as_bytes());
+            hasher.update(&(spv.len() as u64).to_le_bytes());
+            hasher.update(spv);
+        }
+        hasher.finalize().to_hex().to_string()
+    }
+
     /// The kernel's pipeline if it is built.
     pub fn built(&self, kernel: Kernel) -> Option<Built> {
         self.built.get(&kernel).map(|&pipeline| Built {

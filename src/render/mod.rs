@@ -397,7 +397,8 @@ impl Uploaded {
             )));
         }
         let device_budget = options.max_device_memory.unwrap_or_else(|| ctx.device_local_heap());
-        let gpu = GpuScene::upload(ctx, &packed, device_budget)?;
+        let mut gpu = GpuScene::upload(ctx, &packed, device_budget)?;
+        gpu.fingerprint = options.fingerprint.then(|| packed.fingerprint());
         let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
         // From the packed bounds: the scene's own walk would place every instance again.
         let camera = scene.camera.unwrap_or_else(|| Camera::framing(packed.bounds));

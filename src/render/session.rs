@@ -1,5 +1,5 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
-use super::film::{Film, RenderStats};
+use super::film::{ExactFilm, Film, RenderStats};
 use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
 use crate::constants::*;
 use crate::error::Error;
@@ -96,10 +96,15 @@ impl Renderer {
         s.check()?;
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let film_bytes = pixels * FILM_BYTES_PER_PIXEL as u64;
-        if film_bytes > range || pixels > u32::MAX as u64 / 2 {
+        let film_bytes = pixels * film_bytes_per_pixel(s) as u64;
+        if film_bytes > range || pixels > u32::MAX as u64 / EXACT_FILM_TEXELS as u64 {
+            let exact = match s.exact_film {
+                true => " (an exact film, for film statistics, takes 112 bytes a pixel)",
+                false => "",
+            };
             return Err(Error::Settings(format!(
-                "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} bytes",
+                "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} \
+                 bytes{exact}",
                 s.width, s.height
             )));
         }
@@ -178,7 +183,7 @@ impl Renderer {
         self.bind(&session.bindings(), session.texel_views());
         let (pixels, capacity) = (session.pixels, session.capacity);
         let mut frame = session.frame;
-        frame.sample_index = session.done;
+        frame.sample_index = session.settings.first_sample + session.done;
         let mut stats = std::mem::take(&mut session.stats);
         let added = if pixels <= capacity as u64 {
             // Whole samples of every pixel, as many as fit. A fused pass keeps only a pixel's running sums in the
@@ -219,17 +224,37 @@ impl Renderer {
 
     /// The session's film so far (running sums over `done` samples per pixel).
     pub fn film(&self, session: &Session) -> Result<Film, Error> {
+        let s = &session.settings;
+        let pixels = session.pixels as usize;
+        let samples = s.first_sample..s.first_sample + session.done;
+        if s.exact_film {
+            let words: Vec<u32> = session.film.download(&self.ctx)?;
+            self.check_validation()?;
+            let exact = ExactFilm::from_words(&words[..pixels * EXACT_FILM_TEXELS as usize * 4], samples)?;
+            return Ok(Film::from_exact(s.width, s.height, exact));
+        }
         let raw: Vec<[f32; 4]> = session.film.download(&self.ctx)?;
         self.check_validation()?;
-        let pixels = session.pixels as usize;
         let (sum, sum_sq) = raw.split_at(pixels);
         Ok(Film {
-            width: session.settings.width,
-            height: session.settings.height,
+            width: s.width,
+            height: s.height,
             spp: session.done,
             sum: sum.to_vec(),
             sum_sq: sum_sq[..pixels].to_vec(),
+            exact: None,
         })
+    }
+
+    /// What a film file names a render with `s` by: the scene's fingerprint, the frame every pass starts from
+    /// (camera, size, seed, depth, estimator, flags, environment) and the render stages' SPIR-V, each a BLAKE3.
+    /// The scene's is kept only when `RendererOptions::fingerprint` asked for it.
+    pub fn fingerprints(&self, s: &RenderSettings) -> Result<[String; 3], Error> {
+        let scene = self.scene.fingerprint.clone().ok_or_else(|| {
+            Error::Settings("the renderer did not keep the scene's fingerprint (RendererOptions::fingerprint)".into())
+        })?;
+        let frame = blake3::hash(bytemuck::bytes_of(&self.frame(s))).to_hex().to_string();
+        Ok([scene, frame, self.kernels.render_fingerprint()])
     }
 
     /// The push constants of a render with `s` from the renderer's camera and scene.
@@ -260,9 +285,18 @@ impl Renderer {
                     self.scene.camera_moves && self.scene_camera == Some(self.camera),
                     FLAG_CAMERA_MOTION,
                 )
-                | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC),
+                | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC)
+                | flag(s.exact_film, FLAG_EXACT_FILM),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)
+    }
+}
+
+/// Film bytes a pixel takes: the float film's sum and sum of squares, or the exact film's texels.
+fn film_bytes_per_pixel(s: &RenderSettings) -> u32 {
+    match s.exact_film {
+        true => EXACT_FILM_TEXELS * 16,
+        false => FILM_BYTES_PER_PIXEL,
     }
 }

@@ -118,6 +118,22 @@ impl PackedScene {
     }
 }
 
+impl PackedScene {
+    /// BLAKE3 of every buffer the device gets, by binding: what a film file names its scene by. Equal scenes pack to
+    /// equal bytes (packing is deterministic), whatever file layout or compression they were read from.
+    pub fn fingerprint(&self) -> String {
+        let mut hasher = blake3::Hasher::new();
+        for b in &SCENE_BINDINGS {
+            let bytes = self.bytes(b.1);
+            hasher.update(&b.1.to_le_bytes());
+            hasher.update(&(bytes.len() as u64).to_le_bytes());
+            hasher.update(bytes);
+        }
+        hasher.update(&self.env_prob.to_le_bytes());
+        hasher.finalize().to_hex().to_string()
+    }
+}
+
 /// Bytes for a message: MiB when large, bytes when not.
 pub(super) fn size_text(bytes: u64) -> String {
     if bytes >= 1 << 20 {
@@ -168,6 +184,8 @@ pub struct GpuScene {
     pub camera_moves: bool,
     /// How long building the BVH took.
     pub bvh_build: std::time::Duration,
+    /// `PackedScene::fingerprint`, when the renderer was asked to keep it (`RendererOptions::fingerprint`).
+    pub fingerprint: Option<String>,
 }
 
 impl GpuScene {
@@ -253,6 +271,7 @@ impl GpuScene {
             vertex_colors: !packed.tri_colors.is_empty(),
             camera_moves: packed.camera_moves,
             bvh_build: packed.bvh_build,
+            fingerprint: None,
         })
     }
 
