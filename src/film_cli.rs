@@ -12,6 +12,7 @@ pub fn film_meta(
     settings: &RenderSettings,
     film: &ExactFilm,
     given: Vec<(String, String)>,
+    part: Option<(u32, u32)>,
 ) -> Result<FilmMeta> {
     let [scene, frame, shaders] = renderer.fingerprints(settings)?;
     Ok(FilmMeta {
@@ -21,6 +22,7 @@ pub fn film_meta(
         settings: given,
         seed: settings.seed,
         samples: film.samples.clone(),
+        part,
         device: renderer.context().device_name(),
         version: env!("CARGO_PKG_VERSION").to_string(),
     })
@@ -48,6 +50,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     }
     let mut merged: Option<(u32, u32, ExactFilm, FilmMeta, PathBuf)> = None;
     let mut devices: Vec<String> = Vec::new();
+    let mut parts: Vec<(u32, u32, &PathBuf)> = Vec::new();
     for path in &args.parts {
         let file = output::read_film(path)?;
         let Some((film, meta)) = file.stats else {
@@ -56,6 +59,9 @@ pub fn merge(args: MergeArgs) -> Result<()> {
                 path.display()
             );
         };
+        if let Some((i, n)) = meta.part {
+            parts.push((i, n, path));
+        }
         if !devices.contains(&meta.device) {
             devices.push(meta.device.clone());
         }
@@ -81,7 +87,15 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         }
     }
     let (width, height, film, mut meta, _) = merged.context("no parts")?;
+    check_parts_complete(&parts, args.parts.len())?;
     meta.samples = film.samples.clone();
+    meta.part = None;
+    if film.samples.len() > 1 || film.samples[0].start != 0 {
+        eprintln!(
+            "warning: the parts hold samples {}, not one range from 0: the merge is a valid film of those samples",
+            ranges_text(&film.samples)
+        );
+    }
     if devices.len() > 1 {
         // Each device rounds differently: the merge is a valid film, but no single render gives these bits.
         eprintln!(
@@ -97,7 +111,6 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         meta: &meta,
     };
     output::write_images_with(&args.output, width, height, &mean, args.exposure, Some(stats))?;
-    let ranges: Vec<String> = film.samples.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
     eprintln!(
         "{}: {} parts merged, {width}x{height}, {} samples per pixel (samples {})",
         args.output
@@ -107,7 +120,41 @@ pub fn merge(args: MergeArgs) -> Result<()> {
             .join(", "),
         args.parts.len(),
         film.spp(),
-        ranges.join(", ")
+        ranges_text(&film.samples)
     );
+    Ok(())
+}
+
+fn ranges_text(ranges: &[std::ops::Range<u32>]) -> String {
+    let text: Vec<String> = ranges.iter().map(|r| format!("{}..{}", r.start, r.end)).collect();
+    text.join(", ")
+}
+
+/// Parts of `--part I/N` must all be there, once each, of one N: a farm task that never ran would otherwise leave a
+/// merge of fewer samples than asked for, which nothing downstream could tell.
+fn check_parts_complete(parts: &[(u32, u32, &PathBuf)], files: usize) -> Result<()> {
+    let Some(&(_, n, first)) = parts.first() else {
+        return Ok(());
+    };
+    if let Some((_, other, path)) = parts.iter().find(|p| p.1 != n) {
+        bail!(
+            "{}: part of {other} against {}'s part of {n}",
+            path.display(),
+            first.display()
+        );
+    }
+    if parts.len() != files {
+        bail!("some parts come from --part {n} and some from --samples; merge parts of one kind");
+    }
+    let missing: Vec<String> = (0..n)
+        .filter(|i| !parts.iter().any(|p| p.0 == *i))
+        .map(|i| format!("{i}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!(
+            "missing part {} of {n}: every part of --part I/{n} must be merged",
+            missing.join(", ")
+        );
+    }
     Ok(())
 }

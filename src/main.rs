@@ -357,6 +357,14 @@ impl RenderArgs {
         }
     }
 
+    /// `--part`'s (I, N) for a render of a share of the samples.
+    fn part_of(&self) -> Result<Option<(u32, u32)>> {
+        match (self.part, self.frames) {
+            (Some(part), None) => Ok(Some((part.index().map_err(|e| anyhow::anyhow!(e))?, part.count))),
+            _ => Ok(None),
+        }
+    }
+
     /// The options that change the image, as given, for a film file's metadata (its fingerprints hold the rest):
     /// they name what differs when parts are refused. Nothing machine-specific: parts render on many machines.
     fn film_settings(&self) -> Vec<(String, String)> {
@@ -617,7 +625,13 @@ fn render_and_write(
     }
     let pixels = film.mean();
     let meta = match &film.exact {
-        Some(exact) => Some(film_cli::film_meta(renderer, settings, exact, args.film_settings())?),
+        Some(exact) => Some(film_cli::film_meta(
+            renderer,
+            settings,
+            exact,
+            args.film_settings(),
+            args.part_of()?,
+        )?),
         None => None,
     };
     let film_stats = (film.exact.as_ref().zip(meta.as_ref())).map(|(film, meta)| output::Stats { film, meta });

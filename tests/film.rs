@@ -245,10 +245,88 @@ fn parts_that_do_not_belong_are_refused_naming_them_and_nothing_is_written() {
             "{part}: something was written"
         );
     }
+    // A farm task that never ran: its part is named.
+    render_cli(d, "p0.exr", &["--spp", "24", "--part", "0/3"]);
+    render_cli(d, "p2.exr", &["--spp", "24", "--part", "2/3"]);
+    let out = run(&["merge", "p0.exr", "p2.exr", "-o", "merged.exr"], d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("missing part 1/3"), "{err}");
+    assert!(!d.join("merged.exr").exists());
     let leftovers: Vec<PathBuf> = std::fs::read_dir(d)
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with(".pathwave-"))
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+/// Catches an interrupted film render that cannot be finished later: SIGTERM a long `--film-stats` render, then
+/// render the samples it did not reach (as its message says) and merge: the result is the bytes of one render of
+/// them all, so no sample was lost, doubled or half-added when the signal came.
+#[test]
+fn an_interrupted_film_render_is_finished_by_rendering_the_rest_and_merging() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = cornell();
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        "partial.exr",
+        "--size",
+        "24x16",
+        "--spp",
+        "1000000",
+        "--film-stats",
+    ];
+    // A signal while the scene still loads ends the process without an image: wait longer on a slow machine.
+    for wait in [3u64, 8, 20] {
+        let child = pathwave_cli()
+            .args(args)
+            .current_dir(d)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_secs(wait));
+        let kill = std::process::Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "an interrupted render exited 0: {err}");
+        if !d.join("partial.exr").exists() {
+            continue;
+        }
+        let (_, meta) = pathwave::output::read_film(&d.join("partial.exr"))
+            .unwrap()
+            .stats
+            .expect("film statistics");
+        assert_eq!(meta.samples.len(), 1);
+        let done = meta.samples[0].end;
+        assert_eq!(meta.samples[0].start, 0);
+        let rest = format!("{done}..{}", done + 5);
+        assert!(
+            err.contains(&format!("render --samples {done}..1000000")),
+            "the message should say how to go on: {err}"
+        );
+        render_cli(d, "rest.exr", &["--size", "24x16", "--seed", "0", "--samples", &rest]);
+        let whole = (done + 5).to_string();
+        render_cli(
+            d,
+            "whole.exr",
+            &["--size", "24x16", "--seed", "0", "--spp", &whole, "--film-stats"],
+        );
+        assert!(run(&["merge", "rest.exr", "partial.exr", "-o", "merged.exr"], d)
+            .status
+            .success());
+        assert!(
+            bytes(d, "merged.exr") == bytes(d, "whole.exr"),
+            "{done} interrupted + 5 samples differ from one render"
+        );
+        return;
+    }
+    panic!("the render never got past loading within 20 s");
 }

@@ -25,6 +25,8 @@ pub struct FilmMeta {
     pub settings: Vec<(String, String)>,
     pub seed: u32,
     pub samples: Vec<Range<u32>>,
+    /// `--part I/N`'s (I, N), which lets `merge` name a missing part; None for a whole render or a merge.
+    pub part: Option<(u32, u32)>,
     /// Information only: parts rendered on different devices merge, but only one device's render gives their bits.
     pub device: String,
     pub version: String,
@@ -35,7 +37,7 @@ impl FilmMeta {
         let settings: serde_json::Map<String, serde_json::Value> = (self.settings.iter())
             .map(|(k, v)| (k.clone(), serde_json::Value::String(v.clone())))
             .collect();
-        let value = serde_json::json!({
+        let mut value = serde_json::json!({
             "format": FILM_FORMAT,
             "scene": self.scene,
             "frame": self.frame,
@@ -48,6 +50,10 @@ impl FilmMeta {
             "sum_unit": format!("2^-{}", crate::constants::EXACT_SUM_BITS),
             "square_unit": format!("2^-{}", crate::constants::EXACT_SQUARE_BITS),
         });
+        // Absent rather than null: a merge of every part writes the bytes of one render, which has no part.
+        if let Some((i, n)) = self.part {
+            value["part"] = serde_json::json!([i, n]);
+        }
         ascii_only(&value.to_string())
     }
 
@@ -80,6 +86,13 @@ impl FilmMeta {
                 _ => Err(format!("sample range {r} is not [first, end) with first < end")),
             })
             .collect::<Result<Vec<_>, String>>()?;
+        let part = match &v["part"] {
+            serde_json::Value::Null => None,
+            p => match (p[0].as_u64(), p[1].as_u64()) {
+                (Some(i), Some(n)) if i < n && n <= u32::MAX as u64 => Some((i as u32, n as u32)),
+                _ => return Err(format!("part {p} is not [I, N] with I < N")),
+            },
+        };
         let seed = v["seed"]
             .as_u64()
             .filter(|&s| s <= u32::MAX as u64)
@@ -91,6 +104,7 @@ impl FilmMeta {
             settings,
             seed: seed as u32,
             samples,
+            part,
             device: text_of("device")?,
             version: text_of("version")?,
         })
