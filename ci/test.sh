@@ -14,4 +14,6 @@ fi
 if rustup component list --installed 2>/dev/null | grep -q clippy; then
   cargo clippy --all-targets --locked -- -D warnings
 fi
+# tests/farm.rs starts a one-node Slurm (ci/slurm.sh installs slurm-wlm and munge with apt if missing): here it must run.
+export PATHWAVE_FARM_TEST=1
 cargo test --locked
