@@ -74,7 +74,7 @@ fn decoders_match_the_reference_decoders() {
         let encoded = encoded_images(dir);
         assert_eq!(encoded.len(), 5, "{dir}");
         for (i, bytes) in encoded.iter().enumerate() {
-            let ours = texture::decode(bytes, 1 << 26).unwrap_or_else(|e| panic!("{dir} image {i}: {e}"));
+            let ours = texture::decode(bytes, 1 << 26, u64::MAX).unwrap_or_else(|e| panic!("{dir} image {i}: {e}"));
             let diff = max_difference(&ours, &reference(dir, i));
             eprintln!(
                 "{dir} image {i} ({}x{}): largest difference from the reference {diff}",
@@ -86,7 +86,7 @@ fn decoders_match_the_reference_decoders() {
     // The scene's images in first-use order are its images in file order (each texture uses its own image).
     for (i, bytes) in encoded_images("webp").iter().enumerate() {
         assert_eq!(
-            texture::decode(bytes, 1 << 26).unwrap().texels,
+            texture::decode(bytes, 1 << 26, u64::MAX).unwrap().texels,
             originals[i].texels,
             "lossless image {i}"
         );
@@ -148,7 +148,7 @@ fn broken_images_are_refused_naming_the_image() {
         let bytes = &encoded_images(dir)[i];
         for cut in [0, 12, bytes.len() / 2] {
             assert!(
-                texture::decode(&bytes[..cut], 1 << 26).is_err(),
+                texture::decode(&bytes[..cut], 1 << 26, u64::MAX).is_err(),
                 "{dir} image {i} cut at {cut}"
             );
         }
@@ -160,12 +160,12 @@ fn broken_images_are_refused_naming_the_image() {
                 let k = 12 + below(&mut rng, b.len() - 12);
                 b[k] = below(&mut rng, 256) as u8;
             }
-            refused += texture::decode(&b, 1 << 26).is_err() as u32;
+            refused += texture::decode(&b, 1 << 26, u64::MAX).is_err() as u32;
         }
         eprintln!("{dir} image {i}: {refused} of 200 corrupted copies refused, the rest decoded");
     }
     // A KTX2 file that claims more pixels than --max-texture-pixels allows is refused before it is transcoded.
-    let e = texture::decode(&encoded_images("ktx2-uastc")[0], 100).unwrap_err();
+    let e = texture::decode(&encoded_images("ktx2-uastc")[0], 100, u64::MAX).unwrap_err();
     assert!(e.contains("--max-texture-pixels"), "{e}");
 
     let json = std::fs::read_to_string(data("webp").join("textured.gltf")).unwrap();

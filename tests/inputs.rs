@@ -326,3 +326,33 @@ fn images_past_the_pixel_limit_are_refused_from_their_header() {
     );
     assert!(!out.exists());
 }
+
+/// Catches images that together take more host memory than --max-memory allows: each is checked from its header
+/// against what the budget leaves after the buffers and the images before it, so the process never holds more.
+/// Two images within --max-texture-pixels: one 2048² fits 90 MB, and the second then no longer does.
+#[test]
+fn images_together_are_bounded_by_the_host_memory_budget() {
+    let l = Layout::new();
+    write_black_png(&l.folder().join("a.png"), 2048);
+    let mut doc = l.doc.clone();
+    doc["images"] = json!([{ "uri": "a.png", "name": "first" }, { "uri": "a.png", "name": "second" }]);
+    doc["textures"] = json!([{ "source": 0 }, { "source": 1 }]);
+    doc["materials"][0]["emissiveTexture"] = json!({ "index": 1 });
+    doc["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    let path = l.folder().join("two.gltf");
+    write_json(&path, &doc);
+    let p = path.to_str().unwrap();
+    // 2048² pixels take 64 MiB while decoding and 32 MiB once decoded.
+    assert!(
+        pathwave(&["info", p, "--max-memory", "150M"], 20).status.success(),
+        "both fit 150 MB"
+    );
+    assert_refused(
+        &["info", p, "--max-memory", "90M"],
+        &[p, "image 1 'second' (a.png)", "--max-memory", "64.0 MiB"],
+    );
+    assert_refused(
+        &["info", p, "--max-memory", "40M"],
+        &["image 0 'first' (a.png)", "--max-memory"],
+    );
+}

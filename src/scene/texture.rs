@@ -92,9 +92,11 @@ impl Image {
 /// whatever the mimeType says, into RGBA8; 16-bit images are rounded to 8 bits. The size is read from the header
 /// and checked against `max_pixels` (and `MAX_IMAGE_SIDE`) before any texel is decoded, so a small file cannot make
 /// the reader allocate gigabytes. Errors are sentences for the caller.
-pub fn decode(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
+/// `host_bytes`: the host memory the image may take while it decodes (HOST_BYTES_PER_PIXEL_DECODING a pixel), checked
+/// from its header like `max_pixels`.
+pub fn decode(bytes: &[u8], max_pixels: u64, host_bytes: u64) -> Result<Image, String> {
     if bytes.starts_with(&KTX2_MAGIC) {
-        return decode_ktx2(bytes, max_pixels);
+        return decode_ktx2(bytes, max_pixels, host_bytes);
     }
     let reader = || {
         image::ImageReader::new(std::io::Cursor::new(bytes))
@@ -110,6 +112,7 @@ pub fn decode(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
         .into_dimensions()
         .map_err(|e| format!("cannot read the image's header: {e}"))?;
     check_size(width, height, max_pixels, "--max-texture-pixels")?;
+    check_host_bytes(width, height, host_bytes)?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(width);
     limits.max_image_height = Some(height);
@@ -133,7 +136,7 @@ const KTX2_MAGIC: [u8; 12] = [
 /// KHR_texture_basisu allows), its first mip level transcoded to RGBA8 by the `basisu` crate. The texels come out as
 /// stored, sRGB-encoded or linear, like a PNG's: the material slot says which. KHR_texture_basisu requires the
 /// top-left origin glTF uses, so no flip.
-fn decode_ktx2(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
+fn decode_ktx2(bytes: &[u8], max_pixels: u64, host_bytes: u64) -> Result<Image, String> {
     let side = |at: usize| {
         bytes
             .get(at..at + 4)
@@ -141,6 +144,7 @@ fn decode_ktx2(bytes: &[u8], max_pixels: u64) -> Result<Image, String> {
     };
     let (width, height) = side(20).zip(side(24)).ok_or("the KTX2 file is truncated")?;
     check_size(width, height, max_pixels, "--max-texture-pixels")?;
+    check_host_bytes(width, height, host_bytes)?;
     check_ktx2_layout(bytes, width, height)?;
     // The transcoder is new and ports C++ that trusted its input; a panic on a file the checks above let through is
     // this file's error, not the loader's end.
@@ -235,6 +239,20 @@ fn check_ktx2_layout(bytes: &[u8], width: u32, height: u32) -> Result<(), String
                 16 * blocks(width) * blocks(height)
             ));
         }
+    }
+    Ok(())
+}
+
+/// Refuses an image whose decoding would take more than `host_bytes` of host memory.
+fn check_host_bytes(width: u32, height: u32, host_bytes: u64) -> Result<(), String> {
+    let need = width as u64 * height as u64 * crate::memory::HOST_BYTES_PER_PIXEL_DECODING;
+    if need > host_bytes {
+        return Err(format!(
+            "decoding the {width}x{height} image would take {} of host memory, more than the {} --max-memory leaves \
+             for it after the scene's buffers and the images before it",
+            crate::memory::human(need),
+            crate::memory::human(host_bytes)
+        ));
     }
     Ok(())
 }

@@ -550,7 +550,7 @@ impl Loader<'_> {
             Some(&i) => i,
             None => {
                 let decoded = (self.image_bytes(&source))
-                    .and_then(|bytes| texture::decode(&bytes, self.max_texture_pixels))
+                    .and_then(|bytes| texture::decode(&bytes, self.max_texture_pixels, self.image_memory))
                     .map_err(|e| {
                         let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
                         let from = match source.source() {
@@ -559,6 +559,8 @@ impl Loader<'_> {
                         };
                         scene_err(self.path, format!("image {}{name} ({from}): {e}", source.index()))
                     })?;
+                let kept = decoded.width as u64 * decoded.height as u64 * crate::memory::HOST_BYTES_PER_PIXEL_KEPT;
+                self.image_memory = self.image_memory.saturating_sub(kept);
                 self.scene.images.push(decoded);
                 let i = self.scene.images.len() - 1;
                 self.image_map.insert(source.index(), i);

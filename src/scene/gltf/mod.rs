@@ -148,6 +148,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         document: &document,
         uris: &uris,
         max_texture_pixels: options.max_texture_pixels,
+        image_memory: options.max_memory.saturating_sub(need),
         buffers: &buffers,
         scene: &mut scene,
         cameras: 0,
@@ -166,6 +167,8 @@ struct Loader<'a> {
     /// Resolves image URIs inside the scene's folder.
     uris: &'a UriPolicy,
     max_texture_pixels: u64,
+    /// Host bytes --max-memory leaves for the images not yet decoded (after the buffers and meshes, `load_estimate`).
+    image_memory: u64,
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
     /// Cameras placed so far, for the warning when there is none.
