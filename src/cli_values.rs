@@ -216,3 +216,19 @@ impl Part {
         at(index as u64)..at(index as u64 + 1)
     }
 }
+
+/// A false-positive rate: above 0 and at most 0.5.
+pub fn parse_alpha(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(a) if a > 0.0 && a <= 0.5 => Ok(a),
+        _ => Err(format!("'{s}' is not a probability above 0 and at most 0.5")),
+    }
+}
+
+/// A non-negative finite threshold.
+pub fn parse_threshold(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(t) if t.is_finite() && t >= 0.0 => Ok(t),
+        _ => Err(format!("'{s}' is not a finite number of at least 0")),
+    }
+}

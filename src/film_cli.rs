@@ -158,3 +158,113 @@ fn check_parts_complete(parts: &[(u32, u32, &PathBuf)], files: usize) -> Result<
     }
     Ok(())
 }
+
+#[derive(clap::Args)]
+pub struct DiffArgs {
+    /// The render under test (EXR; a film file for the statistical test).
+    candidate: PathBuf,
+    /// The reference (EXR); one without film statistics counts as exact (converged).
+    reference: PathBuf,
+    /// The statistical test's family-wise false-positive rate: the chance that two renders of one expectation are
+    /// called different.
+    #[arg(long, default_value = "0.01", value_parser = crate::cli_values::parse_alpha)]
+    alpha: f64,
+    /// Write a PNG of where they differ: the tests' p-values (green where rejected), or FLIP's error map in plain mode.
+    #[arg(long)]
+    heatmap: Option<PathBuf>,
+    /// Compare without statistics even when the files carry them: relMSE and FLIP against the thresholds below.
+    #[arg(long)]
+    plain: bool,
+    /// Plain mode: the largest relMSE, mean of (c - r)^2 / (r^2 + 0.01), that passes.
+    #[arg(long, default_value = "0.001", value_parser = crate::cli_values::parse_threshold)]
+    max_rel_mse: f64,
+    /// Plain mode: the largest mean FLIP error (0 to 1, of the images' sRGB at exposure 0) that passes.
+    #[arg(long, default_value = "0.05", value_parser = crate::cli_values::parse_threshold)]
+    max_flip: f64,
+    /// How many of the worst tests to list.
+    #[arg(long, default_value = "10")]
+    worst: usize,
+}
+
+/// A film file as the statistical test takes it: sampled (mean, per-sample variance, count from the exact sums, in
+/// f64) when it carries statistics, exact otherwise.
+fn side(file: &output::FilmFile) -> pathwave::diff::Side {
+    use pathwave::diff::{Sampled, Side};
+    match &file.stats {
+        Some((film, _)) => Side::Sampled(Sampled::from_exact(film)),
+        None => Side::Exact(file.mean.iter().map(|p| p.map(f64::from)).collect()),
+    }
+}
+
+/// Compares, prints the verdict and what it rests on, writes the heat map, and exits 1 when they differ (errors
+/// return, and main exits 2 for them).
+pub fn diff(args: DiffArgs) -> Result<()> {
+    if let Some(h) = &args.heatmap {
+        if output::format_of(h)? != output::Format::Png {
+            bail!("--heatmap {}: the heat map is a PNG", h.display());
+        }
+        output::check_writable(h)?;
+    }
+    let candidate = output::read_film(&args.candidate)?;
+    let reference = output::read_film(&args.reference)?;
+    let (w, h) = (candidate.width, candidate.height);
+    if (reference.width, reference.height) != (w, h) {
+        bail!(
+            "{} is {w}x{h} and {} is {}x{}: only images of one size compare",
+            args.candidate.display(),
+            args.reference.display(),
+            reference.width,
+            reference.height
+        );
+    }
+    let statistics = candidate.stats.is_some() || reference.stats.is_some();
+    let (consistent, heat) = if args.plain || !statistics {
+        if !args.plain {
+            eprintln!("note: neither file carries film statistics (render with --film-stats): comparing plainly");
+        }
+        let p = pathwave::diff::plain(w, h, &candidate.mean, &reference.mean).map_err(|e| anyhow::anyhow!(e))?;
+        let ok = p.rel_mse <= args.max_rel_mse && p.flip_mean <= args.max_flip;
+        println!(
+            "{}\nrelMSE {:.4e} (at most {:e} passes), mean FLIP {:.4} (at most {} passes)",
+            if ok {
+                "CONSISTENT: within the thresholds"
+            } else {
+                "DIFFERENT: past a threshold"
+            },
+            p.rel_mse,
+            args.max_rel_mse,
+            p.flip_mean,
+            args.max_flip
+        );
+        (ok, pathwave::diff::flip_heatmap(w, h, &p.per_pixel))
+    } else {
+        if let (Some((_, a)), Some((_, b))) = (&candidate.stats, &reference.stats) {
+            if a.seed == b.seed {
+                eprintln!(
+                    "warning: both renders use seed {}: their noise is shared, so the test is lenient; render one with \
+                     another --seed",
+                    a.seed
+                );
+            }
+            if a.scene != b.scene {
+                eprintln!("note: the files come from different scenes (fingerprints differ)");
+            }
+        }
+        let options = pathwave::diff::Options {
+            alpha: args.alpha,
+            worst: args.worst,
+        };
+        let report = pathwave::diff::statistical(w, h, &side(&candidate), &side(&reference), &options)
+            .map_err(|e| anyhow::anyhow!("{} against {}: {e}", args.candidate.display(), args.reference.display()))?;
+        print!("{}", report.summary());
+        let heat = pathwave::diff::heatmap(w, h, &report.per_pixel, report.threshold);
+        (report.consistent, heat)
+    };
+    if let Some(path) = &args.heatmap {
+        output::write_srgb8(path, w, h, &heat)?;
+    }
+    if !consistent {
+        std::process::exit(1);
+    }
+    Ok(())
+}

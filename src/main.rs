@@ -42,6 +42,9 @@ enum Command {
     /// Merge film files of disjoint sample ranges of one render (`render --samples` or `--part`) into one film
     /// file, bit-identical to rendering their union at once.
     Merge(film_cli::MergeArgs),
+    /// Compare a render with a reference: a per-pixel statistical test when either carries film statistics, else
+    /// relMSE and FLIP against thresholds. Exit 0: consistent; 1: they differ; 2: an error.
+    Diff(film_cli::DiffArgs),
     /// Measure a fixed set of renders (Cornell box, glass, a 1M-triangle terrain): a table, and JSON with --json.
     Bench(BenchArgs),
     /// Write the built-in GLSL stages (and include/) into a folder, to edit and use with --shader-dir.
@@ -448,7 +451,8 @@ impl RenderArgs {
 
 fn main() {
     let cli = Cli::parse();
-    let error_code = 1;
+    // diff's exit codes are cmp's: 1 means the images differ, so its errors exit 2.
+    let error_code = if matches!(cli.command, Command::Diff(_)) { 2 } else { 1 };
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::View(args) => view(args),
@@ -456,6 +460,7 @@ fn main() {
         Command::ExportShaders { dir } => export_shaders(dir),
         Command::Bench(args) => bench(args),
         Command::Merge(args) => film_cli::merge(args),
+        Command::Diff(args) => film_cli::diff(args),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -144,6 +144,31 @@ pub fn write_images_with<P: AsRef<Path>>(
     Ok(())
 }
 
+/// Writes 8-bit sRGB pixels (a heat map, say) as a PNG, through a temporary file like every output.
+pub fn write_srgb8(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<(), Error> {
+    assert_eq!(pixels.len(), width as usize * height as usize);
+    let tmp = temporary_beside(path, Format::Png)?;
+    png_rgb8(&tmp, path, width, height, pixels.as_flattened())?;
+    tmp.persist(path)
+        .map_err(|e| output_err(path, format!("cannot move the finished file into place: {}", e.error)))?;
+    Ok(())
+}
+
+fn png_rgb8(tmp: &tempfile::NamedTempFile, path: &Path, width: u32, height: u32, bytes: &[u8]) -> Result<(), Error> {
+    let err = |message: String| output_err(path, message);
+    let file = std::io::BufWriter::new(tmp.as_file());
+    let mut enc = png::Encoder::new(file, width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut w = enc
+        .write_header()
+        .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+    w.write_image_data(bytes)
+        .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+    w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))
+}
+
 fn encode(
     tmp: &tempfile::NamedTempFile,
     path: &Path,
@@ -175,17 +200,7 @@ fn encode(
                 .iter()
                 .flat_map(|p| p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8))
                 .collect();
-            let file = std::io::BufWriter::new(tmp.as_file());
-            let mut enc = png::Encoder::new(file, width, height);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-            let mut w = enc
-                .write_header()
-                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
-            w.write_image_data(&bytes)
-                .map_err(|e| err(format!("PNG encoding failed: {e}")))?;
-            w.finish().map_err(|e| err(format!("PNG encoding failed: {e}")))?;
+            png_rgb8(tmp, path, width, height, &bytes)?;
         }
     }
     Ok(())
