@@ -312,12 +312,12 @@ struct RenderArgs {
     resume: bool,
     /// Render only sample indices A to B-1 of every pixel (the samples a full render takes there) into a film file
     /// (EXR with film statistics); `pathwave merge` joins parts of disjoint ranges. Instead of --spp.
-    #[arg(long, value_parser = parse_samples, conflicts_with_all = ["spp", "part"])]
+    #[arg(long, value_parser = parse_samples, conflicts_with_all = ["spp", "part"], allow_hyphen_values = true)]
     samples: Option<(u32, u32)>,
     /// Render the I-th (from 0) of N contiguous shares of --spp's samples into a film file, or with --frames the I-th
     /// of N shares of the frames. `auto/N` takes I from the job array: SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX
     /// (Kubernetes Indexed Jobs) or AWS_BATCH_JOB_ARRAY_INDEX.
-    #[arg(long, value_parser = parse_part)]
+    #[arg(long, value_parser = parse_part, allow_hyphen_values = true)]
     part: Option<Part>,
     /// Write film statistics into every EXR output: exact per-pixel sums of the samples and their squares, the
     /// sample count, and what rendered it, so `pathwave merge` and `pathwave diff` can use it. Implied by

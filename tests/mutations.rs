@@ -55,7 +55,10 @@ fn read(reader: Reader, path: &Path) -> Result<(), String> {
     let message = match reader {
         Reader::Scene => pathwave::scene::load(path, None).map(|s| drop(s.flatten())).err(),
         Reader::Environment => pathwave::scene::Environment::load(path, 1.0).map(drop).err(),
-        Reader::Exr => pathwave::output::read_exr(path).map(drop).err(),
+        // Both readers of pathwave's EXRs: the plain one and the film files' (merge, diff).
+        Reader::Exr => (pathwave::output::read_exr(path).map(drop))
+            .and_then(|()| pathwave::output::read_film(path).map(drop))
+            .err(),
     };
     match message {
         None => Ok(()),
@@ -77,7 +80,47 @@ fn write_maps(dir: &Path) -> Vec<PathBuf> {
     image::codecs::hdr::HdrEncoder::new(file)
         .encode(&rgb, w as usize, h as usize)
         .unwrap();
-    vec![hdr, exr]
+    vec![hdr, exr, write_film(dir, &px, w, h)]
+}
+
+/// A film file of `px` (four samples a pixel), so the mutations reach its u32 channels and its JSON metadata.
+fn write_film(dir: &Path, px: &[[f32; 3]], w: u32, h: u32) -> PathBuf {
+    use pathwave::render::film::{ExactFilm, Wide};
+    let film = ExactFilm {
+        samples: std::iter::once(0..4).collect(),
+        count: vec![4; px.len()],
+        sum: px
+            .iter()
+            .map(|p| p.map(|c| (c as f64 * 4.0 * 2f64.powi(64)) as i128))
+            .collect(),
+        sum_sq: (px.iter())
+            .map(|p| {
+                p.map(|c| Wide {
+                    lo: (c as f64 * c as f64 * 4.0 * 2f64.powi(48)) as u128,
+                    hi: 0,
+                })
+            })
+            .collect(),
+    };
+    let meta = pathwave::output::FilmMeta {
+        scene: "5".repeat(64),
+        frame: "6".repeat(64),
+        shaders: "7".repeat(64),
+        settings: vec![("size".into(), format!("{w}x{h}"))],
+        seed: 3,
+        samples: film.samples.clone(),
+        part: Some((1, 4)),
+        device: "test".into(),
+        version: "0".into(),
+    };
+    let path = dir.join("film.exr");
+    let stats = pathwave::output::Stats {
+        film: &film,
+        meta: &meta,
+    };
+    pathwave::output::write_images_with(&[&path], w, h, &film.mean(), 0.0, Some(stats)).unwrap();
+    assert!(pathwave::output::read_film(&path).unwrap().stats.is_some());
+    path
 }
 
 /// A seed, the folder its mutants are written to (beside copies of the files it refers to), and the run's inputs
@@ -162,7 +205,9 @@ fn seeds(maps: Vec<PathBuf>) -> Vec<(Reader, PathBuf)> {
     common::corpus_files(&common::scenes_dir(), &mut scenes);
     let mut seeds: Vec<(Reader, PathBuf)> = scenes.into_iter().map(|p| (Reader::Scene, p)).collect();
     for map in maps {
-        seeds.push((Reader::Environment, map.clone()));
+        if map.file_name().is_some_and(|n| n != "film.exr") {
+            seeds.push((Reader::Environment, map.clone()));
+        }
         if map.extension().is_some_and(|e| e == "exr") {
             seeds.push((Reader::Exr, map));
         }

@@ -79,6 +79,16 @@ fn every_bad_number_is_refused_naming_its_option() {
         ("--seed", "4294967296"),
         ("--env-color", "3e38,1,1"),
         ("--env-color", "NaN,1,1"),
+        ("--samples", "8..4"),
+        ("--samples", "3..3"),
+        ("--samples", "0..99999999"),
+        ("--samples", "0..4294967296"),
+        ("--samples", "-1..4"),
+        ("--part", "4/4"),
+        ("--part", "0/0"),
+        ("--part", "one/4"),
+        ("--part", "-1/4"),
+        ("--part", "4"),
     ];
     for (option, value) in cases {
         assert_refused(&["render", &cornell(), "-o", o, option, value], &[], dir.path(), option);

@@ -1,4 +1,5 @@
-//! Fuzzes `output::read_exr`, the reader for pathwave's own EXR output (tests and tools today; merging films later).
+//! Fuzzes `output::read_exr` and `output::read_film`, the readers of pathwave's own EXR output and film files (merge,
+//! diff).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 
@@ -7,4 +8,5 @@ fuzz_target!(|data: &[u8]| {
     let path = dir.path().join("film.exr");
     std::fs::write(&path, data).unwrap();
     let _ = pathwave::output::read_exr(&path);
+    let _ = pathwave::output::read_film(&path);
 });

@@ -64,32 +64,26 @@
 //! the error of a pixel mean usually smaller than `s²/n`, which makes the test conservative, not wrong; pixels are
 //! independent of each other (per-pixel keys, box filter), which the image-wide test relies on.
 
-use std::fmt::Write as _;
-
+mod blocks;
 mod plain;
+mod report;
 #[cfg(test)]
 mod simulation;
-mod special;
+pub mod special;
 #[cfg(test)]
 mod tests;
+mod window;
 
+use blocks::{block_tests, image_wide_tests, Acc, Grid, SCALES};
 pub use plain::*;
+use report::{describe, per_pixel_map, verdict, worst_tests, Levels};
 use special::*;
+use window::window_variance;
 
 /// The finest relative difference a test resolves: f32 means carry ~6e-8, different float orders a few times more.
 const SD_FLOOR_REL: f64 = 1e-5;
 /// The same for values near zero, relative to the image's mean magnitude.
 const SD_FLOOR_SCALE: f64 = 1e-9;
-/// Samples a neighbourhood must hold before its variance may stand in for a pixel's: enough to see events of
-/// probability 0.001 per sample 16 times (4096 flagged 20 % of null pairs of p = 0.002 events at 64 spp).
-const WINDOW_SAMPLES: u64 = 16384;
-const WINDOW_MAX_RADIUS: usize = 16;
-/// Edges of the square blocks whose mean differences are tested besides pixels: a bias over a region is far below
-/// one pixel's noise but not below its block's. The first also makes the image-wide test's blocks: pathwave's pixels
-/// are independent (box filter, per-pixel sample keys), and 4x4 blocks keep their sums nearly independent should a
-/// reconstruction filter spread samples over a pixel or two; small, because the self-normalised sum is bounded by
-/// sqrt(blocks) and its bound must pass the Šidák level (2·exp(-T²/2) < threshold needs about 30 blocks).
-const SCALES: [usize; 2] = [4, 16];
 /// relMSE's epsilon: keeps near-black reference pixels from dominating the mean (on linear radiance).
 pub const REL_MSE_EPSILON: f64 = 1e-2;
 const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
@@ -324,87 +318,6 @@ fn permutation_floor(n1: u32, n2: u32) -> f64 {
     (ln_gamma(a + 1.0) + ln_gamma(b + 1.0) - ln_gamma(a + b + 1.0)).exp()
 }
 
-/// Per pixel and channel, the sampled side's per-sample variance pooled over a window that holds WINDOW_SAMPLES
-/// samples, and its df. Windows are summed directly (no summed-area table): variances span many orders of
-/// magnitude across an image, and differences of running sums would lose the dark regions to cancellation.
-fn window_variance(w: usize, h: usize, s: &Sampled) -> Vec<[(f64, f64); 3]> {
-    // Counts are integers: a summed-area table of them is exact, and picks each pixel's radius.
-    let mut sat = vec![0u64; (w + 1) * (h + 1)];
-    for y in 0..h {
-        for x in 0..w {
-            sat[(y + 1) * (w + 1) + x + 1] =
-                s.count[y * w + x] as u64 + sat[y * (w + 1) + x + 1] + sat[(y + 1) * (w + 1) + x]
-                    - sat[y * (w + 1) + x];
-        }
-    }
-    let bounds = |x: usize, y: usize, r: usize| {
-        (
-            x.saturating_sub(r),
-            y.saturating_sub(r),
-            (x + r + 1).min(w),
-            (y + r + 1).min(h),
-        )
-    };
-    let radius: Vec<usize> = (0..w * h)
-        .map(|i| {
-            let (x, y) = (i % w, i / w);
-            (1..=WINDOW_MAX_RADIUS)
-                .find(|&r| {
-                    let (x0, y0, x1, y1) = bounds(x, y, r);
-                    let n = sat[y1 * (w + 1) + x1] + sat[y0 * (w + 1) + x0]
-                        - sat[y0 * (w + 1) + x1]
-                        - sat[y1 * (w + 1) + x0];
-                    n >= WINDOW_SAMPLES || (x0 == 0 && y0 == 0 && x1 == w && y1 == h)
-                })
-                .unwrap_or(WINDOW_MAX_RADIUS)
-        })
-        .collect();
-    let dof: Vec<f64> = s
-        .count
-        .iter()
-        .map(|&n| if n >= 2 { n as f64 - 1.0 } else { 0.0 })
-        .collect();
-    let mut out = vec![[(0.0, 0.0); 3]; w * h];
-    let mut radii: Vec<usize> = radius.clone();
-    radii.sort_unstable();
-    radii.dedup();
-    for &r in &radii {
-        let df_sum = box_sum(w, h, r, &dof);
-        let ss_sum: [Vec<f64>; 3] = std::array::from_fn(|c| {
-            let ss: Vec<f64> = (0..w * h).map(|i| dof[i] * s.var[i][c].max(0.0)).collect();
-            box_sum(w, h, r, &ss)
-        });
-        for i in (0..w * h).filter(|&i| radius[i] == r) {
-            out[i] = std::array::from_fn(|c| match df_sum[i] > 0.0 {
-                true => (ss_sum[c][i] / df_sum[i], df_sum[i]),
-                false => (0.0, 0.0),
-            });
-        }
-    }
-    out
-}
-
-/// Sum over the (2r+1)² window clipped to the image, separably and without running differences.
-fn box_sum(w: usize, h: usize, r: usize, src: &[f64]) -> Vec<f64> {
-    let mut rows = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            rows[y * w + x] = src[y * w + x.saturating_sub(r)..y * w + (x + r + 1).min(w)]
-                .iter()
-                .sum();
-        }
-    }
-    let mut out = vec![0.0; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            out[y * w + x] = (y.saturating_sub(r)..(y + r + 1).min(h))
-                .map(|yy| rows[yy * w + x])
-                .sum();
-        }
-    }
-    out
-}
-
 /// Compares two renders pixel by pixel. At least one side must be [`Side::Sampled`] (two exact images: [`plain`]).
 ///
 /// Blocks (two sampled sides only): a block's mean difference is tested like a pixel's, its variance the sum of its
@@ -430,6 +343,54 @@ pub fn statistical(
     opts: &Options,
 ) -> Result<Report, String> {
     let (w, h) = (width as usize, height as usize);
+    let pixels = validate(w, h, candidate, reference, opts)?;
+    let pair = Pair {
+        w,
+        h,
+        pixels,
+        candidate,
+        reference,
+    };
+    let totals = totals(&pair);
+    let grids = Grid::all(w, h);
+    let PixelTests { results, skipped, accs } = pixel_tests(&pair, &grids, totals.scale);
+    let tested = 3 * pixels - skipped;
+    if tested == 0 {
+        return Err("no pixel could be tested: every pixel lacks samples or a variance (counts below 2)".into());
+    }
+    // Not against an exact reference (see above).
+    let blocks_tested = matches!((candidate, reference), (Side::Sampled(_), Side::Sampled(_)));
+    let levels = Levels {
+        pixels: results,
+        blocks: block_tests(&accs, blocks_tested, totals.scale),
+    };
+    let (channel_stat, channel_p) = image_wide_tests(&accs[0]);
+    let verdict = verdict(&levels, tested, channel_p, opts.alpha);
+    let worst = worst_tests(&levels, opts.worst)
+        .into_iter()
+        .map(|key| describe(&pair, &grids, &levels, key))
+        .collect();
+    let n = totals.present_pixels.max(1) as f64;
+    let channel_means = totals.sums.map(|s| [s[0] / n, s[1] / n]);
+    Ok(Report {
+        p_value: verdict.p_value,
+        alpha: opts.alpha,
+        threshold: verdict.threshold,
+        tests: verdict.tests,
+        skipped,
+        rejected: verdict.rejected,
+        consistent: verdict.rejected == 0,
+        worst,
+        channel_means,
+        mean_ratio: channel_means.map(|m| m[0] / m[1]),
+        channel_stat,
+        channel_p,
+        per_pixel: per_pixel_map(&pair, &grids, &levels),
+    })
+}
+
+/// Refuses what cannot be compared, naming the first bad pixel; else the pixel count.
+fn validate(w: usize, h: usize, candidate: &Side, reference: &Side, opts: &Options) -> Result<usize, String> {
     let pixels = w.checked_mul(h).filter(|&p| p > 0).ok_or("the images have no pixels")?;
     if !(opts.alpha > 0.0 && opts.alpha < 1.0) {
         return Err(format!("alpha must lie in (0, 1), not {}", opts.alpha));
@@ -439,13 +400,39 @@ pub fn statistical(
     }
     check_side("candidate", candidate, w, pixels)?;
     check_side("reference", reference, w, pixels)?;
-    let (mc, mr) = (candidate.mean(), reference.mean());
-    let present = |i: usize| candidate.count(i) != Some(0) && reference.count(i) != Some(0);
+    Ok(pixels)
+}
 
+/// The images under comparison, built only once validated: sizes agree and every compared mean is finite.
+struct Pair<'a> {
+    w: usize,
+    h: usize,
+    pixels: usize,
+    candidate: &'a Side,
+    reference: &'a Side,
+}
+
+impl Pair<'_> {
+    /// Only pixels with samples on both sides are compared (an exact side has them everywhere).
+    fn present(&self, i: usize) -> bool {
+        self.candidate.count(i) != Some(0) && self.reference.count(i) != Some(0)
+    }
+}
+
+/// Sums over the compared pixels: the channels' for the report, and the mean magnitude, which sets the resolution
+/// floor of values near zero.
+struct Totals {
+    present_pixels: usize,
+    sums: [[f64; 2]; 3],
+    scale: f64,
+}
+
+fn totals(pair: &Pair) -> Totals {
+    let (mc, mr) = (pair.candidate.mean(), pair.reference.mean());
     let mut magnitude = 0.0;
     let mut present_pixels = 0usize;
     let mut sums = [[0.0f64; 2]; 3];
-    for i in (0..pixels).filter(|&i| present(i)) {
+    for i in (0..pair.pixels).filter(|&i| pair.present(i)) {
         present_pixels += 1;
         for c in 0..3 {
             magnitude += mc[i][c].abs().max(mr[i][c].abs());
@@ -453,37 +440,48 @@ pub fn statistical(
             sums[c][1] += mr[i][c];
         }
     }
-    let scale = magnitude / (3 * present_pixels.max(1)) as f64;
-    let floor = |a: f64, b: f64| SD_FLOOR_REL * a.abs().max(b.abs()) + SD_FLOOR_SCALE * scale;
+    Totals {
+        present_pixels,
+        sums,
+        scale: magnitude / (3 * present_pixels.max(1)) as f64,
+    }
+}
 
-    let window = match (candidate, reference) {
-        (Side::Sampled(s), Side::Exact(_)) | (Side::Exact(_), Side::Sampled(s)) => Some(window_variance(w, h, s)),
+/// (t, df, p) of one test; p is NaN where the test was not performed.
+type Test = (f64, f64, f64);
+const UNTESTED: Test = (0.0, 0.0, f64::NAN);
+
+/// The pixel tests, and what the block and image-wide tests need of them.
+struct PixelTests {
+    /// Per pixel and channel.
+    results: Vec<[Test; 3]>,
+    skipped: usize,
+    /// Per scale of SCALES, per block and channel.
+    accs: [Vec<[Acc; 3]>; SCALES.len()],
+}
+
+fn pixel_tests(pair: &Pair, grids: &[Grid; SCALES.len()], scale: f64) -> PixelTests {
+    let (mc, mr) = (pair.candidate.mean(), pair.reference.mean());
+    let window = match (pair.candidate, pair.reference) {
+        (Side::Sampled(s), Side::Exact(_)) | (Side::Exact(_), Side::Sampled(s)) => {
+            Some(window_variance(pair.w, pair.h, s))
+        }
         _ => None,
     };
-    // The tests a pixel must fail to be rejected: the one with the largest p decides.
-    let estimates = |i: usize, c: usize| -> [Option<Est>; 2] {
-        match (candidate, reference) {
-            (Side::Sampled(a), Side::Sampled(b)) => {
-                [two_sample(a.count[i], a.var[i][c], b.count[i], b.var[i][c]), None]
-            }
-            (Side::Sampled(s), _) | (_, Side::Sampled(s)) => {
-                one_sample(s.count[i], s.var[i][c], window.as_ref().map(|win| win[i][c]))
-            }
-            _ => [None, None],
-        }
-    };
-
-    // stat, df, p per pixel and channel; p is NaN where the test was skipped.
-    let mut results = vec![[(0.0, 0.0, f64::NAN); 3]; pixels];
+    let mut results = vec![[UNTESTED; 3]; pair.pixels];
     let mut skipped = 0;
-    let grids = SCALES.map(|s| (s, w.div_ceil(s), h.div_ceil(s)));
-    let mut accs: [Vec<[Acc; 3]>; SCALES.len()] = grids.map(|(_, bw, bh)| vec![[Acc::default(); 3]; bw * bh]);
+    let mut accs = grids.map(|g| vec![[Acc::default(); 3]; g.blocks()]);
     let mut floor_memo = (0, 0, 1.0);
-    for i in 0..pixels {
+    for i in 0..pair.pixels {
         for c in 0..3 {
-            let ests = if present(i) { estimates(i, c) } else { [None, None] };
+            let ests = match pair.present(i) {
+                true => estimates(pair, window.as_deref(), i, c),
+                false => [None, None],
+            };
             let d = mc[i][c] - mr[i][c];
-            let fl = floor(mc[i][c], mr[i][c]);
+            let magnitude = mc[i][c].abs().max(mr[i][c].abs());
+            let fl = SD_FLOOR_REL * magnitude + SD_FLOOR_SCALE * scale;
+            // The tests a pixel must fail to be rejected: the one with the largest p decides.
             let Some(mut decided) = ests
                 .iter()
                 .flatten()
@@ -494,7 +492,7 @@ pub fn statistical(
                 continue;
             };
             let mut ln_floor = f64::NEG_INFINITY;
-            if let (Some(n1), Some(n2)) = (candidate.count(i), reference.count(i)) {
+            if let (Some(n1), Some(n2)) = (pair.candidate.count(i), pair.reference.count(i)) {
                 // Counts rarely change from pixel to pixel: keep the last floor.
                 if (n1, n2) != (floor_memo.0, floor_memo.1) {
                     floor_memo = (n1, n2, permutation_floor(n1, n2));
@@ -503,268 +501,29 @@ pub fn statistical(
                 ln_floor = floor_memo.2.ln();
             }
             results[i][c] = decided;
-            let magnitude = mc[i][c].abs().max(mr[i][c].abs());
-            for ((s, bw, _), acc) in grids.iter().zip(accs.iter_mut()) {
-                acc[(i / w / s) * bw + (i % w) / s][c].add(d, magnitude, ln_floor, &ests);
+            for (grid, acc) in grids.iter().zip(accs.iter_mut()) {
+                acc[grid.block_of(pair.w, i)][c].add(d, magnitude, ln_floor, &ests);
             }
         }
     }
-    let pixel_tests = 3 * pixels - skipped;
-    if pixel_tests == 0 {
-        return Err("no pixel could be tested: every pixel lacks samples or a variance (counts below 2)".into());
-    }
-    // Not against an exact reference (see above).
-    let blocks_tested = window.is_none();
-    let block_results: [Vec<[(f64, f64, f64); 3]>; SCALES.len()] = accs.each_ref().map(|acc| {
-        let untested = (0.0, 0.0, f64::NAN);
-        acc.iter()
-            .map(|b| {
-                b.map(|a| {
-                    if blocks_tested {
-                        a.test(SD_FLOOR_SCALE * scale)
-                    } else {
-                        untested
-                    }
-                })
-            })
-            .collect()
-    });
-    let block_tests: usize = block_results
-        .iter()
-        .flatten()
-        .flatten()
-        .filter(|r| !r.2.is_nan())
-        .count();
+    PixelTests { results, skipped, accs }
+}
 
-    // The image-wide test sums the finest blocks' differences.
-    let mut channel_stat = [0.0; 3];
-    let mut channel_p = [1.0; 3];
-    for c in 0..3 {
-        let sum: f64 = accs[0].iter().map(|b| b[c].d).sum();
-        let sq: f64 = accs[0].iter().map(|b| b[c].d * b[c].d).sum();
-        // The same resolution floor as per pixel, on the whole image: identical renders up to rounding agree.
-        let fl = SD_FLOOR_REL * accs[0].iter().map(|b| b[c].magnitude).sum::<f64>();
-        let denom = (sq + fl * fl).sqrt();
-        channel_stat[c] = if denom > 0.0 { sum / denom } else { 0.0 };
-        channel_p[c] = (2.0 * (-0.5 * channel_stat[c] * channel_stat[c]).exp()).min(1.0);
-    }
-
-    let tests = pixel_tests + block_tests + 3;
-    let threshold = -((-opts.alpha).ln_1p() / tests as f64).exp_m1();
-    // Level 0: pixels; level k: the blocks of SCALES[k-1].
-    let level = |l: usize| if l == 0 { &results } else { &block_results[l - 1] };
-    let all_p = || {
-        (0..=SCALES.len())
-            .flat_map(move |l| level(l).iter().flatten().map(|r| r.2))
-            .filter(|p| !p.is_nan())
-            .chain(channel_p)
-    };
-    let p_min = all_p().fold(1.0f64, f64::min);
-    let p_value = (-(tests as f64 * (-p_min).ln_1p()).exp_m1()).clamp(0.0, 1.0);
-    let rejected = all_p().filter(|&p| p <= threshold).count();
-
-    // Underflowed p-values tie at zero: the larger |t| is the worse. A short sorted list, not a sort of millions.
-    let worse = |a: &(usize, usize, usize), b: &(usize, usize, usize)| {
-        let (ra, rb) = (level(a.0)[a.1][a.2], level(b.0)[b.1][b.2]);
-        ra.2.total_cmp(&rb.2)
-            .then(rb.0.abs().total_cmp(&ra.0.abs()))
-            .then(a.cmp(b))
-    };
-    let mut order: Vec<(usize, usize, usize)> = Vec::with_capacity(opts.worst.min(1 << 10) + 1);
-    for l in 0..=SCALES.len() {
-        for (i, r) in level(l).iter().enumerate() {
-            for (c, r) in r.iter().enumerate().filter(|(_, r)| !r.2.is_nan()) {
-                let key = (l, i, c);
-                let beaten = match order.last() {
-                    _ if order.len() < opts.worst => true,
-                    Some(last) => r.2 <= level(last.0)[last.1][last.2].2 && worse(&key, last).is_lt(),
-                    None => false,
-                };
-                if beaten {
-                    let at = order.partition_point(|o| worse(o, &key).is_lt());
-                    order.insert(at, key);
-                    order.truncate(opts.worst);
-                }
-            }
+/// The variance estimates of pixel i's difference in channel c, per the sides' kinds (see the module's
+/// documentation); `window` is the exact reference's neighbourhood variance.
+fn estimates(pair: &Pair, window: Option<&[[(f64, f64); 3]]>, i: usize, c: usize) -> [Option<Est>; 2] {
+    match (pair.candidate, pair.reference) {
+        (Side::Sampled(a), Side::Sampled(b)) => [two_sample(a.count[i], a.var[i][c], b.count[i], b.var[i][c]), None],
+        (Side::Sampled(s), _) | (_, Side::Sampled(s)) => {
+            one_sample(s.count[i], s.var[i][c], window.map(|win| win[i][c]))
         }
+        _ => [None, None],
     }
-    let worst = order
-        .iter()
-        .map(|&(l, i, c)| {
-            let (size, across) = if l == 0 {
-                (1, w)
-            } else {
-                (grids[l - 1].0, grids[l - 1].1)
-            };
-            let (x, y) = ((i % across) * size, (i / across) * size);
-            let mean = |m: &[[f64; 3]]| {
-                let (x1, y1) = ((x + size).min(w), (y + size).min(h));
-                let inside = (y..y1)
-                    .flat_map(|yy| (x..x1).map(move |xx| yy * w + xx))
-                    .filter(|&j| present(j));
-                let (sum, n) = inside.fold((0.0, 0usize), |(s, n), j| (s + m[j][c], n + 1));
-                sum / n.max(1) as f64
-            };
-            let r = level(l)[i][c];
-            Worst {
-                x: x as u32,
-                y: y as u32,
-                size: size as u32,
-                channel: c,
-                candidate: mean(mc),
-                reference: mean(mr),
-                stat: r.0,
-                df: r.1,
-                p: r.2,
-            }
-        })
-        .collect();
-
-    let n = present_pixels.max(1) as f64;
-    let channel_means = sums.map(|s| [s[0] / n, s[1] / n]);
-    // A pixel's p in the map is the smallest of its own tests and of the blocks it lies in, so a region that only
-    // its blocks reveal still shows.
-    let per_pixel = (0..pixels)
-        .map(|i| {
-            let own = results[i].iter().map(|t| t.2);
-            let blocks = grids
-                .iter()
-                .zip(&block_results)
-                .flat_map(|((s, bw, _), br)| br[(i / w / s) * bw + (i % w) / s].iter().map(|t| t.2));
-            own.chain(blocks).filter(|p| !p.is_nan()).fold(f64::NAN, f64::min)
-        })
-        .collect();
-    Ok(Report {
-        p_value,
-        alpha: opts.alpha,
-        threshold,
-        tests,
-        skipped,
-        rejected,
-        consistent: rejected == 0,
-        worst,
-        channel_means,
-        mean_ratio: channel_means.map(|m| m[0] / m[1]),
-        channel_stat,
-        channel_p,
-        per_pixel,
-    })
 }
 
 /// A t test of difference d with the variance estimate est and the resolution floor fl: (t, df, p).
-fn t_test(d: f64, est: &Est, fl: f64) -> (f64, f64, f64) {
+fn t_test(d: f64, est: &Est, fl: f64) -> Test {
     let se = (est.var + fl * fl).sqrt();
     let stat = if se > 0.0 { d / se } else { 0.0 };
     (stat, est.df, t_two_sided(stat, est.df))
-}
-
-/// One block's sums, for the test of its mean difference: the pixels' differences and, per variance model, their
-/// variances and the Welch-Satterthwaite terms.
-#[derive(Clone, Copy, Default)]
-struct Acc {
-    pixels: f64,
-    d: f64,
-    magnitude: f64,
-    ln_floor: f64,
-    var: [f64; 2],
-    var2_df: [f64; 2],
-    /// A model some pixel lacked: the block cannot use it.
-    missing: [bool; 2],
-}
-
-impl Acc {
-    fn add(&mut self, d: f64, magnitude: f64, ln_floor: f64, ests: &[Option<Est>; 2]) {
-        self.pixels += 1.0;
-        self.d += d;
-        self.magnitude += magnitude;
-        self.ln_floor += ln_floor;
-        for (k, est) in ests.iter().enumerate() {
-            match est {
-                Some(e) => {
-                    self.var[k] += e.var;
-                    self.var2_df[k] += e.var * e.var / e.df;
-                }
-                None => self.missing[k] = true,
-            }
-        }
-    }
-
-    /// The block's test, as a pixel's: every model must reject, and p never drops below the product of its
-    /// pixels' permutation floors (with two sampled sides). NaN p for a block with fewer than two tested pixels.
-    fn test(&self, abs_floor: f64) -> (f64, f64, f64) {
-        if self.pixels < 2.0 {
-            return (0.0, 0.0, f64::NAN);
-        }
-        let n = self.pixels;
-        let fl = SD_FLOOR_REL * self.magnitude / n + abs_floor;
-        let tested = (0..2).filter(|&k| !self.missing[k]).map(|k| {
-            let var = self.var[k] / (n * n);
-            let df = if self.var2_df[k] > 0.0 {
-                self.var[k] * self.var[k] / self.var2_df[k]
-            } else {
-                f64::INFINITY
-            };
-            t_test(self.d / n, &Est { var, df }, fl)
-        });
-        let Some(mut r) = tested.max_by(|a, b| a.2.total_cmp(&b.2)) else {
-            return (0.0, 0.0, f64::NAN);
-        };
-        r.2 = r.2.max(self.ln_floor.exp());
-        r
-    }
-}
-
-impl Report {
-    /// What a CI log shows: the verdict first, then what it rests on.
-    pub fn summary(&self) -> String {
-        let mut s = String::new();
-        let verdict = match self.consistent {
-            true => "CONSISTENT: the difference is within noise",
-            false => "DIFFERENT: the candidate's expectation differs from the reference's",
-        };
-        let _ = writeln!(s, "{verdict}");
-        let _ = writeln!(
-            s,
-            "family-wise p-value {:.3e} (alpha {}); per-test threshold {:.3e} (Šidák over {} tests, {} skipped)",
-            self.p_value, self.alpha, self.threshold, self.tests, self.skipped
-        );
-        let _ = writeln!(s, "rejected tests: {}", self.rejected);
-        let _ = writeln!(s, "channel  candidate mean  reference mean  ratio      image-wide t  p");
-        for (c, name) in CHANNEL_NAMES.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "{:<8} {:<15.6e} {:<15.6e} {:<10.6} {:<13.3} {:.3e}",
-                name,
-                self.channel_means[c][0],
-                self.channel_means[c][1],
-                self.mean_ratio[c],
-                self.channel_stat[c],
-                self.channel_p[c]
-            );
-        }
-        if !self.worst.is_empty() {
-            let _ = writeln!(s, "worst tests (pixels, or blocks of size x size pixels from x, y):");
-            let _ = writeln!(
-                s,
-                "  x      y      size  ch  candidate      reference      t          df        p"
-            );
-            for wst in &self.worst {
-                let _ = writeln!(
-                    s,
-                    "  {:<6} {:<6} {:<5} {:<3} {:<14.6e} {:<14.6e} {:<10.3} {:<9.1} {:.3e}{}",
-                    wst.x,
-                    wst.y,
-                    wst.size,
-                    CHANNEL_NAMES[wst.channel],
-                    wst.candidate,
-                    wst.reference,
-                    wst.stat,
-                    wst.df,
-                    wst.p,
-                    if wst.p <= self.threshold { "  rejected" } else { "" }
-                );
-            }
-        }
-        s
-    }
 }

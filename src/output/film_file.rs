@@ -1,6 +1,6 @@
 //! Film files: EXR images that carry, beside the mean, the exact film's sums and what rendered them (the scene's,
 //! frame's and shaders' fingerprints, the seed, the sample ranges), which `pathwave merge` and `pathwave diff` read.
-use super::{output_err, MAX_READ_PIXELS};
+use super::output_err;
 use crate::error::Error;
 use crate::render::film::{ExactFilm, Wide};
 use std::ops::Range;
@@ -243,21 +243,7 @@ pub(super) fn encode_film(
 pub fn read_film(path: &Path) -> Result<FilmFile, Error> {
     use exr::prelude::*;
     let err = |message: String| output_err(path, message);
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(format!("cannot read EXR: {e}")))?;
-    for header in &meta.headers {
-        let size = header.layer_size;
-        if size
-            .width()
-            .checked_mul(size.height())
-            .is_none_or(|n| n > MAX_READ_PIXELS)
-        {
-            return Err(err(format!(
-                "the EXR declares {}x{} pixels, more than the {MAX_READ_PIXELS} pathwave reads",
-                size.width(),
-                size.height()
-            )));
-        }
-    }
+    super::check_declared_size(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -209,14 +209,11 @@ fn encode(
 /// The most pixels `read_exr` takes: the pixels are allocated from the header's size before any is read.
 pub const MAX_READ_PIXELS: usize = 1 << 28;
 
-/// Reads an RGB EXR back as (width, height, pixels); used by tests and tools.
-pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::Error> {
-    use exr::prelude::*;
-    let err = |message: String| crate::error::Error::Output {
-        path: path.to_path_buf(),
-        message,
-    };
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(format!("cannot read EXR: {e}")))?;
+/// Refuses an EXR whose header declares more than MAX_READ_PIXELS pixels: readers allocate from the header's size
+/// before any pixel is read.
+fn check_declared_size(path: &Path) -> Result<(), Error> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| output_err(path, format!("cannot read EXR: {e}")))?;
     for header in &meta.headers {
         let size = header.layer_size;
         if size
@@ -224,13 +221,27 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::
             .checked_mul(size.height())
             .is_none_or(|n| n > MAX_READ_PIXELS)
         {
-            return Err(err(format!(
-                "the EXR declares {}x{} pixels, more than the {MAX_READ_PIXELS} pathwave reads",
-                size.width(),
-                size.height()
-            )));
+            return Err(output_err(
+                path,
+                format!(
+                    "the EXR declares {}x{} pixels, more than the {MAX_READ_PIXELS} pathwave reads",
+                    size.width(),
+                    size.height()
+                ),
+            ));
         }
     }
+    Ok(())
+}
+
+/// Reads an RGB EXR back as (width, height, pixels); used by tests and tools.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), crate::error::Error> {
+    use exr::prelude::*;
+    let err = |message: String| crate::error::Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    check_declared_size(path)?;
     let image = read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![[0f32; 3]; res.width() * res.height()]),
