@@ -12,7 +12,7 @@ pub fn film_meta(
     settings: &RenderSettings,
     film: &ExactFilm,
     given: Vec<(String, String)>,
-    part: Option<(u32, u32)>,
+    part: Option<output::PartOf>,
 ) -> Result<FilmMeta> {
     let [scene, frame, shaders] = renderer.fingerprints(settings)?;
     Ok(FilmMeta {
@@ -50,7 +50,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     }
     let mut merged: Option<(u32, u32, ExactFilm, FilmMeta, PathBuf)> = None;
     let mut devices: Vec<String> = Vec::new();
-    let mut parts: Vec<(u32, u32, &PathBuf)> = Vec::new();
+    let mut parts: Vec<(output::PartOf, &PathBuf)> = Vec::new();
     for path in &args.parts {
         let file = output::read_film(path)?;
         let Some((film, meta)) = file.stats else {
@@ -59,8 +59,8 @@ pub fn merge(args: MergeArgs) -> Result<()> {
                 path.display()
             );
         };
-        if let Some((i, n)) = meta.part {
-            parts.push((i, n, path));
+        if let Some(part) = meta.part {
+            parts.push((part, path));
         }
         if !devices.contains(&meta.device) {
             devices.push(meta.device.clone());
@@ -130,24 +130,28 @@ fn ranges_text(ranges: &[std::ops::Range<u32>]) -> String {
     text.join(", ")
 }
 
-/// Parts of `--part I/N` must all be there, once each, of one N: a farm task that never ran would otherwise leave a
-/// merge of fewer samples than asked for, which nothing downstream could tell.
-fn check_parts_complete(parts: &[(u32, u32, &PathBuf)], files: usize) -> Result<()> {
-    let Some(&(_, n, first)) = parts.first() else {
+/// Parts of `--part I/N` must all be there, once each, of one N and one --spp: a farm task that never ran, or one
+/// given another --spp, would otherwise leave a merge of other samples than asked for, which nothing downstream
+/// could tell.
+fn check_parts_complete(parts: &[(output::PartOf, &PathBuf)], files: usize) -> Result<()> {
+    let Some(&(first, first_path)) = parts.first() else {
         return Ok(());
     };
-    if let Some((_, other, path)) = parts.iter().find(|p| p.1 != n) {
+    let (n, spp) = (first.count, first.spp);
+    if let Some((other, path)) = parts.iter().find(|(p, _)| (p.count, p.spp) != (n, spp)) {
         bail!(
-            "{}: part of {other} against {}'s part of {n}",
+            "{}: part of {} of --spp {} against {}'s part of {n} of --spp {spp}",
             path.display(),
-            first.display()
+            other.count,
+            other.spp,
+            first_path.display()
         );
     }
     if parts.len() != files {
-        bail!("some parts come from --part {n} and some from --samples; merge parts of one kind");
+        bail!("some parts come from --part I/{n} and some from --samples; merge parts of one kind");
     }
     let missing: Vec<String> = (0..n)
-        .filter(|i| !parts.iter().any(|p| p.0 == *i))
+        .filter(|i| !parts.iter().any(|(p, _)| p.index == *i))
         .map(|i| format!("{i}/{n}"))
         .collect();
     if !missing.is_empty() {

@@ -360,10 +360,14 @@ impl RenderArgs {
         }
     }
 
-    /// `--part`'s (I, N) for a render of a share of the samples.
-    fn part_of(&self) -> Result<Option<(u32, u32)>> {
+    /// `--part`'s share, for a render of a share of the samples.
+    fn part_of(&self) -> Result<Option<output::PartOf>> {
         match (self.part, self.frames) {
-            (Some(part), None) => Ok(Some((part.index().map_err(|e| anyhow::anyhow!(e))?, part.count))),
+            (Some(part), None) => Ok(Some(output::PartOf {
+                index: part.index().map_err(|e| anyhow::anyhow!(e))?,
+                count: part.count,
+                spp: self.spp,
+            })),
             _ => Ok(None),
         }
     }

@@ -236,7 +236,8 @@ fn part_auto_reads_each_schedulers_index() {
             "--part auto/4 with {var}=2 differs from --samples 16..24"
         );
         assert_eq!(meta.samples, vec![16..24]);
-        assert_eq!(meta.part, Some((2, 4)), "{var}=2");
+        let part = meta.part.expect("a part");
+        assert_eq!((part.index, part.count, part.spp), (2, 4, 32), "{var}=2");
     }
 
     // With no scheduler's variable there is no part to take: an error, and no file.

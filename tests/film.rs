@@ -245,6 +245,14 @@ fn parts_that_do_not_belong_are_refused_naming_them_and_nothing_is_written() {
             "{part}: something was written"
         );
     }
+    // A part of another --spp.
+    render_cli(d, "q1.exr", &["--spp", "30", "--part", "1/3"]);
+    render_cli(d, "q0.exr", &["--spp", "24", "--part", "0/3"]);
+    let out = run(&["merge", "q0.exr", "q1.exr", "-o", "merged.exr"], d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("q1.exr") && err.contains("--spp 30"), "{err}");
+    assert!(!d.join("merged.exr").exists());
     // A farm task that never ran: its part is named.
     render_cli(d, "p0.exr", &["--spp", "24", "--part", "0/3"]);
     render_cli(d, "p2.exr", &["--spp", "24", "--part", "2/3"]);

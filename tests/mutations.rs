@@ -109,7 +109,11 @@ fn write_film(dir: &Path, px: &[[f32; 3]], w: u32, h: u32) -> PathBuf {
         settings: vec![("size".into(), format!("{w}x{h}"))],
         seed: 3,
         samples: film.samples.clone(),
-        part: Some((1, 4)),
+        part: Some(pathwave::output::PartOf {
+            index: 1,
+            count: 4,
+            spp: 16,
+        }),
         device: "test".into(),
         version: "0".into(),
     };

@@ -5,7 +5,8 @@
 #define FILM_GLSL
 
 // 112 bytes (EXACT_FILM_TEXELS uvec4) per pixel, in the film buffer as float bits (the film is declared vec4) and,
-// between a fused pass's dispatches, in fields 0 to 6 of the pixel's row-0 path slot. Words are little-endian.
+// between a fused pass's dispatches, in fields 0 to 6 of the pixel's row-0 path slot. Words are little-endian; carries are
+// computed by hand (add_wrapping).
 //   t[0..2]: the sum of channel R, G, B: 128-bit two's complement in units of 2^-EXACT_SUM_BITS.
 //   t[3..5]: the low 128 bits of channel R, G, B's sum of squares, unsigned, in units of 2^-EXACT_SQUARE_BITS.
 //   t[6]:    xyz the squares' fifth (top) words; w the sample count, with EXACT_OVERFLOW set once a sum overflowed.
@@ -22,22 +23,41 @@ ExactSums exact_zero() {
     return s;
 }
 
+// a + b; carry becomes 1 when the sum wraps. What uaddCarry does, which naga's SPIR-V reader (tests/layout.rs reads
+// every stage with it) does not know.
+uint add_wrapping(uint a, uint b, out uint carry) {
+    uint r = a + b;
+    carry = r < a ? 1u : 0u;
+    return r;
+}
+
+// m * m for m below 2^24, exactly, as hi:lo (umulExtended, likewise): m = a 2^16 + b, so m^2 = a^2 2^32 + 2ab 2^16
+// + b^2, with b^2 below 2^32 and 2ab below 2^25.
+void square24(uint m, out uint hi, out uint lo) {
+    uint a = m >> 16u;
+    uint b = m & 0xffffu;
+    uint cross = 2u * a * b;
+    uint c;
+    lo = add_wrapping(b * b, cross << 16u, c);
+    hi = a * a + (cross >> 16u) + c;
+}
+
 // a + b + carry over 128 bits; carry becomes the carry out.
 uvec4 add128(uvec4 a, uvec4 b, inout uint carry) {
     uvec4 r;
     uint c0, c1;
     // One of the two carries at most: a word sum that carries leaves at most 2^32 - 2, so adding 1 cannot carry too.
-    r.x = uaddCarry(a.x, b.x, c0);
-    r.x = uaddCarry(r.x, carry, c1);
+    r.x = add_wrapping(a.x, b.x, c0);
+    r.x = add_wrapping(r.x, carry, c1);
     carry = c0 + c1;
-    r.y = uaddCarry(a.y, b.y, c0);
-    r.y = uaddCarry(r.y, carry, c1);
+    r.y = add_wrapping(a.y, b.y, c0);
+    r.y = add_wrapping(r.y, carry, c1);
     carry = c0 + c1;
-    r.z = uaddCarry(a.z, b.z, c0);
-    r.z = uaddCarry(r.z, carry, c1);
+    r.z = add_wrapping(a.z, b.z, c0);
+    r.z = add_wrapping(r.z, carry, c1);
     carry = c0 + c1;
-    r.w = uaddCarry(a.w, b.w, c0);
-    r.w = uaddCarry(r.w, carry, c1);
+    r.w = add_wrapping(a.w, b.w, c0);
+    r.w = add_wrapping(r.w, carry, c1);
     carry = c0 + c1;
     return r;
 }
@@ -51,7 +71,7 @@ uvec4 exact_place(uint lo, uint hi, int s, out uint top) {
         uint c;
         uint half_lo = r <= 32u ? 1u << (r - 1u) : 0u;
         uint half_hi = r > 32u ? 1u << min(r - 33u, 31u) : 0u;
-        lo = uaddCarry(lo, half_lo, c);
+        lo = add_wrapping(lo, half_lo, c);
         hi += half_hi + c;
         if (r < 32u) {
             lo = (lo >> r) | ((hi << 1u) << (31u - r));
@@ -90,7 +110,7 @@ void exact_float_parts(float x, out uint m, out int e) {
 }
 
 // Adds channel c's sample x to s: the sum (signed) and the square, which is exact before it is placed (m * m needs
-// 48 bits). Returns 1 when a sum overflowed.
+// 48 bits, square24). Returns 1 when a sum overflowed.
 uint exact_add_channel(inout ExactSums s, uint c, float x) {
     uint m;
     int e;
@@ -105,7 +125,7 @@ uint exact_add_channel(inout ExactSums s, uint c, float x) {
     // Two's complement overflow: both operands of one sign and the result of the other.
     uint sum_overflow = ((~(before.w ^ v.w) & (before.w ^ s.t[c].w)) >> 31u);
     uint hi, lo;
-    umulExtended(m, m, hi, lo);
+    square24(m, hi, lo);
     uint top;
     uvec4 q = exact_place(lo, hi, 2 * e + int(EXACT_SQUARE_BITS), top);
     carry = 0u;
@@ -113,8 +133,8 @@ uint exact_add_channel(inout ExactSums s, uint c, float x) {
     uint old_top = s.t[6][c];
     uint new_top;
     uint c0, c1;
-    new_top = uaddCarry(old_top, top, c0);
-    new_top = uaddCarry(new_top, carry, c1);
+    new_top = add_wrapping(old_top, top, c0);
+    new_top = add_wrapping(new_top, carry, c1);
     s.t[6][c] = new_top;
     return sum_overflow | c0 | c1;
 }
@@ -145,8 +165,8 @@ void exact_merge(inout ExactSums a, ExactSums b) {
         carry = 0u;
         a.t[3u + c] = add128(a.t[3u + c], b.t[3u + c], carry);
         uint c0, c1;
-        uint top = uaddCarry(a.t[6][c], b.t[6][c], c0);
-        a.t[6][c] = uaddCarry(top, carry, c1);
+        uint top = add_wrapping(a.t[6][c], b.t[6][c], c0);
+        a.t[6][c] = add_wrapping(top, carry, c1);
         overflow |= c0 | c1;
     }
     uint count = (a.t[6].w & ~EXACT_OVERFLOW) + (b.t[6].w & ~EXACT_OVERFLOW);

@@ -12,6 +12,14 @@ pub const FILM_FORMAT: &str = "pathwave film 1";
 const META_ATTRIBUTE: &str = "pathwave";
 const COUNT: &str = "pathwave.count";
 
+/// `--part I/N` of `spp` samples per pixel: the I-th of N contiguous shares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PartOf {
+    pub index: u32,
+    pub count: u32,
+    pub spp: u32,
+}
+
 /// What made a film: parts merge only when everything but `samples` and `device` agrees.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilmMeta {
@@ -25,8 +33,9 @@ pub struct FilmMeta {
     pub settings: Vec<(String, String)>,
     pub seed: u32,
     pub samples: Vec<Range<u32>>,
-    /// `--part I/N`'s (I, N), which lets `merge` name a missing part; None for a whole render or a merge.
-    pub part: Option<(u32, u32)>,
+    /// Which share of a `--part I/N` render this is, which lets `merge` name a missing part; None for a whole
+    /// render or a merge.
+    pub part: Option<PartOf>,
     /// Information only: parts rendered on different devices merge, but only one device's render gives their bits.
     pub device: String,
     pub version: String,
@@ -51,8 +60,8 @@ impl FilmMeta {
             "square_unit": format!("2^-{}", crate::constants::EXACT_SQUARE_BITS),
         });
         // Absent rather than null: a merge of every part writes the bytes of one render, which has no part.
-        if let Some((i, n)) = self.part {
-            value["part"] = serde_json::json!([i, n]);
+        if let Some(p) = self.part {
+            value["part"] = serde_json::json!([p.index, p.count, p.spp]);
         }
         ascii_only(&value.to_string())
     }
@@ -88,9 +97,15 @@ impl FilmMeta {
             .collect::<Result<Vec<_>, String>>()?;
         let part = match &v["part"] {
             serde_json::Value::Null => None,
-            p => match (p[0].as_u64(), p[1].as_u64()) {
-                (Some(i), Some(n)) if i < n && n <= u32::MAX as u64 => Some((i as u32, n as u32)),
-                _ => return Err(format!("part {p} is not [I, N] with I < N")),
+            p => match (p[0].as_u64(), p[1].as_u64(), p[2].as_u64()) {
+                (Some(i), Some(n), Some(spp)) if i < n && n <= u32::MAX as u64 && spp <= u32::MAX as u64 => {
+                    Some(PartOf {
+                        index: i as u32,
+                        count: n as u32,
+                        spp: spp as u32,
+                    })
+                }
+                _ => return Err(format!("part {p} is not [I, N, SPP] with I < N")),
             },
         };
         let seed = v["seed"]

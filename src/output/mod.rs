@@ -3,7 +3,7 @@ use crate::error::Error;
 use std::path::Path;
 
 pub mod film_file;
-pub use film_file::{read_film, FilmFile, FilmMeta};
+pub use film_file::{read_film, FilmFile, FilmMeta, PartOf};
 
 /// What EXR outputs carry besides the mean: the exact film and what made it (a film file, see `film_file`).
 #[derive(Clone, Copy)]
