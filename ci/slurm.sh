@@ -165,7 +165,16 @@ launch() {
   shift
   # The marker lets stop find what the daemons forked (slurmstepd) without matching processes by name.
   PATHWAVE_SLURM_INSTANCE=$DIR SLURM_CONF=$CONF setsid "$@" </dev/null >>"$DIR/log/$name.out" 2>&1 &
-  echo $! >"$(pidfile "$name")"
+  local pid=$!
+  echo "$pid" >"$(pidfile "$name")"
+  # Until the background shell has exec'd the daemon, its command line is this script's, and live_pid would take
+  # it for a daemon that exited (a loaded CI machine once showed that window). Wait for the exec, or the exit.
+  local _
+  for _ in $(seq 100); do
+    { tr '\0' ' ' <"/proc/$pid/cmdline"; } 2>/dev/null | grep -q -- "$name" && return 0
+    [ -e "/proc/$pid" ] || return 0
+    sleep 0.05
+  done
 }
 
 node_state() { SLURM_CONF=$CONF timeout 10 sinfo -h -N -o '%T' 2>/dev/null | head -n 1; }

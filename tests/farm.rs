@@ -118,16 +118,34 @@ fn slurm_array_and_merge_equal_one_render() {
         state: tmp.path().join("slurm"),
     };
 
-    let mut start = slurm_sh(&slurm.state, "start");
-    if !ci {
-        // Installing system packages is CI's business, not a side effect of `cargo test` on someone's machine.
-        start.env("PATHWAVE_SLURM_NO_INSTALL", "1");
-    }
-    let started = run(
-        start,
-        Duration::from_secs(if ci { 900 } else { 120 }),
-        "ci/slurm.sh start",
-    );
+    let start = || {
+        let mut start = slurm_sh(&slurm.state, "start");
+        if !ci {
+            // Installing system packages is CI's business, not a side effect of `cargo test` on someone's machine.
+            start.env("PATHWAVE_SLURM_NO_INSTALL", "1");
+        }
+        run(
+            start,
+            Duration::from_secs(if ci { 900 } else { 120 }),
+            "ci/slurm.sh start",
+        )
+    };
+    // Once, in a fresh clone's CI run, start said slurmctld had exited while its log showed it running; it never
+    // happened again in 20 starts, loaded or not. A second try (start stops a partial cluster first) keeps that
+    // from failing the suite, and the first failure is printed.
+    let started = match start() {
+        Ok(r) if r.status.success() => Ok(r),
+        first => {
+            match &first {
+                Ok(r) => eprintln!(
+                    "ci/slurm.sh start failed once ({}), trying again:\n{}",
+                    r.status, r.stderr
+                ),
+                Err(e) => eprintln!("ci/slurm.sh start failed once, trying again: {e}"),
+            }
+            start()
+        }
+    };
     let started = match started {
         Ok(r) if r.status.success() => r,
         failed => {
