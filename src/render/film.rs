@@ -66,7 +66,8 @@ impl ExactFilm {
             let count = w[27];
             if count & EXACT_OVERFLOW != 0 {
                 return Err(Error::Settings(format!(
-                    "pixel {p}: its exact sums overflowed (more than 9.2e18 in a pixel's sum, or 5.2e33 in its sum                      of squares)"
+                    "pixel {p}: its exact sums overflowed (more than 9.2e18 in a pixel's sum, or 5.2e33 in its sum \
+                     of squares)"
                 )));
             }
             film.count.push(count);
