@@ -232,3 +232,24 @@ pub fn parse_threshold(s: &str) -> Result<f64, String> {
         _ => Err(format!("'{s}' is not a finite number of at least 0")),
     }
 }
+
+/// `--aov`'s list (one value to clap, which would take a Vec for repeats).
+#[derive(Clone, Debug)]
+pub struct AovList(pub Vec<pathwave::output::Aov>);
+
+/// `--aov albedo,normal,...`: AOV names, each once.
+pub fn parse_aovs(s: &str) -> Result<AovList, String> {
+    use pathwave::output::Aov;
+    let mut list = Vec::new();
+    for name in s.split(',').map(str::trim) {
+        let aov = Aov::from_name(name).ok_or_else(|| {
+            let known: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
+            format!("'{name}' is no AOV; the AOVs are {}", known.join(", "))
+        })?;
+        if list.contains(&aov) {
+            return Err(format!("'{name}' is named twice"));
+        }
+        list.push(aov);
+    }
+    Ok(AovList(list))
+}

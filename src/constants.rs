@@ -31,31 +31,34 @@ pub const BINDING_MOTION: u32 = 19;
 /// Instances of meshes kept in object space (FEATURE_INSTANCES): `Instance` records, the header first (the TLAS
 /// root and the instance count), then one per instance.
 pub const BINDING_INSTANCES: u32 = 20;
+/// The AOVs' running sums (`AovSums`, one per pixel), which the survey stage adds each sample's to; a stand-in where
+/// the render asks for none.
+pub const BINDING_AOVS: u32 = 21;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 21;
-pub const BINDING_NODE_TEXELS: u32 = 21;
-pub const BINDING_TRI_TEXELS: u32 = 22;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 23;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 24;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 25;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 26;
+pub const BINDING_FIRST_TEXEL: u32 = 22;
+pub const BINDING_NODE_TEXELS: u32 = 22;
+pub const BINDING_TRI_TEXELS: u32 = 23;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 24;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 25;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 26;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 27;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 27;
+pub const BINDING_IMAGE_TEXELS: u32 = 28;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 28;
+pub const BINDING_PATH_TEXELS: u32 = 29;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 29;
+pub const BINDING_MATERIAL_TEXELS: u32 = 30;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 30;
+pub const BINDING_LIGHT_TEXELS: u32 = 31;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
-pub const BINDING_MOTION_TEXELS: u32 = 31;
-pub const BINDING_COUNT: u32 = 32;
+pub const BINDING_MOTION_TEXELS: u32 = 32;
+pub const BINDING_COUNT: u32 = 33;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -150,6 +153,9 @@ pub const FLAG_CAMERA_MOTION: u32 = 64;
 pub const FLAG_ORTHOGRAPHIC: u32 = 128;
 /// The film is the exact one (FEATURE_EXACT_FILM): the host reads this flag to specialise the render stages.
 pub const FLAG_EXACT_FILM: u32 = 256;
+/// The render keeps AOVs: after each pass the host runs survey over its sample rows (read by the host only, and left
+/// out of a film file's frame fingerprint: AOVs do not change the samples).
+pub const FLAG_AOVS: u32 = 512;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -254,6 +260,14 @@ pub const FOLLOW_ROWS_MAX: u32 = 64;
 
 /// Bounce at which Russian roulette starts.
 pub const RR_START_BOUNCE: u32 = 3;
+
+/// The AOVs (survey.comp): bounces a camera ray follows through specular surfaces to the first rough one, at most.
+pub const AOV_MAX_BOUNCES: u32 = 8;
+/// A lobe with a GGX alpha below this (perceptual roughness 0.1) counts as near-specular: the albedo and normal
+/// AOVs look through it, as Open Image Denoise asks.
+pub const AOV_SPECULAR_ALPHA: f32 = 0.01;
+/// An id AOV's value where the sample saw no surface.
+pub const AOV_NONE: u32 = 0xFFFFFFFF;
 
 /// Random-number dimensions, so each use of randomness has its own stream.
 pub const DIM_PIXEL: u32 = 0;

@@ -124,7 +124,7 @@ pub struct MotionKey {
 
 /// 112 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
 /// three rows each (x, y, z of a 3x4 affine map), and `info` = (its BLAS root node, 1 when the transform mirrors,
-/// 0, 0). Record 0 is the header: `info` = (the TLAS root node, the instance count, 0, 0). See `Instance` in
+/// its index in `Scene::instances`, 0). Record 0 is the header: `info` = (the TLAS root node, the instance count, 0, 0). See `Instance` in
 /// layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -138,7 +138,8 @@ pub struct GpuInstance {
     pub info: [u32; 4],
 }
 
-/// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area.
+/// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area, `n2[3]` = the
+/// placing instance's index in `Scene::instances` (u32 bits).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct TriShading {
@@ -302,6 +303,19 @@ const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
+
+/// 64 bytes: a pixel's AOV sums (survey.comp): albedo rgb and the samples added; the normal and the samples whose
+/// camera ray hit; the first hit's position and its distance along the camera ray (summed over hits); the instance
+/// and material of the first sample's first hit (AOV_NONE on a miss). See `AovSums` in layout.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct AovSums {
+    pub albedo: [f32; 4],
+    pub normal: [f32; 4],
+    pub position: [f32; 4],
+    pub ids: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<AovSums>() == 64);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 736);
@@ -376,6 +390,11 @@ impl Frame {
             path_count: end * self.pass_pixels,
             ..*self
         }
+    }
+
+    /// survey over sample row `row` of the pass (slots row * pass_pixels + pixel): `bounce` holds the row.
+    pub fn survey_row(&self, row: u32) -> Frame {
+        Frame { bounce: row, ..*self }
     }
 
     /// A fused pass: follow keeps each pixel's running film sums, which accumulate copies (FLAG_FUSED_SUMS).

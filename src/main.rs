@@ -2,6 +2,7 @@
 use anyhow::{bail, Context as _, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use pathwave::output::Aov;
 use pathwave::vk::DeviceChoice;
 use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
 use std::path::PathBuf;
@@ -324,6 +325,15 @@ struct RenderArgs {
     /// --samples, and by --part without --frames.
     #[arg(long)]
     film_stats: bool,
+    /// Auxiliary images to write beside the image, comma-separated: albedo, normal (world space), depth (distance
+    /// along the camera ray), position, variance (of each pixel's mean), sample-count, instance-id, material-id, and
+    /// with --denoise beauty-noisy. An EXR output holds them as layers (albedo.R, normal.X, depth.Z, ...); a PNG
+    /// output gets a file of each beside it (out.albedo.png).
+    #[arg(long, value_parser = parse_aovs, allow_hyphen_values = true)]
+    aov: Option<AovList>,
+    /// Write each AOV to a file of its own beside every output (out.albedo.exr), EXR outputs too.
+    #[arg(long, requires = "aov")]
+    aov_files: bool,
 }
 
 /// One image a render writes: which frame (None: not a sequence), at what time, into which files.
@@ -334,6 +344,11 @@ struct Shot {
 }
 
 impl RenderArgs {
+    /// The AOVs asked for.
+    fn aovs(&self) -> &[Aov] {
+        self.aov.as_ref().map_or(&[], |l| &l.0)
+    }
+
     /// Whether the render keeps the exact film and writes film files.
     fn film_stats(&self) -> bool {
         self.film_stats || self.samples.is_some() || (self.part.is_some() && self.frames.is_none())
@@ -473,6 +488,9 @@ fn main() {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
+    if args.aovs().contains(&Aov::BeautyNoisy) {
+        bail!("--aov beauty-noisy is the image before denoising: it needs --denoise");
+    }
     let shots = args.shots()?;
     // Refuse a bad output path before spending time on the render.
     for shot in &shots {
@@ -515,6 +533,7 @@ fn render(args: RenderArgs) -> Result<()> {
         spp,
         first_sample,
         exact_film: args.film_stats(),
+        aovs: args.aovs().iter().any(|a| a.surveyed()),
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
         ..args.common.settings()
@@ -644,15 +663,8 @@ fn render_and_write(
         None => None,
     };
     let film_stats = (film.exact.as_ref().zip(meta.as_ref())).map(|(film, meta)| output::Stats { film, meta });
-    output::write_images_with(
-        &shot.outputs,
-        film.width,
-        film.height,
-        &pixels,
-        args.exposure,
-        film_stats,
-    )?;
-    let names: Vec<String> = shot.outputs.iter().map(|p| p.display().to_string()).collect();
+    let written = write_outputs(args, shot, &film, &pixels, film_stats)?;
+    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
     eprintln!(
         "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
         names.join(", "),
@@ -680,6 +692,63 @@ fn render_and_write(
         );
     }
     Ok(())
+}
+
+/// The shot's outputs and, for the AOVs asked for, their layers in each EXR and their files of their own (beside
+/// every PNG output, and every output with --aov-files), all or nothing. Returns every path written.
+fn write_outputs(
+    args: &RenderArgs,
+    shot: &Shot,
+    film: &pathwave::Film,
+    pixels: &[[f32; 3]],
+    stats: Option<output::Stats>,
+) -> Result<Vec<PathBuf>> {
+    use output::{Content, OutFile};
+    let source = output::AovSource { film, noisy: None };
+    let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
+    let aovs = args.aovs();
+    let mut layers = Vec::new();
+    let mut own = Vec::new();
+    for &a in aovs {
+        layers.extend(source.channels(a, true).ok_or_else(|| missing(a))?);
+        own.push(source.channels(a, false).ok_or_else(|| missing(a))?);
+    }
+    let png = shot
+        .outputs
+        .iter()
+        .any(|o| output::format_of(o).ok() == Some(output::Format::Png));
+    let pictures = match png {
+        true => (aovs.iter())
+            .map(|&a| source.picture(a, args.exposure).ok_or_else(|| missing(a)))
+            .collect::<Result<Vec<_>>>()?,
+        false => Vec::new(),
+    };
+    let mut paths: Vec<(PathBuf, Option<usize>)> = Vec::new();
+    for out in &shot.outputs {
+        paths.push((out.clone(), None));
+        let is_png = output::format_of(out)? == output::Format::Png;
+        if is_png || args.aov_files {
+            paths.extend((0..aovs.len()).map(|k| (output::aov_path(out, aovs[k]), Some(k))));
+        }
+    }
+    let files: Vec<OutFile> = (paths.iter())
+        .map(|(path, aov)| -> Result<OutFile> {
+            let png = output::format_of(path)? == output::Format::Png;
+            let content = match (aov, png) {
+                (None, _) => Content::Image {
+                    rgb: pixels,
+                    exposure: args.exposure,
+                    stats,
+                    layers: &layers,
+                },
+                (Some(k), false) => Content::Channels(&own[*k]),
+                (Some(k), true) => Content::Srgb8(&pictures[*k]),
+            };
+            Ok(OutFile { path, content })
+        })
+        .collect::<Result<_>>()?;
+    output::write_files(film.width, film.height, &files)?;
+    Ok(paths.into_iter().map(|(p, _)| p).collect())
 }
 
 fn view(args: ViewArgs) -> Result<()> {

@@ -21,4 +21,10 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("follow", "texel", "TEXEL_READS"),
     ("follow", "textured_texel", "TEXTURED TEXEL_READS"),
     ("follow", "alpha_texel", "ALPHA_TEST TEXTURED TEXEL_READS"),
+    // survey traces and shades like follow.
+    ("survey", "textured", "TEXTURED"),
+    ("survey", "alpha", "ALPHA_TEST TEXTURED"),
+    ("survey", "texel", "TEXEL_READS"),
+    ("survey", "textured_texel", "TEXTURED TEXEL_READS"),
+    ("survey", "alpha_texel", "ALPHA_TEST TEXTURED TEXEL_READS"),
 ];

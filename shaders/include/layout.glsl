@@ -30,7 +30,8 @@ struct TriVerts {
 };
 
 // 48 bytes: vertex normals. n0.w = pdf (per unit area) of next-event estimation choosing a point
-// on this triangle, 0 if it does not emit; n1.w = triangle area; n2.w unused.
+// on this triangle, 0 if it does not emit; n1.w = triangle area; n2.w = the index of the scene instance that placed
+// it (uint bits; the instance-id AOV).
 struct TriShading {
     vec4 n0;
     vec4 n1;
@@ -49,7 +50,7 @@ struct MotionKey {
 };
 
 // 112 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
-// 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, 0, 0). Record 0 is the header: info = (the TLAS
+// 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, 0). Record 0 is the header: info = (the TLAS
 // root node, the instance count, 0, 0).
 struct Instance {
     vec4 world0;
@@ -269,6 +270,8 @@ uint probe_mode() { return frame.bounce; }
 uint probe_dimension() { return frame.max_depth; }
 // A follow dispatch's first sample row rides in Frame.bounce (Frame::follow_rows).
 uint follow_first_row() { return frame.bounce; }
+// survey's sample row (Frame::survey_row).
+uint survey_row() { return frame.bounce; }
 // Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.
 layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]; };
 // Environment: rgba texels (w unused) row by row from the top (+y), then the marginal cdf over rows
@@ -284,6 +287,17 @@ layout(std430, set = 0, binding = BINDING_TRI_TANGENTS) readonly buffer TriTange
 layout(std430, set = 0, binding = BINDING_TRI_COLORS) readonly buffer TriColorsBuf { TriColors tri_colors[]; };
 layout(std430, set = 0, binding = BINDING_MOTION) readonly buffer MotionBuf { MotionKey motion_keys[]; };
 layout(std430, set = 0, binding = BINDING_INSTANCES) readonly buffer InstancesBuf { Instance instances[]; };
+// 64 bytes: a pixel's AOV sums over the samples survey has added, in sample order. albedo: rgb, and w the samples
+// added; normal: xyz (zero where a sample saw no surface), w the samples whose camera ray hit something; position:
+// the first hit's xyz, w its distance along the camera ray (both over hitting samples); ids: the instance and the
+// material of the first sample's first hit (AOV_NONE on a miss), zw unused.
+struct AovSums {
+    vec4 albedo;
+    vec4 normal;
+    vec4 position;
+    uvec4 ids;
+};
+layout(std430, set = 0, binding = BINDING_AOVS) buffer AovBuf { AovSums aovs[]; };
 
 // Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.

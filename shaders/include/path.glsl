@@ -43,6 +43,76 @@ float offset_size(TriVerts tv) {
     return largest >= 0.5 ? 1.0 : exp2(ceil(log2(max(largest, 1e-30))));
 }
 
+// What shading needs of a hit, in world space: the triangle (moved by its instance), its material at the hit,
+// the point, and its normals. The shade and follow stages and the survey (AOV) stage all see a hit through this.
+struct Surface {
+    TriVerts tv;
+    TriShading ts;
+    Material m;
+    vec3 p;
+    vec3 ng;     // geometric, from the winding (counter-clockwise faces front)
+    bool front;  // the ray arrived on the front
+    vec3 n_in;   // geometric normal on the side the ray arrived from
+    vec3 n_mesh; // the interpolated vertex normal
+    vec3 ns;     // shading normal (normal-mapped), on n_in's side
+};
+
+// Triangle tri at barycentrics uv, reached along ray_d; inst is the hit's instance (NO_INSTANCE: world space).
+Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
+    Surface sf;
+    TriVerts tv = load_tri_verts(tri);
+    TriShading ts = load_tri_shading(tri, tv);
+    bool mirrored = false;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
+        // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
+        // inverse transpose.
+        Instance I = instances[inst];
+        tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
+        tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
+        tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);
+        ts.n0.xyz = instance_normal(I, ts.n0.xyz);
+        ts.n1.xyz = instance_normal(I, ts.n1.xyz);
+        ts.n2.xyz = instance_normal(I, ts.n2.xyz);
+        mirrored = I.info.y != 0u;
+    }
+    sf.m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
+    sf.p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
+    sf.ng = normalize(cross(tv.e1.xyz, tv.e2.xyz));
+    // A mirroring instance turns the winding; its front is still the mesh's.
+    if (mirrored) sf.ng = -sf.ng;
+    sf.front = dot(sf.ng, ray_d) < 0.0;
+    sf.n_in = sf.front ? sf.ng : -sf.ng;
+    sf.n_mesh = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
+    sf.ns = normal_mapped(sf.m.textures[TEX_NORMAL], sf.m.alpha.z, tri, uv, sf.n_mesh, inst);
+    if (dot(sf.ns, sf.n_in) < 0.0) sf.ns = -sf.ns;
+    sf.tv = tv;
+    sf.ts = ts;
+    return sf;
+}
+
+// The shading frame at sf: z along the shading normal, x and y across it (the tangent frame for an anisotropic
+// lobe); sets bsdf's clear-coat normal in that frame.
+void shading_frame(Surface sf, uint tri, vec2 uv, uint inst, inout Bsdf bsdf, out vec3 tx, out vec3 ty) {
+    basis(sf.ns, tx, ty);
+    // An anisotropic lobe is stretched along a direction given in the mesh's tangent frame: the shading frame is that
+    // frame (about the shading normal). Without tangents the lobe takes the arbitrary one.
+    if (scene_has(FEATURE_ANISOTROPY) && bsdf.anisotropic) {
+        vec3 t, bt;
+        if (tangent_frame(tri, uv, sf.ns, inst, t, bt)) {
+            tx = t;
+            ty = bt;
+        }
+    }
+    if (scene_has(FEATURE_CLEARCOAT) && bsdf.clearcoat > 0.0) {
+        // The coat has its own normal map, or none: then it follows the mesh, not the base's map.
+        vec3 nc = normal_mapped(sf.m.textures[TEX_CLEARCOAT_NORMAL], sf.m.clearcoat.z, tri, uv, sf.n_mesh, inst);
+        if (dot(nc, sf.n_in) < 0.0) nc = -nc;
+        vec3 nl = vec3(dot(nc, tx), dot(nc, ty), dot(nc, sf.ns));
+        // A coat normal below the shading hemisphere (an extreme map) falls back to the shading normal.
+        bsdf_set_coat_normal(bsdf, nl.z > 1e-4 ? normalize(nl) : vec3(0.0, 0.0, 1.0));
+    }
+}
+
 // Bounce `bounce` of sample s of pixel: v's ray found `hit` (t, triangle bits, barycentrics). Adds the emission the
 // ray sees (MIS-weighted), asks for a shadow ray towards a light in `shadow`, and turns v into the continuation.
 // Returns whether the path goes on. Randomness depends only on (pixel, s, bounce, dimension), so the wavefront and
@@ -77,32 +147,16 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         }
     }
 
-    TriVerts tv = load_tri_verts(tri);
-    TriShading ts = load_tri_shading(tri, tv);
-    bool mirrored = false;
-    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
-        // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
-        // inverse transpose.
-        Instance I = instances[inst];
-        tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
-        tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
-        tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);
-        ts.n0.xyz = instance_normal(I, ts.n0.xyz);
-        ts.n1.xyz = instance_normal(I, ts.n1.xyz);
-        ts.n2.xyz = instance_normal(I, ts.n2.xyz);
-        mirrored = I.info.y != 0u;
-    }
+    Surface sf = surface_at(tri, hit.zw, inst, ray_d);
+    TriVerts tv = sf.tv;
+    TriShading ts = sf.ts;
     vec2 uv = hit.zw;
-    Material m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
-    vec3 p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
-    vec3 ng = normalize(cross(tv.e1.xyz, tv.e2.xyz)); // counter-clockwise winding faces front
-    // A mirroring instance turns the winding; its front is still the mesh's.
-    if (mirrored) ng = -ng;
-    bool front = dot(ng, ray_d) < 0.0;
-    vec3 n_in = front ? ng : -ng; // geometric normal on the side the ray arrived from
-    vec3 n_mesh = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
-    vec3 ns = normal_mapped(m.textures[TEX_NORMAL], m.alpha.z, tri, uv, n_mesh, inst);
-    if (dot(ns, n_in) < 0.0) ns = -ns;
+    Material m = sf.m;
+    vec3 p = sf.p;
+    vec3 ng = sf.ng;
+    bool front = sf.front;
+    vec3 n_in = sf.n_in;
+    vec3 ns = sf.ns;
     // To look at any quantity while editing (README), e.g. the shading normals: `v.radiance = ns * 0.5 + 0.5;
     // return false;` here.
 
@@ -140,27 +194,9 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     float size = offset_size(tv);
     vec3 p_back = offset_ray(p, -n_in, size); // origin for rays that go through the surface
     vec3 p_off = offset_ray(p, n_in, size);
-    // The shading frame: z along the shading normal on the incoming side.
     vec3 tx, ty;
-    basis(ns, tx, ty);
-    // An anisotropic lobe is stretched along a direction given in the mesh's tangent frame: the shading frame is that
-    // frame (about the shading normal). Without tangents the lobe takes the arbitrary one.
-    if (scene_has(FEATURE_ANISOTROPY) && bsdf.anisotropic) {
-        vec3 t, bt;
-        if (tangent_frame(tri, uv, ns, inst, t, bt)) {
-            tx = t;
-            ty = bt;
-        }
-    }
+    shading_frame(sf, tri, uv, inst, bsdf, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
-    if (scene_has(FEATURE_CLEARCOAT) && bsdf.clearcoat > 0.0) {
-        // The coat has its own normal map, or none: then it follows the mesh, not the base's map.
-        vec3 nc = normal_mapped(m.textures[TEX_CLEARCOAT_NORMAL], m.clearcoat.z, tri, uv, n_mesh, inst);
-        if (dot(nc, n_in) < 0.0) nc = -nc;
-        vec3 nl = vec3(dot(nc, tx), dot(nc, ty), dot(nc, ns));
-        // A coat normal below the shading hemisphere (an extreme map) falls back to the shading normal.
-        bsdf_set_coat_normal(bsdf, nl.z > 1e-4 ? normalize(nl) : vec3(0.0, 0.0, 1.0));
-    }
 
     // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
     if (frame.light_count > 0u) {

@@ -1,6 +1,6 @@
 //! Film files: EXR images that carry, beside the mean, the exact film's sums and what rendered them (the scene's,
 //! frame's and shaders' fingerprints, the seed, the sample ranges), which `pathwave merge` and `pathwave diff` read.
-use super::output_err;
+use super::{output_err, Channel, Samples};
 use crate::error::Error;
 use crate::render::film::{ExactFilm, Wide};
 use std::ops::Range;
@@ -202,6 +202,7 @@ fn square_word(k: usize, c: usize) -> String {
 /// The EXR of a film with statistics: R, G, B the mean (what any EXR viewer shows); `pathwave.count`, and the
 /// exact sums' 32-bit words (`pathwave.sum0.R` .. `pathwave.sum3.B`, `pathwave.square0.R` .. `pathwave.square4.B`,
 /// least significant first) as u32 channels; the metadata as JSON in the header's `pathwave` attribute.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn encode_film(
     file: &Path,
     path: &Path,
@@ -210,47 +211,30 @@ pub(super) fn encode_film(
     rgb: &[[f32; 3]],
     film: &ExactFilm,
     meta: &FilmMeta,
+    layers: &[Channel],
 ) -> Result<(), Error> {
-    use exr::prelude::*;
-    let pixels = width as usize * height as usize;
-    let mut list: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
-    for (c, name) in CHANNELS.iter().enumerate() {
-        list.push(AnyChannel::new(
-            *name,
-            FlatSamples::F32(rgb.iter().map(|p| p[c]).collect()),
-        ));
-    }
-    list.push(AnyChannel::new(COUNT, FlatSamples::U32(film.count.clone())));
+    let mut list = super::rgb_channels(rgb, "");
+    let words = |name: String, v: Vec<u32>| Channel {
+        name,
+        samples: Samples::U32(v),
+    };
+    list.push(words(COUNT.into(), film.count.clone()));
     for c in 0..3 {
         for k in 0..4 {
-            let words = film.sum.iter().map(|s| (s[c] as u128 >> (32 * k)) as u32).collect();
-            list.push(AnyChannel::new(sum_word(k, c).as_str(), FlatSamples::U32(words)));
+            list.push(words(
+                sum_word(k, c),
+                film.sum.iter().map(|s| (s[c] as u128 >> (32 * k)) as u32).collect(),
+            ));
         }
         for k in 0..5 {
-            let words = (film.sum_sq.iter())
+            let v = (film.sum_sq.iter())
                 .map(|q| if k == 4 { q[c].hi } else { (q[c].lo >> (32 * k)) as u32 })
                 .collect();
-            list.push(AnyChannel::new(square_word(k, c).as_str(), FlatSamples::U32(words)));
+            list.push(words(square_word(k, c), v));
         }
     }
-    debug_assert!(list.iter().all(|ch| ch.sample_data.len() == pixels));
-    let mut attributes = LayerAttributes::default();
-    let text = Text::new_or_none(meta.to_json()).ok_or_else(|| output_err(path, "metadata not ASCII".into()))?;
-    attributes
-        .other
-        .insert(Text::from(META_ATTRIBUTE), AttributeValue::Text(text));
-    let layer = Layer::new(
-        (width as usize, height as usize),
-        attributes,
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(list),
-    );
-    // Not exr's parallel writer: it stores chunks in the order they finish compressing (see `encode`).
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_file(file)
-        .map_err(|e| output_err(path, format!("EXR encoding failed: {e}")))
+    list.extend_from_slice(layers);
+    super::encode_channels(file, path, width, height, &list, Some((META_ATTRIBUTE, meta.to_json())))
 }
 
 /// Reads an EXR: its R, G, B (f32 or f16) and, when it is a pathwave film file, its exact sums and metadata. Any EXR

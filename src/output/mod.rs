@@ -2,7 +2,9 @@
 use crate::error::Error;
 use std::path::Path;
 
+pub mod aov;
 pub mod film_file;
+pub use aov::{aov_path, Aov, AovSource, Channel, Samples};
 pub use film_file::{read_film, FilmFile, FilmMeta, PartOf};
 
 /// What EXR outputs carry besides the mean: the exact film and what made it (a film file, see `film_file`).
@@ -116,15 +118,84 @@ pub fn write_images_with<P: AsRef<Path>>(
     exposure: f32,
     stats: Option<Stats>,
 ) -> Result<(), Error> {
-    assert_eq!(rgb.len(), width as usize * height as usize);
-    let mut encoded = Vec::with_capacity(paths.len());
-    for path in paths {
-        let path = path.as_ref();
+    let files: Vec<OutFile> = (paths.iter())
+        .map(|p| OutFile {
+            path: p.as_ref(),
+            content: Content::Image {
+                rgb,
+                exposure,
+                stats,
+                layers: &[],
+            },
+        })
+        .collect();
+    write_files(width, height, &files)
+}
+
+/// What one output file holds.
+#[derive(Clone, Copy)]
+pub enum Content<'a> {
+    /// The beauty image: as EXR with the film statistics (`stats`, a film file) and extra channels (`layers`, the
+    /// AOVs) when given; as PNG in sRGB after 2^exposure, the image alone.
+    Image {
+        rgb: &'a [[f32; 3]],
+        exposure: f32,
+        stats: Option<Stats<'a>>,
+        layers: &'a [Channel],
+    },
+    /// An EXR of these channels alone (an AOV's own file).
+    Channels(&'a [Channel]),
+    /// 8-bit sRGB pixels, as PNG.
+    Srgb8(&'a [[u8; 3]]),
+}
+
+/// A file to write and what goes in it.
+#[derive(Clone, Copy)]
+pub struct OutFile<'a> {
+    pub path: &'a Path,
+    pub content: Content<'a>,
+}
+
+/// Writes every file, all or nothing: each is encoded to a temporary file beside it first, and only when every one is
+/// complete are they renamed into place. A failure before that removes the temporaries and leaves every path as it
+/// was; a rename failing removes the files already moved into place.
+pub fn write_files(width: u32, height: u32, files: &[OutFile]) -> Result<(), Error> {
+    let pixels = width as usize * height as usize;
+    let mut encoded = Vec::with_capacity(files.len());
+    for file in files {
+        let path = file.path;
         let format = format_of(path)?;
         let tmp = temporary_beside(path, format)?;
-        match (format, stats) {
-            (Format::Exr, Some(s)) => film_file::encode_film(tmp.path(), path, width, height, rgb, s.film, s.meta)?,
-            _ => encode(&tmp, path, format, width, height, rgb, exposure)?,
+        match (format, file.content) {
+            (
+                Format::Exr,
+                Content::Image {
+                    rgb,
+                    stats: Some(s),
+                    layers,
+                    ..
+                },
+            ) => {
+                assert_eq!(rgb.len(), pixels);
+                film_file::encode_film(tmp.path(), path, width, height, rgb, s.film, s.meta, layers)?
+            }
+            (Format::Exr, Content::Image { rgb, layers, .. }) if !layers.is_empty() => {
+                let mut list = rgb_channels(rgb, "");
+                list.extend_from_slice(layers);
+                encode_channels(tmp.path(), path, width, height, &list, None)?
+            }
+            (_, Content::Image { rgb, exposure, .. }) => {
+                assert_eq!(rgb.len(), pixels);
+                encode(&tmp, path, format, width, height, rgb, exposure)?
+            }
+            (Format::Exr, Content::Channels(list)) => encode_channels(tmp.path(), path, width, height, list, None)?,
+            (Format::Png, Content::Srgb8(px)) => {
+                assert_eq!(px.len(), pixels);
+                png_rgb8(&tmp, path, width, height, px.as_flattened())?
+            }
+            (Format::Png, Content::Channels(_)) | (Format::Exr, Content::Srgb8(_)) => {
+                return Err(output_err(path, "this content cannot be written in this format".into()))
+            }
         }
         encoded.push((path, tmp));
     }
@@ -142,6 +213,63 @@ pub fn write_images_with<P: AsRef<Path>>(
         placed.push(path);
     }
     Ok(())
+}
+
+/// The R, G and B channels of `rgb`, their names after `prefix`.
+fn rgb_channels(rgb: &[[f32; 3]], prefix: &str) -> Vec<Channel> {
+    (["R", "G", "B"].iter().enumerate())
+        .map(|(c, n)| Channel {
+            name: format!("{prefix}{n}"),
+            samples: Samples::F32(rgb.iter().map(|p| p[c]).collect()),
+        })
+        .collect()
+}
+
+/// An EXR of `list`'s channels (and the metadata attribute when given), losslessly compressed, written in a fixed
+/// order so the same image gives the same bytes.
+fn encode_channels(
+    file: &Path,
+    path: &Path,
+    width: u32,
+    height: u32,
+    list: &[Channel],
+    meta: Option<(&str, String)>,
+) -> Result<(), Error> {
+    use exr::prelude::*;
+    let pixels = width as usize * height as usize;
+    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = (list.iter())
+        .map(|c| {
+            assert_eq!(
+                match &c.samples {
+                    Samples::F32(v) => v.len(),
+                    Samples::U32(v) => v.len(),
+                },
+                pixels
+            );
+            let samples = match &c.samples {
+                Samples::F32(v) => FlatSamples::F32(v.clone()),
+                Samples::U32(v) => FlatSamples::U32(v.clone()),
+            };
+            AnyChannel::new(c.name.as_str(), samples)
+        })
+        .collect();
+    let mut attributes = LayerAttributes::default();
+    if let Some((name, json)) = meta {
+        let text = Text::new_or_none(json).ok_or_else(|| output_err(path, "metadata not ASCII".into()))?;
+        attributes.other.insert(Text::from(name), AttributeValue::Text(text));
+    }
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    // Not exr's parallel writer: it stores chunks in the order they finish compressing (see `encode`).
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_file(file)
+        .map_err(|e| output_err(path, format!("EXR encoding failed: {e}")))
 }
 
 /// Writes 8-bit sRGB pixels (a heat map, say) as a PNG, through a temporary file like every output.

@@ -16,6 +16,8 @@ pub struct Film {
     pub sum_sq: Vec<[f32; 4]>,
     /// The exact film's sums, when the render kept them (`RenderSettings::exact_film`).
     pub exact: Option<ExactFilm>,
+    /// The AOVs, when the render surveyed them (`RenderSettings::aovs`).
+    pub aovs: Option<super::Aovs>,
 }
 
 /// A sum of squares of the exact film: 160 bits, as the device keeps them (film.glsl).
@@ -184,6 +186,7 @@ impl Film {
             sum,
             sum_sq,
             exact: Some(exact),
+            aovs: None,
         }
     }
 
@@ -194,6 +197,23 @@ impl Film {
         }
         let inv = 1.0 / self.spp.max(1) as f32;
         self.sum.iter().map(|s| [s[0] * inv, s[1] * inv, s[2] * inv]).collect()
+    }
+
+    /// Samples each pixel holds.
+    pub fn sample_count(&self) -> Vec<u32> {
+        match &self.exact {
+            Some(exact) => exact.count.clone(),
+            None => self.sum.iter().map(|s| s[3] as u32).collect(),
+        }
+    }
+
+    /// The variance of each pixel's mean (the sample variance over the pixel's sample count), per channel: the
+    /// variance AOV, and what adaptive sampling and `diff` weigh a pixel's error by.
+    pub fn mean_variance(&self) -> Vec<[f32; 3]> {
+        let counts = self.sample_count();
+        (self.sample_variance().iter().zip(counts))
+            .map(|(v, n)| v.map(|c| if n > 0 { c / n as f32 } else { 0.0 }))
+            .collect()
     }
 
     /// Unbiased per-pixel variance of one sample, per channel.

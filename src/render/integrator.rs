@@ -92,6 +92,14 @@ impl Recorder<'_> {
     fn accumulate(&mut self, k: Built, frame: &Frame) {
         self.run(k, frame, frame.pass_pixels);
     }
+
+    /// The AOVs of every sample of the pass, a sample row per dispatch so they add in sample order.
+    fn survey(&mut self, k: Option<Built>, frame: &Frame) {
+        let Some(k) = k else { return };
+        for row in 0..frame.path_count / frame.pass_pixels {
+            self.run(k, &frame.survey_row(row), frame.pass_pixels);
+        }
+    }
 }
 
 impl Renderer {
@@ -107,6 +115,10 @@ impl Renderer {
         self.kernels.set_features(self.scene.features | lens | exact);
         let variant = self.scene_variant();
         let follow_rows = self.follow.rows;
+        let survey = match frame.flags & FLAG_AOVS != 0 {
+            true => Some(self.kernels.survey(&self.ctx, variant)?),
+            false => None,
+        };
         let Renderer {
             ctx,
             kernels,
@@ -136,6 +148,7 @@ impl Renderer {
                             // After the last bounce only the shadow-ray tally remains (queue_args.comp).
                             rec.queue_args(&k, &frame.after_last_bounce());
                             rec.accumulate(k.accumulate, frame);
+                            rec.survey(survey, frame);
                         }
                     })?;
                     if ends {
@@ -155,6 +168,7 @@ impl Renderer {
                         rec.follow(&k, &f, first, follow_rows.min(rows - first));
                     }
                     rec.accumulate(k.accumulate, &f);
+                    rec.survey(survey, frame);
                 })
             }
         }

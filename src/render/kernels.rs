@@ -18,6 +18,7 @@ pub enum Stage {
     Connect,
     Accumulate,
     Follow,
+    Survey,
     Tonemap,
     EnergyTables,
     SheenTable,
@@ -31,7 +32,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 17] = [
+    pub const ALL: [Stage; 18] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -39,6 +40,7 @@ impl Stage {
         Stage::Connect,
         Stage::Accumulate,
         Stage::Follow,
+        Stage::Survey,
         Stage::Tonemap,
         Stage::EnergyTables,
         Stage::SheenTable,
@@ -61,6 +63,7 @@ impl Stage {
             Stage::Connect => "connect",
             Stage::Accumulate => "accumulate",
             Stage::Follow => "follow",
+            Stage::Survey => "survey",
             Stage::Tonemap => "tonemap",
             Stage::EnergyTables => "energy_tables",
             Stage::SheenTable => "sheen_table",
@@ -98,6 +101,7 @@ impl Stage {
                 | Stage::Connect
                 | Stage::Accumulate
                 | Stage::Follow
+                | Stage::Survey
         )
     }
 
@@ -340,6 +344,11 @@ impl Kernels {
             follow: self.get(ctx, Kernel::for_scene(Stage::Follow, scene))?,
             accumulate: self.get(ctx, Kernel::of(Stage::Accumulate))?,
         })
+    }
+
+    /// The AOV stage for this scene.
+    pub fn survey(&mut self, ctx: &Context, scene: SceneVariant) -> Result<Built, Error> {
+        self.get(ctx, Kernel::for_scene(Stage::Survey, scene))
     }
 
     /// Replaces a kernel's SPIR-V (a user's shader) and builds it now, so a bad one fails here.

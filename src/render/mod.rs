@@ -1,5 +1,6 @@
 //! The renderer: a scene on one device and the passes that render it. `Renderer` is a thin facade; each job lives in
 //! the module that owns it (see docs/ARCHITECTURE.md).
+pub mod aovs;
 mod energy;
 pub mod film;
 pub mod gpu_scene;
@@ -11,6 +12,7 @@ pub mod session;
 pub mod settings;
 mod tonemap;
 
+pub use aovs::Aovs;
 pub use film::{Film, RenderStats};
 pub use gpu_scene::BvhReads;
 pub use probes::{BsdfProbe, BsdfQuery};
@@ -40,7 +42,7 @@ struct StandIns {
 
 impl StandIns {
     /// The bindings a session, a probe or the tone map fills in, and the energy tables while they are being built.
-    const BINDINGS: [u32; 7] = [
+    const BINDINGS: [u32; 8] = [
         BINDING_PATHS,
         BINDING_QUEUES,
         BINDING_COUNTERS,
@@ -48,6 +50,7 @@ impl StandIns {
         BINDING_PROBE,
         BINDING_ENERGY,
         BINDING_TONEMAP_OUT,
+        BINDING_AOVS,
     ];
 
     fn new(ctx: &Context) -> Result<Self, Error> {

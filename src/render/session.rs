@@ -1,9 +1,10 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
 use super::film::{ExactFilm, Film, RenderStats};
+use super::Aovs;
 use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{Counters, Frame, FrameCamera};
+use crate::layout::{AovSums, Counters, Frame, FrameCamera};
 use crate::vk::{Buffer, TexelViews};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -23,6 +24,8 @@ pub struct Session {
     queues: Buffer,
     counters: Buffer,
     film: Buffer,
+    /// The AOVs' sums (`AovSums` per pixel), when the settings ask for AOVs.
+    aovs: Option<Buffer>,
     /// Samples per pixel accumulated so far.
     pub done: u32,
     /// Tallies since the last (re)start.
@@ -32,13 +35,15 @@ pub struct Session {
 
 impl Session {
     /// The session's buffers by binding.
-    pub(super) fn bindings(&self) -> [(u32, &Buffer); 4] {
-        [
+    pub(super) fn bindings(&self) -> Vec<(u32, &Buffer)> {
+        let mut b = vec![
             (BINDING_PATHS, &self.paths),
             (BINDING_QUEUES, &self.queues),
             (BINDING_COUNTERS, &self.counters),
             (BINDING_FILM, &self.film),
-        ]
+        ];
+        b.extend(self.aovs.as_ref().map(|a| (BINDING_AOVS, a)));
+        b
     }
 
     pub(super) fn texel_views(&self) -> &[(u32, vk::BufferView)] {
@@ -130,6 +135,18 @@ impl Renderer {
             MemoryLocation::GpuToCpu,
         )?;
         let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
+        let aov_bytes = pixels * std::mem::size_of::<AovSums>() as u64;
+        let aovs = match s.aovs {
+            true if aov_bytes > range => {
+                return Err(Error::Settings(format!(
+                    "{}x{} with AOVs needs {aov_bytes} bytes of AOV sums (64 a pixel) but this device's storage \
+                     buffers hold at most {range} bytes",
+                    s.width, s.height
+                )))
+            }
+            true => Some(Buffer::new(ctx, "aovs", aov_bytes, storage, MemoryLocation::GpuOnly)?),
+            false => None,
+        };
         let mut session = Session {
             settings: s.clone(),
             frame: Frame::default(),
@@ -140,6 +157,7 @@ impl Renderer {
             queues,
             counters,
             film,
+            aovs,
             done: 0,
             stats: RenderStats::default(),
             started: Instant::now(),
@@ -173,8 +191,13 @@ impl Renderer {
         session.done = 0;
         session.stats = RenderStats::default();
         session.started = Instant::now();
-        let (ctx, film) = (&self.ctx, &session.film);
-        ctx.submit_and_wait(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0) })
+        let (ctx, film, aovs) = (&self.ctx, &session.film, &session.aovs);
+        ctx.submit_and_wait(|cmd| unsafe {
+            ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0);
+            if let Some(a) = aovs {
+                ctx.device.cmd_fill_buffer(cmd, a.raw, 0, vk::WHOLE_SIZE, 0);
+            }
+        })
     }
 
     /// Runs one pass: up to `samples` more samples per pixel (as many as fit in flight; one when the image must be
@@ -227,11 +250,23 @@ impl Renderer {
         let s = &session.settings;
         let pixels = session.pixels as usize;
         let samples = s.first_sample..s.first_sample + session.done;
+        let aovs = match &session.aovs {
+            Some(buffer) => {
+                let sums: Vec<AovSums> = buffer.download(&self.ctx)?;
+                Some(Aovs {
+                    sums: sums[..pixels].to_vec(),
+                })
+            }
+            None => None,
+        };
         if s.exact_film {
             let words: Vec<u32> = session.film.download(&self.ctx)?;
             self.check_validation()?;
             let exact = ExactFilm::from_words(&words[..pixels * EXACT_FILM_TEXELS as usize * 4], samples)?;
-            return Ok(Film::from_exact(s.width, s.height, exact));
+            return Ok(Film {
+                aovs,
+                ..Film::from_exact(s.width, s.height, exact)
+            });
         }
         let raw: Vec<[f32; 4]> = session.film.download(&self.ctx)?;
         self.check_validation()?;
@@ -243,6 +278,7 @@ impl Renderer {
             sum: sum.to_vec(),
             sum_sq: sum_sq[..pixels].to_vec(),
             exact: None,
+            aovs,
         })
     }
 
@@ -253,7 +289,10 @@ impl Renderer {
         let scene = self.scene.fingerprint.clone().ok_or_else(|| {
             Error::Settings("the renderer did not keep the scene's fingerprint (RendererOptions::fingerprint)".into())
         })?;
-        let frame = blake3::hash(bytemuck::bytes_of(&self.frame(s))).to_hex().to_string();
+        let mut frame = self.frame(s);
+        // AOVs do not change the samples: parts with and without them merge.
+        frame.flags &= !FLAG_AOVS;
+        let frame = blake3::hash(bytemuck::bytes_of(&frame)).to_hex().to_string();
         Ok([scene, frame, self.kernels.render_fingerprint()])
     }
 
@@ -286,7 +325,8 @@ impl Renderer {
                     FLAG_CAMERA_MOTION,
                 )
                 | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC)
-                | flag(s.exact_film, FLAG_EXACT_FILM),
+                | flag(s.exact_film, FLAG_EXACT_FILM)
+                | flag(s.aovs, FLAG_AOVS),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)

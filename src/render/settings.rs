@@ -53,6 +53,8 @@ pub struct RenderSettings {
     /// Keep the exact film (fixed-point sums that merge to the same bits in any split, FEATURE_EXACT_FILM), whose
     /// `Film::exact` carries the statistics a film file holds.
     pub exact_film: bool,
+    /// Survey the AOVs (albedo, normal, depth, position, ids) over the same samples as the image: `Film::aovs`.
+    pub aovs: bool,
 }
 
 impl Default for RenderSettings {
@@ -70,6 +72,7 @@ impl Default for RenderSettings {
             focus_distance: None,
             first_sample: 0,
             exact_film: false,
+            aovs: false,
         }
     }
 }

@@ -19,6 +19,9 @@ pub struct WorldTriangle {
     /// COLOR_0 as linear RGBA; `None` where the mesh has none.
     pub colors: Option<[Vec4; 3]>,
     pub material: u32,
+    /// The index in `Scene::instances` of the instance that placed it (0 for a mesh in its own space): the
+    /// instance-id AOV.
+    pub instance: u32,
 }
 
 /// Per-triangle world-space arrays, index for index. `push` is the only way in, so they cannot fall out of step.
@@ -30,6 +33,7 @@ pub struct TriangleSoup {
     tangents: Vec<[Vec4; 3]>,
     colors: Vec<[Vec4; 3]>,
     material: Vec<u32>,
+    instance: Vec<u32>,
 }
 
 impl TriangleSoup {
@@ -41,6 +45,7 @@ impl TriangleSoup {
         soup.texcoords.try_reserve_exact(n)?;
         soup.tangents.try_reserve_exact(n)?;
         soup.material.try_reserve_exact(n)?;
+        soup.instance.try_reserve_exact(n)?;
         Ok(soup)
     }
 
@@ -59,6 +64,7 @@ impl TriangleSoup {
             None => {}
         }
         self.material.push(t.material);
+        self.instance.push(t.instance);
     }
 
     pub fn len(&self) -> usize {
@@ -85,6 +91,10 @@ impl TriangleSoup {
     }
     pub fn material(&self) -> &[u32] {
         &self.material
+    }
+    /// Each triangle's instance (`WorldTriangle::instance`).
+    pub fn instance(&self) -> &[u32] {
+        &self.instance
     }
     pub fn bounds(&self) -> (Vec3, Vec3) {
         bounds(self.positions.iter().copied())
@@ -145,11 +155,14 @@ struct Placement {
     normal_matrix: Mat3,
     /// A mirroring transform turns counter-clockwise into clockwise; two vertices are swapped to keep the front face.
     flip: bool,
+    /// What the triangles' `instance` says.
+    instance: u32,
 }
 
 impl Placement {
     fn new(world: Mat4) -> Placement {
         Placement {
+            instance: 0,
             world,
             normal_matrix: Mat3::from_mat4(world).inverse().transpose(),
             flip: Mat3::from_mat4(world).determinant() < 0.0,
@@ -219,6 +232,7 @@ impl Placement {
             tangents,
             colors: p.colors.as_ref().map(|c| abc.map(|i| c[i as usize])),
             material: p.material,
+            instance: self.instance,
         }
     }
 
@@ -362,6 +376,10 @@ impl Scene {
                     0 => Placement::new(instance.world_from_object),
                     k => Placement::new(motion.keys[k - 1].instances[i].world_from_object),
                 })
+                .map(|p| Placement {
+                    instance: i as u32,
+                    ..p
+                })
                 .collect();
             let meshes: Vec<&super::Mesh> = (0..key_count)
                 .map(|k| match k {
@@ -399,8 +417,11 @@ impl Scene {
     }
 
     fn flatten_into(&self, soup: &mut TriangleSoup, instanced: &[bool]) {
-        for instance in self.instances.iter().filter(|i| !instanced[i.mesh]) {
-            let placement = Placement::new(instance.world_from_object);
+        for (i, instance) in self.instances.iter().enumerate().filter(|(_, i)| !instanced[i.mesh]) {
+            let placement = Placement {
+                instance: i as u32,
+                ..Placement::new(instance.world_from_object)
+            };
             for p in &self.meshes[instance.mesh].primitives {
                 let first = soup.len();
                 placement.push_primitive(p, soup);

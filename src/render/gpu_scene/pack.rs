@@ -363,12 +363,13 @@ fn pack_instances(
         parts.push((m, blas, packed, soup.bounds()));
     }
     let part_of = |m: usize| parts.iter().position(|p| p.0 == m);
-    let placed: Vec<(usize, glam::Mat4)> = (scene.instances.iter())
-        .filter(|i| instanced[i.mesh] && crate::scene::invertible(&i.world_from_object))
-        .filter_map(|i| Some((part_of(i.mesh)?, i.world_from_object)))
+    // (part, world from object, the instance's index in the scene).
+    let placed: Vec<(usize, glam::Mat4, u32)> = (scene.instances.iter().enumerate())
+        .filter(|(_, i)| instanced[i.mesh] && crate::scene::invertible(&i.world_from_object))
+        .filter_map(|(k, i)| Some((part_of(i.mesh)?, i.world_from_object, k as u32)))
         .collect();
     let boxes: Vec<(Vec3, Vec3)> = (placed.iter())
-        .map(|&(p, w)| {
+        .map(|&(p, w, _)| {
             let (lo, hi) = parts[p].3;
             let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
             for corner in crate::scene::box_corners(lo, hi) {
@@ -430,7 +431,7 @@ fn pack_instances(
         ..Default::default()
     });
     for &i in &tlas.order {
-        let (p, w) = placed[i as usize];
+        let (p, w, k) = placed[i as usize];
         let o = w.inverse();
         let mirrored = glam::Mat3::from_mat4(w).determinant() < 0.0;
         records.push(GpuInstance {
@@ -440,7 +441,7 @@ fn pack_instances(
             object0: o.row(0).to_array(),
             object1: o.row(1).to_array(),
             object2: o.row(2).to_array(),
-            info: [roots[p], mirrored as u32, 0, 0],
+            info: [roots[p], mirrored as u32, k, 0],
         });
     }
     Some(records)
@@ -517,6 +518,7 @@ fn pack_triangles(
         let [a, b, c] = soup.positions()[orig];
         let [na, nb, nc] = soup.normals()[orig];
         let material = soup.material()[orig];
+        let instance = soup.instance()[orig];
         let alpha_tested = scene.materials[material as usize].alpha_tested();
         t.tri_verts.push(TriVerts {
             v0: v4(a, f32::from_bits(material)),
@@ -568,7 +570,7 @@ fn pack_triangles(
         t.tri_shading.push(TriShading {
             n0: v4(na, 0.0),
             n1: v4(nb, area),
-            n2: v4(nc, 0.0),
+            n2: v4(nc, f32::from_bits(instance)),
         });
         if p > 0.0 {
             t.emitters.push((slot as u32, p, area));
