@@ -14,6 +14,7 @@ PACKAGES=(
   g++                   # builds meshoptimizer (the meshopt crate), the EXT_meshopt_compression decoder
   xvfb xauth            # a headless X server for the viewer's tests (xvfb-run)
   libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0   # loaded by winit at run time
+  python3 python3-venv  # a venv for Open Image Denoise (below)
 )
 
 missing=()
@@ -35,4 +36,16 @@ if ! command -v cargo >/dev/null 2>&1; then
     echo "ci/setup.sh: cargo not found; install Rust (rustup) first" >&2
     exit 1
   fi
+fi
+
+# Intel Open Image Denoise for --denoise and tests/denoise.rs: no Debian package has it, PyPI's pyoidn wheel ships
+# libOpenImageDenoise.so.2 with its CPU device. Installed without its Python dependencies (pathwave only loads the
+# library) into a venv of its own, where pathwave looks for it (src/denoise.rs).
+OIDN_VENV="$HOME/.cache/pathwave/oidn-venv"
+if [ ! -f "$OIDN_VENV/.installed-2.5.1.0" ]; then
+  echo "ci/setup.sh: installing Open Image Denoise (pyoidn 2.5.1.0) into $OIDN_VENV"
+  rm -rf "$OIDN_VENV"
+  python3 -m venv "$OIDN_VENV"
+  "$OIDN_VENV/bin/pip" install -q --disable-pip-version-check --no-deps pyoidn==2.5.1.0
+  touch "$OIDN_VENV/.installed-2.5.1.0"
 fi

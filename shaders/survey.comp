@@ -67,7 +67,13 @@ void main() {
         BsdfSample bs;
         bool ok = bsdf_sample(bsdf, wo, u, bs);
         bool specular = ok && (bs.delta || near_specular(bsdf, wo, u.z));
-        if (!specular || bounce + 1u == AOV_MAX_BOUNCES) {
+        bool emits = (sf.front || sf.m.emission.w > 0.5) && any(greaterThan(sf.m.emission.rgb, vec3(0.0)));
+        if (emits) {
+            // A light shows what it emits, within [0, 1], like the environment: its edge is then an edge of the
+            // guide, which keeps the denoiser from spreading it.
+            albedo = through * clamp(sf.m.emission.rgb, vec3(0.0), vec3(1.0));
+            open = false;
+        } else if (!specular || bounce + 1u == AOV_MAX_BOUNCES) {
             // f cos / pdf of a BSDF sample has the directional albedo as its mean: the AOV converges to the whole
             // BSDF's albedo at wo (every lobe and layer), and is exact at once for a Lambertian surface.
             albedo = ok ? through * bs.weight : vec3(0.0);

@@ -2,6 +2,7 @@
 pub mod bench;
 pub mod bvh;
 pub mod constants;
+pub mod denoise;
 pub mod diff;
 pub mod error;
 pub mod layout;

@@ -334,6 +334,11 @@ struct RenderArgs {
     /// Write each AOV to a file of its own beside every output (out.albedo.exr), EXR outputs too.
     #[arg(long, requires = "aov")]
     aov_files: bool,
+    /// Denoise the image with Intel Open Image Denoise (its RT filter, guided by the albedo and normal AOVs, which
+    /// are prefiltered first). OIDN is loaded at run time: from PATHWAVE_OIDN (its path), else the pyoidn Python
+    /// package (`pip install pyoidn`). --aov beauty-noisy keeps the image before denoising.
+    #[arg(long, conflicts_with_all = ["film_stats", "samples", "part"])]
+    denoise: bool,
 }
 
 /// One image a render writes: which frame (None: not a sequence), at what time, into which files.
@@ -488,9 +493,14 @@ fn main() {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    if args.aovs().contains(&Aov::BeautyNoisy) {
+    if args.aovs().contains(&Aov::BeautyNoisy) && !args.denoise {
         bail!("--aov beauty-noisy is the image before denoising: it needs --denoise");
     }
+    // Found before rendering, so a missing library costs no render.
+    let denoiser = match args.denoise {
+        true => Some(pathwave::denoise::Denoiser::from_env()?),
+        false => None,
+    };
     let shots = args.shots()?;
     // Refuse a bad output path before spending time on the render.
     for shot in &shots {
@@ -533,15 +543,16 @@ fn render(args: RenderArgs) -> Result<()> {
         spp,
         first_sample,
         exact_film: args.film_stats(),
-        aovs: args.aovs().iter().any(|a| a.surveyed()),
+        aovs: args.denoise || args.aovs().iter().any(|a| a.surveyed()),
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
         ..args.common.settings()
     };
+    let denoiser = denoiser.as_ref();
     if args.frames.is_some() {
-        return render_frames(&args, &shots, &mut scene, &mut renderer, &settings, start);
+        return render_frames(&args, &shots, &mut scene, &mut renderer, &settings, denoiser, start);
     }
-    render_and_write(&mut renderer, &settings, &args, &shots[0], start)?;
+    render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, start)?;
     let Some(dir) = shader_dir.filter(|_| args.watch) else {
         return Ok(());
     };
@@ -557,7 +568,7 @@ fn render(args: RenderArgs) -> Result<()> {
         match renderer.load_shaders(&dir, Some(&stale)) {
             Ok(rebuilt) => {
                 eprintln!("rebuilt {}", rebuilt.join(", "));
-                match render_and_write(&mut renderer, &settings, &args, &shots[0], Instant::now()) {
+                match render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, Instant::now()) {
                     Err(e) if interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) => return Err(e),
                     Err(e) => eprintln!("error: {e:#}"),
                     Ok(()) => {}
@@ -576,6 +587,7 @@ fn render_frames(
     scene: &mut scene::Scene,
     renderer: &mut Renderer,
     settings: &RenderSettings,
+    denoiser: Option<&pathwave::denoise::Denoiser>,
     start: Instant,
 ) -> Result<()> {
     let (mut rendered, mut skipped) = (0, 0);
@@ -598,7 +610,7 @@ fn render_frames(
             posed_at = shot.time;
         }
         let label = format!("frame {} ({}/{})", shot.frame.unwrap_or(0), i + 1, shots.len());
-        let written = render_and_write(renderer, settings, args, shot, Instant::now());
+        let written = render_and_write(renderer, settings, args, shot, denoiser, Instant::now());
         match written {
             Ok(()) => rendered += 1,
             Err(e) => return Err(e.context(format!("{label}, at {} s", shot.time))),
@@ -618,6 +630,7 @@ fn render_and_write(
     settings: &RenderSettings,
     args: &RenderArgs,
     shot: &Shot,
+    denoiser: Option<&pathwave::denoise::Denoiser>,
     start: Instant,
 ) -> Result<()> {
     let bar = ProgressBar::new(settings.spp as u64);
@@ -651,7 +664,25 @@ fn render_and_write(
             settings.spp
         );
     }
-    let pixels = film.mean();
+    let noisy = film.mean();
+    let (pixels, denoise_s) = match denoiser {
+        Some(d) => {
+            let aovs = film
+                .aovs
+                .as_ref()
+                .context("the render has no AOVs to guide the denoiser")?;
+            let (albedo, normal) = (aovs.albedo(), aovs.normal());
+            let t = Instant::now();
+            let guides = pathwave::denoise::Guides {
+                albedo: Some(&albedo),
+                normal: Some(&normal),
+                clean: false,
+            };
+            let denoised = d.denoise(film.width, film.height, &noisy, guides)?;
+            (denoised, Some(t.elapsed().as_secs_f64()))
+        }
+        None => (noisy.clone(), None),
+    };
     let meta = match &film.exact {
         Some(exact) => Some(film_cli::film_meta(
             renderer,
@@ -663,10 +694,11 @@ fn render_and_write(
         None => None,
     };
     let film_stats = (film.exact.as_ref().zip(meta.as_ref())).map(|(film, meta)| output::Stats { film, meta });
-    let written = write_outputs(args, shot, &film, &pixels, film_stats)?;
+    let written = write_outputs(args, shot, &film, &pixels, &noisy, film_stats)?;
     let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    let denoised = denoise_s.map_or(String::new(), |s| format!(", denoised in {s:.2} s"));
     eprintln!(
-        "{} {}x{} {} spp on {device}: wall {:.2} s, render {}",
+        "{} {}x{} {} spp on {device}: wall {:.2} s, render {}{denoised}",
         names.join(", "),
         film.width,
         film.height,
@@ -701,10 +733,14 @@ fn write_outputs(
     shot: &Shot,
     film: &pathwave::Film,
     pixels: &[[f32; 3]],
+    noisy: &[[f32; 3]],
     stats: Option<output::Stats>,
 ) -> Result<Vec<PathBuf>> {
     use output::{Content, OutFile};
-    let source = output::AovSource { film, noisy: None };
+    let source = output::AovSource {
+        film,
+        noisy: Some(noisy),
+    };
     let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
     let aovs = args.aovs();
     let mut layers = Vec::new();
