@@ -21,7 +21,7 @@ void main() {
             pass = exact_load_slot(i);
         } else {
             for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-                dropped += exact_add(pass, path_get(PATH_RADIANCE, path).rgb);
+                if (sample_taken(pixel, path_sample(path))) dropped += exact_add(pass, path_get(PATH_RADIANCE, path).rgb);
             }
         }
         ExactSums sums = exact_load_film(pixel);
@@ -36,7 +36,7 @@ void main() {
         vec4 sum = film[pixel];
         vec4 sum_sq = film[pixels + pixel];
         for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-            dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
+            if (sample_taken(pixel, path_sample(path))) dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
         }
         film[pixel] = sum;
         film[pixels + pixel] = sum_sq;

@@ -24,6 +24,11 @@ void main() {
     if (i < frame.pass_pixels) {
         // Slots path, path + pass_pixels, ...: this pixel's samples in order (layout.glsl's path_pixel, path_sample).
         uint pixel = path_pixel(i);
+        if (scene_has(FEATURE_ADAPTIVE)) {
+            // The pixel's samples end at its budget: its rows beyond it are not taken.
+            uint b = budget[pixel];
+            end = min(rows, b > frame.sample_index ? b - frame.sample_index : 0u) * frame.pass_pixels;
+        }
         uvec2 xy = pixel_xy(pixel);
         // The sample of slot path, path_sample(path), kept as it advances: a division is eight scalar divides here.
         uint s = path_sample(path);

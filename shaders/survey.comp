@@ -25,6 +25,7 @@ void main() {
     uint path = i + survey_row() * frame.pass_pixels;
     uint pixel = path_pixel(path);
     uint s = path_sample(path);
+    if (!sample_taken(pixel, s)) return;
     PathVertex v = start_path(pixel_xy(pixel), pixel, s);
     vec3 through = vec3(1.0); // what the specular bounces so far pass on
     vec3 albedo = vec3(0.0);

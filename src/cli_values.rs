@@ -253,3 +253,22 @@ pub fn parse_aovs(s: &str) -> Result<AovList, String> {
     }
     Ok(AovList(list))
 }
+
+/// --noise-threshold: a relative standard error, above 0 (nothing would ever stop) and at most 1 (a mean as
+/// uncertain as itself).
+pub fn parse_noise_threshold(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(t) if t.is_finite() && t > 0.0 && t <= 1.0 => Ok(t),
+        Ok(t) => Err(format!("{t} is not within (0, 1]")),
+        Err(_) => Err(format!("'{s}' is not a number")),
+    }
+}
+
+/// --min-spp: the pilot every pixel takes; two at least, for a variance.
+pub fn parse_min_spp(s: &str) -> Result<u32, String> {
+    let n = at_most(s, SPP_LIMIT)?;
+    if n < 2 {
+        return Err("the pilot needs at least 2 samples (a variance)".into());
+    }
+    Ok(n)
+}

@@ -34,31 +34,34 @@ pub const BINDING_INSTANCES: u32 = 20;
 /// The AOVs' running sums (`AovSums`, one per pixel), which the survey stage adds each sample's to; a stand-in where
 /// the render asks for none.
 pub const BINDING_AOVS: u32 = 21;
+/// Adaptive sampling (FEATURE_ADAPTIVE): per pixel the sample index below which it takes samples (plan.comp writes
+/// it after the pilot; all ones before), then the largest of them; a stand-in where the render is not adaptive.
+pub const BINDING_BUDGET: u32 = 22;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 22;
-pub const BINDING_NODE_TEXELS: u32 = 22;
-pub const BINDING_TRI_TEXELS: u32 = 23;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 24;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 25;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 26;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 27;
+pub const BINDING_FIRST_TEXEL: u32 = 23;
+pub const BINDING_NODE_TEXELS: u32 = 23;
+pub const BINDING_TRI_TEXELS: u32 = 24;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 25;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 26;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 27;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 28;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 28;
+pub const BINDING_IMAGE_TEXELS: u32 = 29;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 29;
+pub const BINDING_PATH_TEXELS: u32 = 30;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 30;
+pub const BINDING_MATERIAL_TEXELS: u32 = 31;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 31;
+pub const BINDING_LIGHT_TEXELS: u32 = 32;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
-pub const BINDING_MOTION_TEXELS: u32 = 32;
-pub const BINDING_COUNT: u32 = 33;
+pub const BINDING_MOTION_TEXELS: u32 = 33;
+pub const BINDING_COUNT: u32 = 34;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -156,6 +159,8 @@ pub const FLAG_EXACT_FILM: u32 = 256;
 /// The render keeps AOVs: after each pass the host runs survey over its sample rows (read by the host only, and left
 /// out of a film file's frame fingerprint: AOVs do not change the samples).
 pub const FLAG_AOVS: u32 = 512;
+/// The render samples adaptively (FEATURE_ADAPTIVE): the host reads this flag to specialise the render stages.
+pub const FLAG_ADAPTIVE: u32 = 1024;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -205,6 +210,12 @@ pub const FEATURE_DIFFUSE_TRANSMISSION: u32 = 16384;
 /// samples are split (--film-stats, --samples, --part). A render setting, like FEATURE_LENS; renders without it keep
 /// the float film and its speed.
 pub const FEATURE_EXACT_FILM: u32 = 32768;
+/// Adaptive sampling (--adaptive): a pixel takes sample s only while s is below its budget (BINDING_BUDGET), which
+/// plan.comp sets from the pilot samples of its neighbours. A render setting; renders without it keep their speed.
+pub const FEATURE_ADAPTIVE: u32 = 65536;
+/// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
+/// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
+pub const ADAPTIVE_EPSILON: f32 = 0.01;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;

@@ -249,7 +249,8 @@ pub struct Counters {
     pub follow_cut: u32,
     pub nonfinite: u32,
     pub stage_cut: u32,
-    pub pad0: u32,
+    /// The largest budget plan.comp set (adaptive sampling): where the render can end.
+    pub budget_max: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -395,6 +396,17 @@ impl Frame {
     /// survey over sample row `row` of the pass (slots row * pass_pixels + pixel): `bounce` holds the row.
     pub fn survey_row(&self, row: u32) -> Frame {
         Frame { bounce: row, ..*self }
+    }
+
+    /// plan after a pilot of `pilot` samples per pixel: the relative standard error to reach, and the sample index
+    /// the render ends at (`bounce`, `env_prob` and `path_count` hold them).
+    pub fn plan(&self, pilot: u32, threshold: f32, end: u32) -> Frame {
+        Frame {
+            bounce: pilot,
+            env_prob: threshold,
+            path_count: end,
+            ..*self
+        }
     }
 
     /// A fused pass: follow keeps each pixel's running film sums, which accumulate copies (FLAG_FUSED_SUMS).

@@ -17,6 +17,6 @@ pub mod vk;
 
 pub use error::Error;
 pub use render::{
-    BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, RendererOptions, Schedule, Session,
+    Adaptive, BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, RendererOptions, Schedule, Session,
 };
 pub use scene::Scene;

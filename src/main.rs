@@ -339,6 +339,17 @@ struct RenderArgs {
     /// package (`pip install pyoidn`). --aov beauty-noisy keeps the image before denoising.
     #[arg(long, conflicts_with_all = ["film_stats", "samples", "part"])]
     denoise: bool,
+    /// Adaptive sampling: after --min-spp samples of every pixel, each pixel takes only the samples its mean needs for
+    /// a relative standard error of --noise-threshold (as its neighbours' first samples estimate it), at most --spp.
+    /// The image stays unbiased (README, "Adaptive sampling"); --aov sample-count shows where the samples went.
+    #[arg(long)]
+    adaptive: bool,
+    /// With --adaptive: the relative standard error of a pixel's mean to reach, in (0, 1].
+    #[arg(long, default_value = "0.01", value_parser = parse_noise_threshold, requires = "adaptive", allow_hyphen_values = true)]
+    noise_threshold: f32,
+    /// With --adaptive: the samples every pixel takes first (the pilot its neighbours' budgets are planned from).
+    #[arg(long, default_value = "16", value_parser = parse_min_spp, requires = "adaptive", allow_hyphen_values = true)]
+    min_spp: u32,
 }
 
 /// One image a render writes: which frame (None: not a sequence), at what time, into which files.
@@ -416,6 +427,13 @@ impl RenderArgs {
             ("env-intensity", c.env.env_intensity.to_string()),
             ("env-rotation", c.env.env_rotation.to_string()),
             ("hide-env", c.env.hide_env.to_string()),
+            (
+                "adaptive",
+                match self.adaptive {
+                    true => format!("threshold {} after {} spp", self.noise_threshold, self.min_spp),
+                    false => "off".into(),
+                },
+            ),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
@@ -544,6 +562,10 @@ fn render(args: RenderArgs) -> Result<()> {
         first_sample,
         exact_film: args.film_stats(),
         aovs: args.denoise || args.aovs().iter().any(|a| a.surveyed()),
+        adaptive: args.adaptive.then_some(pathwave::Adaptive {
+            threshold: args.noise_threshold,
+            pilot: args.min_spp,
+        }),
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
         ..args.common.settings()
@@ -654,10 +676,10 @@ fn render_and_write(
     for w in &renderer.warnings[warned..] {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
-    if film.spp == 0 {
+    if film.spp == 0 && stats.interrupted {
         bail!("interrupted before the first pass ended: no samples, nothing written");
     }
-    if film.spp < settings.spp && shot.frame.is_some() {
+    if stats.interrupted && shot.frame.is_some() {
         bail!(
             "interrupted with {} of {} samples per pixel; the frame is not written, so --resume renders it again",
             film.spp,
@@ -706,7 +728,7 @@ fn render_and_write(
         start.elapsed().as_secs_f64(),
         stats.summary()
     );
-    if film.spp < settings.spp {
+    if stats.interrupted {
         let (a, done, b) = (
             settings.first_sample,
             settings.first_sample + film.spp,

@@ -59,7 +59,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(MotionKey => "MotionKey", [v0, e1, e2, n0, n1, n2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
-        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, pad0, pad1, pad2]),
+        mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, budget_max, pad1, pad2]),
         mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, pad1, pad2, t, tri, uv]),
         mirror!(GpuInstance => "Instance", [world0, world1, world2, object0, object1, object2, info]),
         mirror!(AovSums => "AovSums", [albedo, normal, position, ids]),

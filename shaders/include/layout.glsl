@@ -146,7 +146,7 @@ struct Counters {
     uint follow_cut;
     uint nonfinite;
     uint stage_cut; // wavefront stage invocations whose loops lavapipe's loop budget cut (check_loop_budget)
-    uint pad0;
+    uint budget_max; // the largest budget plan.comp set (adaptive sampling)
     uint pad1;
     uint pad2;
 };
@@ -272,6 +272,10 @@ uint probe_dimension() { return frame.max_depth; }
 uint follow_first_row() { return frame.bounce; }
 // survey's sample row (Frame::survey_row).
 uint survey_row() { return frame.bounce; }
+// plan's parameters (Frame::plan): the pilot's samples per pixel, the noise threshold, the render's sample end.
+uint plan_pilot() { return frame.bounce; }
+float plan_threshold() { return frame.env_prob; }
+uint plan_end() { return frame.path_count; }
 // Microfacet energy tables (see ENERGY_* in src/constants.rs); written once at start-up by energy_tables.comp.
 layout(std430, set = 0, binding = BINDING_ENERGY) buffer Energy { float energy[]; };
 // Environment: rgba texels (w unused) row by row from the top (+y), then the marginal cdf over rows
@@ -298,6 +302,12 @@ struct AovSums {
     uvec4 ids;
 };
 layout(std430, set = 0, binding = BINDING_AOVS) buffer AovBuf { AovSums aovs[]; };
+// Adaptive sampling's budgets: per pixel the sample index it samples below.
+layout(std430, set = 0, binding = BINDING_BUDGET) buffer BudgetBuf { uint budget[]; };
+// Whether pixel takes sample s: always, unless the render is adaptive and s is past the pixel's budget.
+bool sample_taken(uint pixel, uint s) {
+    return !scene_has(FEATURE_ADAPTIVE) || s < budget[pixel];
+}
 
 // Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.

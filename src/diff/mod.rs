@@ -85,7 +85,7 @@ const SD_FLOOR_REL: f64 = 1e-5;
 /// The same for values near zero, relative to the image's mean magnitude.
 const SD_FLOOR_SCALE: f64 = 1e-9;
 /// relMSE's epsilon: keeps near-black reference pixels from dominating the mean (on linear radiance).
-pub const REL_MSE_EPSILON: f64 = 1e-2;
+pub const REL_MSE_EPSILON: f64 = crate::constants::ADAPTIVE_EPSILON as f64;
 const CHANNEL_NAMES: [&str; 3] = ["R", "G", "B"];
 
 /// A render with statistics: per pixel and channel the sample mean and unbiased per-sample variance, per pixel the

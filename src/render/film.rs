@@ -195,8 +195,13 @@ impl Film {
         if let Some(exact) = &self.exact {
             return exact.mean();
         }
-        let inv = 1.0 / self.spp.max(1) as f32;
-        self.sum.iter().map(|s| [s[0] * inv, s[1] * inv, s[2] * inv]).collect()
+        // Each pixel by its own count (w), which adaptive sampling makes differ; f32 counts are exact to 2^24.
+        (self.sum.iter())
+            .map(|s| {
+                let inv = 1.0 / s[3].max(1.0);
+                [s[0] * inv, s[1] * inv, s[2] * inv]
+            })
+            .collect()
     }
 
     /// Samples each pixel holds.
@@ -221,11 +226,11 @@ impl Film {
         if let Some(exact) = &self.exact {
             return exact.sample_variance().iter().map(|v| v.map(|c| c as f32)).collect();
         }
-        let n = self.spp as f64;
         self.sum
             .iter()
             .zip(&self.sum_sq)
             .map(|(s, q)| {
+                let n = s[3] as f64;
                 std::array::from_fn(|c| {
                     if n < 2.0 {
                         return 0.0;
@@ -252,6 +257,8 @@ pub struct RenderStats {
     /// GPU time per stage in milliseconds, over all passes but the first (or the first, when it is the only one).
     pub stage_ms: Vec<(&'static str, f64)>,
     pub(super) first_pass_stage_ms: Vec<(&'static str, f64)>,
+    /// The render stopped (`render_until`'s flag) before the samples it meant to take.
+    pub interrupted: bool,
 }
 
 impl RenderStats {

@@ -103,16 +103,45 @@ impl Recorder<'_> {
 }
 
 impl Renderer {
+    /// The FEATURE_* bits the render stages are specialised for: the scene's, and the render settings' in `frame`.
+    pub(super) fn render_features(&self, frame: &Frame) -> u32 {
+        let lens = if frame.aperture() > 0.0 { FEATURE_LENS } else { 0 };
+        let flag = |bit: u32, feature: u32| if frame.flags & bit != 0 { feature } else { 0 };
+        let exact = flag(FLAG_EXACT_FILM, FEATURE_EXACT_FILM);
+        let adaptive = flag(FLAG_ADAPTIVE, FEATURE_ADAPTIVE);
+        self.scene.features | lens | exact | adaptive
+    }
+
+    /// Adaptive sampling's budgets from the film, which holds exactly `pilot` samples of every pixel: each pixel's
+    /// from its neighbours' (plan.comp). Returns the largest budget, where the render can end.
+    pub(super) fn plan(
+        &mut self,
+        frame: &Frame,
+        counters: &Buffer,
+        pilot: u32,
+        threshold: f32,
+        end: u32,
+    ) -> Result<u32, Error> {
+        self.kernels.set_features(self.render_features(frame));
+        let k = self.kernels.plan(&self.ctx)?;
+        let f = frame.plan(pilot, threshold, end);
+        let Renderer {
+            ctx,
+            kernels,
+            timestamps,
+            ..
+        } = self;
+        record(ctx, kernels, timestamps, counters, true, |rec| {
+            rec.run(k, &f, f.width * f.height);
+        })?;
+        let c: Counters = counters.download(ctx)?[0];
+        Ok(c.budget_max)
+    }
+
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce: the fused schedule in one
     /// submission, the wavefront in batches of bounces that end once no path is left.
     pub(super) fn pass(&mut self, frame: &Frame, counters: &Buffer, schedule: Schedule) -> Result<(), Error> {
-        let lens = if frame.aperture() > 0.0 { FEATURE_LENS } else { 0 };
-        let exact = if frame.flags & FLAG_EXACT_FILM != 0 {
-            FEATURE_EXACT_FILM
-        } else {
-            0
-        };
-        self.kernels.set_features(self.scene.features | lens | exact);
+        self.kernels.set_features(self.render_features(frame));
         let variant = self.scene_variant();
         let follow_rows = self.follow.rows;
         let survey = match frame.flags & FLAG_AOVS != 0 {

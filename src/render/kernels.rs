@@ -19,6 +19,7 @@ pub enum Stage {
     Accumulate,
     Follow,
     Survey,
+    Plan,
     Tonemap,
     EnergyTables,
     SheenTable,
@@ -32,7 +33,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 18] = [
+    pub const ALL: [Stage; 19] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -41,6 +42,7 @@ impl Stage {
         Stage::Accumulate,
         Stage::Follow,
         Stage::Survey,
+        Stage::Plan,
         Stage::Tonemap,
         Stage::EnergyTables,
         Stage::SheenTable,
@@ -64,6 +66,7 @@ impl Stage {
             Stage::Accumulate => "accumulate",
             Stage::Follow => "follow",
             Stage::Survey => "survey",
+            Stage::Plan => "plan",
             Stage::Tonemap => "tonemap",
             Stage::EnergyTables => "energy_tables",
             Stage::SheenTable => "sheen_table",
@@ -102,6 +105,7 @@ impl Stage {
                 | Stage::Accumulate
                 | Stage::Follow
                 | Stage::Survey
+                | Stage::Plan
         )
     }
 
@@ -349,6 +353,11 @@ impl Kernels {
     /// The AOV stage for this scene.
     pub fn survey(&mut self, ctx: &Context, scene: SceneVariant) -> Result<Built, Error> {
         self.get(ctx, Kernel::for_scene(Stage::Survey, scene))
+    }
+
+    /// Adaptive sampling's planning stage.
+    pub fn plan(&mut self, ctx: &Context) -> Result<Built, Error> {
+        self.get(ctx, Kernel::of(Stage::Plan))
     }
 
     /// Replaces a kernel's SPIR-V (a user's shader) and builds it now, so a bad one fails here.

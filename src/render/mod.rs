@@ -18,7 +18,7 @@ pub use gpu_scene::BvhReads;
 pub use probes::{BsdfProbe, BsdfQuery};
 pub use schedule::Schedule;
 pub use session::Session;
-pub use settings::{Estimator, RenderSettings, RendererOptions, DEPTH_SAFETY_CAP};
+pub use settings::{Adaptive, Estimator, RenderSettings, RendererOptions, DEPTH_SAFETY_CAP};
 
 use crate::constants::*;
 use crate::error::Error;
@@ -42,7 +42,7 @@ struct StandIns {
 
 impl StandIns {
     /// The bindings a session, a probe or the tone map fills in, and the energy tables while they are being built.
-    const BINDINGS: [u32; 8] = [
+    const BINDINGS: [u32; 9] = [
         BINDING_PATHS,
         BINDING_QUEUES,
         BINDING_COUNTERS,
@@ -51,6 +51,7 @@ impl StandIns {
         BINDING_ENERGY,
         BINDING_TONEMAP_OUT,
         BINDING_AOVS,
+        BINDING_BUDGET,
     ];
 
     fn new(ctx: &Context) -> Result<Self, Error> {

@@ -26,6 +26,10 @@ pub struct Session {
     film: Buffer,
     /// The AOVs' sums (`AovSums` per pixel), when the settings ask for AOVs.
     aovs: Option<Buffer>,
+    /// Adaptive sampling's budgets (a u32 per pixel), when the settings ask for it.
+    budget: Option<Buffer>,
+    /// Once the budgets are planned, the sample index past every pixel's budget: the render ends there.
+    planned_end: Option<u32>,
     /// Samples per pixel accumulated so far.
     pub done: u32,
     /// Tallies since the last (re)start.
@@ -43,7 +47,18 @@ impl Session {
             (BINDING_FILM, &self.film),
         ];
         b.extend(self.aovs.as_ref().map(|a| (BINDING_AOVS, a)));
+        b.extend(self.budget.as_ref().map(|a| (BINDING_BUDGET, a)));
         b
+    }
+
+    /// Samples per pixel the render takes: the settings', or fewer where adaptive sampling planned every pixel's
+    /// budget below them.
+    pub fn target(&self) -> u32 {
+        let s = &self.settings;
+        match self.planned_end {
+            Some(end) => end.saturating_sub(s.first_sample).min(s.spp),
+            None => s.spp,
+        }
     }
 
     pub(super) fn texel_views(&self) -> &[(u32, vk::BufferView)] {
@@ -80,13 +95,18 @@ impl Renderer {
         stop: &AtomicBool,
     ) -> Result<(Film, RenderStats), Error> {
         let mut session = self.begin(settings)?;
-        while session.done < settings.spp && !stop.load(Ordering::Relaxed) {
-            let remaining = settings.spp - session.done;
+        while session.done < session.target() && !stop.load(Ordering::Relaxed) {
+            let remaining = session.target() - session.done;
             self.advance(&mut session, remaining)?;
             progress(session.done);
         }
         let film = self.film(&session)?;
         let mut stats = std::mem::take(&mut session.stats);
+        if settings.adaptive.is_some() {
+            // Passes count every pixel's samples; adaptive ones take fewer.
+            stats.samples = film.sample_count().iter().map(|&n| n as u64).sum();
+        }
+        stats.interrupted = session.done < session.target();
         stats.wall = session.started.elapsed();
         if stats.passes == 1 {
             stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
@@ -147,6 +167,16 @@ impl Renderer {
             true => Some(Buffer::new(ctx, "aovs", aov_bytes, storage, MemoryLocation::GpuOnly)?),
             false => None,
         };
+        let budget = match s.adaptive {
+            Some(_) => Some(Buffer::new(
+                ctx,
+                "budgets",
+                pixels * 4,
+                storage,
+                MemoryLocation::GpuOnly,
+            )?),
+            None => None,
+        };
         let mut session = Session {
             settings: s.clone(),
             frame: Frame::default(),
@@ -158,6 +188,8 @@ impl Renderer {
             counters,
             film,
             aovs,
+            budget,
+            planned_end: None,
             done: 0,
             stats: RenderStats::default(),
             started: Instant::now(),
@@ -191,18 +223,80 @@ impl Renderer {
         session.done = 0;
         session.stats = RenderStats::default();
         session.started = Instant::now();
-        let (ctx, film, aovs) = (&self.ctx, &session.film, &session.aovs);
+        session.planned_end = None;
+        let (ctx, film, aovs, budget) = (&self.ctx, &session.film, &session.aovs, &session.budget);
         ctx.submit_and_wait(|cmd| unsafe {
             ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0);
             if let Some(a) = aovs {
                 ctx.device.cmd_fill_buffer(cmd, a.raw, 0, vk::WHOLE_SIZE, 0);
+            }
+            // Every sample is taken until the budgets are planned.
+            if let Some(b) = budget {
+                ctx.device.cmd_fill_buffer(cmd, b.raw, 0, vk::WHOLE_SIZE, u32::MAX);
             }
         })
     }
 
     /// Runs one pass: up to `samples` more samples per pixel (as many as fit in flight; one when the image must be
     /// covered in chunks). Returns how many were added.
+    ///
+    /// Adaptive sampling plans the budgets once the film holds the pilot: a pass ends there. A render that starts
+    /// past sample 0 (`--samples`, `--part`) renders the pilot first, plans from it and clears the film, so it takes
+    /// the very samples a render from 0 takes there, and their parts merge to its bits.
     pub fn advance(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
+        let Some(a) = session.settings.adaptive else {
+            return self.advance_pass(session, samples);
+        };
+        let first = session.settings.first_sample;
+        let end = first.saturating_add(session.settings.spp);
+        if session.planned_end.is_none() && first > 0 && session.done == 0 && end > a.pilot {
+            self.pilot(session, a)?;
+        }
+        let next = first + session.done;
+        let samples = match session.planned_end {
+            None if next < a.pilot => samples.min(a.pilot - next),
+            _ => samples,
+        };
+        let added = self.advance_pass(session, samples)?;
+        if session.planned_end.is_none() && first == 0 && session.done == a.pilot {
+            self.bind(&session.bindings(), session.texel_views());
+            let budget_max = self.plan(&session.frame, &session.counters, a.pilot, a.threshold, end)?;
+            session.planned_end = Some(budget_max);
+            self.check_validation()?;
+        }
+        Ok(added)
+    }
+
+    /// The pilot of a render that starts past sample 0: samples 0..pilot into the film, the budgets planned from
+    /// them, and the film (and AOVs) cleared again.
+    fn pilot(&mut self, session: &mut Session, a: super::Adaptive) -> Result<(), Error> {
+        let first = session.settings.first_sample;
+        session.settings.first_sample = 0;
+        let result = (|| {
+            while session.done < a.pilot {
+                self.advance_pass(session, a.pilot - session.done)?;
+            }
+            self.bind(&session.bindings(), session.texel_views());
+            let end = first.saturating_add(session.settings.spp);
+            self.plan(&session.frame, &session.counters, a.pilot, a.threshold, end)
+        })();
+        session.settings.first_sample = first;
+        session.done = 0;
+        let budget_max = result?;
+        session.planned_end = Some(budget_max);
+        // The pilot's samples leave the film (its work stays in the tallies).
+        let (ctx, film, aovs) = (&self.ctx, &session.film, &session.aovs);
+        ctx.submit_and_wait(|cmd| unsafe {
+            ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0);
+            if let Some(a) = aovs {
+                ctx.device.cmd_fill_buffer(cmd, a.raw, 0, vk::WHOLE_SIZE, 0);
+            }
+        })?;
+        self.check_validation()
+    }
+
+    /// One pass of `advance`, adaptive or not.
+    fn advance_pass(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
         self.bind(&session.bindings(), session.texel_views());
         let (pixels, capacity) = (session.pixels, session.capacity);
         let mut frame = session.frame;
@@ -249,7 +343,13 @@ impl Renderer {
     pub fn film(&self, session: &Session) -> Result<Film, Error> {
         let s = &session.settings;
         let pixels = session.pixels as usize;
-        let samples = s.first_sample..s.first_sample + session.done;
+        // An adaptive render that took every sample its budgets allow holds its whole range: the samples past the
+        // budgets are ones no pixel takes.
+        let done = match s.adaptive.is_some() && session.done == session.target() {
+            true => s.spp,
+            false => session.done,
+        };
+        let samples = s.first_sample..s.first_sample + done;
         let aovs = match &session.aovs {
             Some(buffer) => {
                 let sums: Vec<AovSums> = buffer.download(&self.ctx)?;
@@ -274,7 +374,7 @@ impl Renderer {
         Ok(Film {
             width: s.width,
             height: s.height,
-            spp: session.done,
+            spp: done,
             sum: sum.to_vec(),
             sum_sq: sum_sq[..pixels].to_vec(),
             exact: None,
@@ -326,7 +426,8 @@ impl Renderer {
                 )
                 | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC)
                 | flag(s.exact_film, FLAG_EXACT_FILM)
-                | flag(s.aovs, FLAG_AOVS),
+                | flag(s.aovs, FLAG_AOVS)
+                | flag(s.adaptive.is_some(), FLAG_ADAPTIVE),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)

@@ -55,6 +55,17 @@ pub struct RenderSettings {
     pub exact_film: bool,
     /// Survey the AOVs (albedo, normal, depth, position, ids) over the same samples as the image: `Film::aovs`.
     pub aovs: bool,
+    /// Sample adaptively: pixels stop once their mean is estimated to be within the threshold.
+    pub adaptive: Option<Adaptive>,
+}
+
+/// Adaptive sampling (FEATURE_ADAPTIVE): every pixel takes the first `pilot` samples; then each pixel's budget is the
+/// samples its mean needs for a relative standard error of `threshold`, as its eight neighbours' pilot samples
+/// estimate it (plan.comp), at most the render's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    pub threshold: f32,
+    pub pilot: u32,
 }
 
 impl Default for RenderSettings {
@@ -73,6 +84,7 @@ impl Default for RenderSettings {
             first_sample: 0,
             exact_film: false,
             aovs: false,
+            adaptive: None,
         }
     }
 }
@@ -174,6 +186,15 @@ impl RenderSettings {
                 self.first_sample as u64 + self.spp as u64,
                 u32::MAX
             )));
+        }
+        if let Some(a) = self.adaptive {
+            if a.pilot < 2 || !(a.threshold.is_finite() && a.threshold > 0.0) {
+                return Err(Error::Settings(format!(
+                    "adaptive sampling needs a pilot of at least 2 samples (a variance) and a noise threshold above \
+                     0; got {} and {}",
+                    a.pilot, a.threshold
+                )));
+            }
         }
         if !(self.aperture.is_finite() && self.aperture >= 0.0)
             || self.focus_distance.is_some_and(|f| !(f.is_finite() && f > 0.0))
