@@ -7,6 +7,8 @@
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
 #include "path.glsl"
+// The traversal-cost debug view counts the child boxes the camera ray tests.
+#define TRAVERSE_COUNT_NODES
 #include "traverse.glsl"
 
 // Whether the lobe bsdf_sample chose with lobe-choice number u_lobe is a specular one (the glass, the coat and metal,
@@ -32,10 +34,13 @@ void main() {
     vec3 normal = vec3(0.0);
     vec4 first = vec4(0.0); // the first hit's position and distance
     uvec2 ids = uvec2(AOV_NONE);
+    DebugSums debug = DebugSums(vec4(0.0), vec4(0.0), vec4(0.0));
     bool open = true;       // still looking for a rough surface
     for (uint bounce = 0u; bounce < AOV_MAX_BOUNCES && open; bounce++) {
         Hit h = trace(v.origin.xyz, v.dir, 0.0, 3.0e38, false, ray_key(pixel, s, bounce, DIM_ALPHA));
+        if (bounce == 0u) debug.geometric.w = float(traverse_node_visits);
         if (h.tri == NO_HIT) {
+            if (bounce == 0u && scene_has(FEATURE_ENV) && frame.env_width > 0u) debug.shading.w = frame.env_prob;
             // The environment seen, within [0, 1], stands for the albedo of what is not there (the normal stays zero,
             // Open Image Denoise's "no surface").
             bool hidden = bounce == 0u && (frame.flags & FLAG_HIDE_ENV) != 0u;
@@ -52,6 +57,14 @@ void main() {
             uint instance = floatBitsToUint(sf.ts.n2.w);
             if (scene_has(FEATURE_INSTANCES) && h.inst != NO_INSTANCE) instance = instances[h.inst].info.z;
             ids = uvec2(instance, floatBitsToUint(sf.tv.v0.w));
+            debug.geometric.xyz = sf.n_in;
+            debug.shading.xyz = sf.ns;
+            // An emitter's pdf per unit area times its area: its share of the light table.
+            debug.shading.w = sf.ts.n0.w * sf.ts.n1.w;
+#ifdef TEXTURED
+            TriTexcoords tc = load_tri_texcoords(h.tri);
+            debug.uv.xy = ((1.0 - h.uv.x - h.uv.y) * tc.t0 + h.uv.x * tc.t1 + h.uv.y * tc.t2).xy;
+#endif
         }
         normal = sf.ns;
         if (scene_has(FEATURE_UNLIT) && (floatBitsToUint(sf.m.alpha.w) & MATERIAL_UNLIT) != 0u) {
@@ -96,5 +109,12 @@ void main() {
     a.normal += vec4(normal, hit ? 1.0 : 0.0);
     a.position += first;
     aovs[at] = a;
+    if ((frame.flags & FLAG_DEBUG_AOVS) != 0u) {
+        DebugSums d = debug_aovs[at];
+        d.geometric += debug.geometric;
+        d.shading += debug.shading;
+        d.uv += debug.uv;
+        debug_aovs[at] = d;
+    }
     check_loop_budget();
 }

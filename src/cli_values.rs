@@ -272,3 +272,16 @@ pub fn parse_min_spp(s: &str) -> Result<u32, String> {
     }
     Ok(n)
 }
+
+/// `view --show`: one AOV the viewer can show (not those that need a film's statistics or a denoise).
+pub fn parse_view_aov(s: &str) -> Result<pathwave::output::Aov, String> {
+    use pathwave::output::Aov;
+    let AovList(list) = parse_aovs(s)?;
+    match list[..] {
+        [a] if a.surveyed() => Ok(a),
+        _ => {
+            let known: Vec<&str> = Aov::ALL.iter().filter(|a| a.surveyed()).map(|a| a.name()).collect();
+            Err(format!("'{s}': the viewer shows one of {}", known.join(", ")))
+        }
+    }
+}

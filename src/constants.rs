@@ -37,31 +37,34 @@ pub const BINDING_AOVS: u32 = 21;
 /// Adaptive sampling (FEATURE_ADAPTIVE): per pixel the sample index below which it takes samples (plan.comp writes
 /// it after the pilot; all ones before), then the largest of them; a stand-in where the render is not adaptive.
 pub const BINDING_BUDGET: u32 = 22;
+/// The debug views' running sums (`DebugSums`, one per pixel) survey adds when a render asks for one; a stand-in
+/// otherwise.
+pub const BINDING_DEBUG_AOVS: u32 = 23;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 23;
-pub const BINDING_NODE_TEXELS: u32 = 23;
-pub const BINDING_TRI_TEXELS: u32 = 24;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 25;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 26;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 27;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 28;
+pub const BINDING_FIRST_TEXEL: u32 = 24;
+pub const BINDING_NODE_TEXELS: u32 = 24;
+pub const BINDING_TRI_TEXELS: u32 = 25;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 26;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 27;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 28;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 29;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 29;
+pub const BINDING_IMAGE_TEXELS: u32 = 30;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 30;
+pub const BINDING_PATH_TEXELS: u32 = 31;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 31;
+pub const BINDING_MATERIAL_TEXELS: u32 = 32;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 32;
+pub const BINDING_LIGHT_TEXELS: u32 = 33;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
-pub const BINDING_MOTION_TEXELS: u32 = 33;
-pub const BINDING_COUNT: u32 = 34;
+pub const BINDING_MOTION_TEXELS: u32 = 34;
+pub const BINDING_COUNT: u32 = 35;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -161,6 +164,9 @@ pub const FLAG_EXACT_FILM: u32 = 256;
 pub const FLAG_AOVS: u32 = 512;
 /// The render samples adaptively (FEATURE_ADAPTIVE): the host reads this flag to specialise the render stages.
 pub const FLAG_ADAPTIVE: u32 = 1024;
+/// survey adds the debug views too (BINDING_DEBUG_AOVS); read by survey, and by the host, which leaves it out of a
+/// film file's frame fingerprint like FLAG_AOVS.
+pub const FLAG_DEBUG_AOVS: u32 = 2048;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both

@@ -317,6 +317,18 @@ pub struct AovSums {
     pub ids: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<AovSums>() == 64);
+
+/// 48 bytes: a pixel's debug-view sums (survey.comp, FLAG_DEBUG_AOVS): the first hit's geometric normal and the
+/// camera ray's traversal cost (child boxes tested), its shading normal and the chance next-event estimation picks
+/// the light it found, and its TEXCOORD_0. See `DebugSums` in layout.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct DebugSums {
+    pub geometric: [f32; 4],
+    pub shading: [f32; 4],
+    pub uv: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<DebugSums>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 736);

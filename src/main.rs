@@ -270,6 +270,13 @@ struct ViewArgs {
     /// Start with the animation playing (space toggles it).
     #[arg(long)]
     play: bool,
+    /// Start showing an AOV or debug view (G cycles them): albedo, normal, depth, geometric-normal, shading-normal,
+    /// uv, bvh-cost, light-pick.
+    #[arg(long, value_parser = parse_view_aov)]
+    show: Option<Aov>,
+    /// Start denoising the still image (Shift+D toggles it); Open Image Denoise as for `render --denoise`.
+    #[arg(long)]
+    denoise: bool,
 }
 
 #[derive(clap::Args)]
@@ -326,8 +333,9 @@ struct RenderArgs {
     #[arg(long)]
     film_stats: bool,
     /// Auxiliary images to write beside the image, comma-separated: albedo, normal (world space), depth (distance
-    /// along the camera ray), position, variance (of each pixel's mean), sample-count, instance-id, material-id, and
-    /// with --denoise beauty-noisy. An EXR output holds them as layers (albedo.R, normal.X, depth.Z, ...); a PNG
+    /// along the camera ray), position, variance (of each pixel's mean), sample-count, instance-id, material-id,
+    /// with --denoise beauty-noisy, and the debug views geometric-normal, shading-normal, uv, bvh-cost and
+    /// light-pick. An EXR output holds them as layers (albedo.R, normal.X, depth.Z, ...); a PNG
     /// output gets a file of each beside it (out.albedo.png).
     #[arg(long, value_parser = parse_aovs, allow_hyphen_values = true)]
     aov: Option<AovList>,
@@ -562,6 +570,7 @@ fn render(args: RenderArgs) -> Result<()> {
         first_sample,
         exact_film: args.film_stats(),
         aovs: args.denoise || args.aovs().iter().any(|a| a.surveyed()),
+        debug_aovs: args.aovs().iter().any(|a| a.debug()),
         adaptive: args.adaptive.then_some(pathwave::Adaptive {
             threshold: args.noise_threshold,
             pilot: args.min_spp,
@@ -838,6 +847,8 @@ fn view(args: ViewArgs) -> Result<()> {
         screenshot: args.screenshot,
         budget: std::time::Duration::from_millis(args.frame_budget_ms as u64),
         load: args.common.limits.options(args.common.camera),
+        show: args.show,
+        denoise: args.denoise,
     };
     pathwave::viewer::run(scene, options)?;
     Ok(())

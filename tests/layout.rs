@@ -1,8 +1,8 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
-    AovSums, BsdfRecord, BvhNode, Counters, EnvRecord, Frame, GpuInstance, GpuLight, GpuMaterial, GpuPunctual,
-    GpuTexture, MotionKey, TextureSlot, ToneMap, TraceRecord, TriColors, TriShading, TriTangents, TriTexcoords,
-    TriVerts,
+    AovSums, BsdfRecord, BvhNode, Counters, DebugSums, EnvRecord, Frame, GpuInstance, GpuLight, GpuMaterial,
+    GpuPunctual, GpuTexture, MotionKey, TextureSlot, ToneMap, TraceRecord, TriColors, TriShading, TriTangents,
+    TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
@@ -63,6 +63,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, pad1, pad2, t, tri, uv]),
         mirror!(GpuInstance => "Instance", [world0, world1, world2, object0, object1, object2, info]),
         mirror!(AovSums => "AovSums", [albedo, normal, position, ids]),
+        mirror!(DebugSums => "DebugSums", [geometric, shading, uv]),
         mirror!(BsdfRecord => "BsdfRecord", [wo, material, x, front, wi, pdf, weight, flags, eval, pdf_wi, eval_reverse, pad0]),
         mirror!(EnvRecord => "EnvRecord", [x, pdf, dir, pdf_dir, radiance, pad0]),
         mirror!(Frame => "Frame", [

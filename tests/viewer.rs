@@ -113,3 +113,82 @@ fn the_viewer_plays_an_animation() {
         .unwrap_or_else(|| panic!("no time in the viewer's summary: {log}"));
     assert!(t > 0.0, "the animation did not advance: {log}");
 }
+
+/// Catches: a view or the denoised image never made or never shown (the screenshot would be the noisy running mean),
+/// a view's image that is not the AOV (the shading-normal view of the box must hold its walls' normals), and device
+/// objects outliving the device at exit (a crash after the screenshot).
+#[test]
+fn the_viewer_shows_a_debug_view_and_the_denoised_image() {
+    if !xvfb_run() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scenes_dir().join("cornell-box.gltf");
+    let run = |mode: &[&str], shot: &Path| {
+        let o = pathwave("xvfb-run")
+            .args([
+                "-a",
+                "-s",
+                "-screen 0 640x480x24",
+                env!("CARGO_BIN_EXE_pathwave"),
+                "view",
+            ])
+            .arg(&scene)
+            .args(["--size", "64x48", "--screenshot"])
+            .arg(shot)
+            .args(if mode.contains(&"--frames") {
+                &[][..]
+            } else {
+                &["--frames", "8"][..]
+            })
+            .args(mode)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(o.status.success(), "{mode:?}: the viewer failed: {log}");
+        pathwave::output::read_exr(shot).unwrap().2
+    };
+    let normals = run(&["--show", "shading-normal"], &dir.path().join("normal.exr"));
+    // The screenshot holds the view's picture (n / 2 + 1/2 in 8-bit sRGB) decoded to linear: encoded again, every
+    // pixel is a unit normal (or zero: nothing hit) but where a pixel's samples straddle an edge.
+    let encode = pathwave::output::srgb_encode;
+    let decoded: Vec<[f32; 3]> = normals.iter().map(|p| p.map(|c| encode(c) * 2.0 - 1.0)).collect();
+    let length = |n: &[f32; 3]| n.iter().map(|c| c * c).sum::<f32>().sqrt();
+    let unit = decoded.iter().filter(|n| (length(n) - 1.0).abs() < 0.05).count();
+    let zero = decoded.iter().filter(|n| length(n) < 0.05).count();
+    assert!(
+        unit > decoded.len() / 2,
+        "only {unit} of {} shown normals are unit",
+        decoded.len()
+    );
+    // At 64x48 the box's dozen edges cross about 13 % of the pixels (87 % unit or zero when written).
+    assert!(
+        (unit + zero) * 5 > decoded.len() * 4,
+        "{unit} unit and {zero} zero normals of {}",
+        decoded.len()
+    );
+    let Ok(_) = pathwave::denoise::Denoiser::from_env() else {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "CI must have Open Image Denoise"
+        );
+        return;
+    };
+    // Two frames: few samples, so noise the denoiser removes rather than edges dominates the roughness.
+    let noisy = run(&["--frames", "2"], &dir.path().join("noisy.exr"));
+    let denoised = run(&["--frames", "2", "--denoise"], &dir.path().join("denoised.exr"));
+    let roughness = |v: &[[f32; 3]]| {
+        (v.windows(2))
+            .map(|p| (p[1][0].clamp(0.0, 1.0) - p[0][0].clamp(0.0, 1.0)).abs() as f64)
+            .sum::<f64>()
+    };
+    eprintln!(
+        "roughness: running mean {}, denoised {}",
+        roughness(&noisy),
+        roughness(&denoised)
+    );
+    assert!(
+        roughness(&denoised) * 2.0 < roughness(&noisy),
+        "the denoised view is no smoother than the running mean"
+    );
+}

@@ -302,6 +302,17 @@ struct AovSums {
     uvec4 ids;
 };
 layout(std430, set = 0, binding = BINDING_AOVS) buffer AovBuf { AovSums aovs[]; };
+// 48 bytes: a pixel's debug views, summed over the samples survey added (FLAG_DEBUG_AOVS) at each camera ray's first
+// hit: geometric: the geometric normal (xyz, facing the ray) and the child boxes traversal tested for the camera ray
+// (w, misses too); shading: the shading normal (xyz) and the chance next-event estimation picks the light the ray
+// found (w: an emitter's or the environment's share of the light table); uv: TEXCOORD_0 (xy; zero where the scene
+// keeps no texture coordinates), zw unused.
+struct DebugSums {
+    vec4 geometric;
+    vec4 shading;
+    vec4 uv;
+};
+layout(std430, set = 0, binding = BINDING_DEBUG_AOVS) buffer DebugBuf { DebugSums debug_aovs[]; };
 // Adaptive sampling's budgets: per pixel the sample index it samples below.
 layout(std430, set = 0, binding = BINDING_BUDGET) buffer BudgetBuf { uint budget[]; };
 // Whether pixel takes sample s: always, unless the render is adaptive and s is past the pixel's budget.

@@ -24,10 +24,20 @@ pub enum Aov {
     MaterialId,
     /// The image before denoising (with --denoise).
     BeautyNoisy,
+    /// Debug views, at each camera ray's first hit: the geometric normal (facing the ray),
+    GeometricNormal,
+    /// the shading normal,
+    ShadingNormal,
+    /// TEXCOORD_0,
+    Uv,
+    /// the BVH child boxes the camera ray tested,
+    BvhCost,
+    /// and the chance next-event estimation picks the light the ray found.
+    LightPick,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 9] = [
+    pub const ALL: [Aov; 14] = [
         Aov::Albedo,
         Aov::Normal,
         Aov::Depth,
@@ -37,6 +47,11 @@ impl Aov {
         Aov::InstanceId,
         Aov::MaterialId,
         Aov::BeautyNoisy,
+        Aov::GeometricNormal,
+        Aov::ShadingNormal,
+        Aov::Uv,
+        Aov::BvhCost,
+        Aov::LightPick,
     ];
 
     /// Its name on the command line, as an EXR layer and in a file of its own.
@@ -51,6 +66,11 @@ impl Aov {
             Aov::InstanceId => "instance-id",
             Aov::MaterialId => "material-id",
             Aov::BeautyNoisy => "beauty-noisy",
+            Aov::GeometricNormal => "geometric-normal",
+            Aov::ShadingNormal => "shading-normal",
+            Aov::Uv => "uv",
+            Aov::BvhCost => "bvh-cost",
+            Aov::LightPick => "light-pick",
         }
     }
 
@@ -63,12 +83,22 @@ impl Aov {
         !matches!(self, Aov::Variance | Aov::SampleCount | Aov::BeautyNoisy)
     }
 
+    /// Whether it is a debug view (`RenderSettings::debug_aovs`).
+    pub fn debug(self) -> bool {
+        matches!(
+            self,
+            Aov::GeometricNormal | Aov::ShadingNormal | Aov::Uv | Aov::BvhCost | Aov::LightPick
+        )
+    }
+
     /// Its channels' names within its layer.
     fn channel_names(self) -> &'static [&'static str] {
         match self {
             Aov::Albedo | Aov::Variance | Aov::BeautyNoisy => &["R", "G", "B"],
-            Aov::Normal | Aov::Position => &["X", "Y", "Z"],
+            Aov::Normal | Aov::Position | Aov::GeometricNormal | Aov::ShadingNormal => &["X", "Y", "Z"],
+            Aov::Uv => &["U", "V"],
             Aov::Depth => &["Z"],
+            Aov::BvhCost | Aov::LightPick => &["Y"],
             Aov::SampleCount => &["N"],
             Aov::InstanceId | Aov::MaterialId => &["ID"],
         }
@@ -120,8 +150,27 @@ impl AovSource<'_> {
                 samples: Samples::U32(v.iter().map(|i| i.unwrap_or(u32::MAX)).collect()),
             }]
         };
+        let scalar = |v: Vec<f32>| {
+            vec![Channel {
+                name: name(0),
+                samples: Samples::F32(v),
+            }]
+        };
         let aovs = self.film.aovs.as_ref();
         Some(match aov {
+            Aov::GeometricNormal => split3(aovs?.geometric_normal()?),
+            Aov::ShadingNormal => split3(aovs?.shading_normal()?),
+            Aov::Uv => {
+                let uv = aovs?.uv()?;
+                (0..2)
+                    .map(|c| Channel {
+                        name: name(c),
+                        samples: Samples::F32(uv.iter().map(|p| p[c]).collect()),
+                    })
+                    .collect()
+            }
+            Aov::BvhCost => scalar(aovs?.bvh_cost()?),
+            Aov::LightPick => scalar(aovs?.light_pick()?),
             Aov::Albedo => split3(aovs?.albedo()),
             Aov::Normal => split3(aovs?.normal()),
             Aov::Position => split3(aovs?.position()),
@@ -156,6 +205,20 @@ impl AovSource<'_> {
                 1.0,
             ),
             Aov::Normal => aovs?.normal().iter().map(|n| n.map(|c| byte(c * 0.5 + 0.5))).collect(),
+            Aov::GeometricNormal => (aovs?.geometric_normal()?.iter())
+                .map(|n| n.map(|c| byte(c * 0.5 + 0.5)))
+                .collect(),
+            Aov::ShadingNormal => (aovs?.shading_normal()?.iter())
+                .map(|n| n.map(|c| byte(c * 0.5 + 0.5)))
+                .collect(),
+            // The fractional parts, so a repeating texture's tiles show.
+            Aov::Uv => (aovs?.uv()?.iter())
+                .map(|t| [byte(t[0].rem_euclid(1.0)), byte(t[1].rem_euclid(1.0)), 0])
+                .collect(),
+            Aov::BvhCost => aovs?.bvh_cost()?.into_iter().map(cost_colour).collect(),
+            Aov::LightPick => (aovs?.light_pick()?.into_iter())
+                .map(|p| [byte(srgb_encode(p)); 3])
+                .collect(),
             Aov::Depth => {
                 let depth = aovs?.depth();
                 let (lo, hi) = finite_range(depth.iter().copied());
@@ -190,6 +253,18 @@ impl AovSource<'_> {
             Aov::MaterialId => aovs?.material_id().into_iter().map(id_colour).collect(),
         })
     }
+}
+
+/// Child boxes tested as false colour, blue (none) through green to red (BVH_COST_SCALE or more), as the bvh-cost
+/// example shader draws them.
+fn cost_colour(boxes: f32) -> [u8; 3] {
+    const BVH_COST_SCALE: f32 = 128.0;
+    let t = (boxes / BVH_COST_SCALE).clamp(0.0, 1.0);
+    let (r, g, b) = match t < 0.5 {
+        true => (0.0, 2.0 * t, 1.0 - 2.0 * t),
+        false => (2.0 * t - 1.0, 2.0 - 2.0 * t, 0.0),
+    };
+    [r, g, b].map(|c| (c * 255.0 + 0.5) as u8)
 }
 
 /// The smallest and largest finite values (0, 1 when there are none).

@@ -46,6 +46,15 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
+/// The inverse of `srgb_encode`.
+pub fn srgb_decode(x: f32) -> f32 {
+    if x <= 0.04045 {
+        x / 12.92
+    } else {
+        ((x + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 fn output_err(path: &Path, message: String) -> Error {
     Error::Output {
         path: path.to_path_buf(),

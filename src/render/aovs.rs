@@ -1,11 +1,13 @@
 //! The AOVs a render surveyed (survey.comp): each pixel's sums read back from the device, and the images they make.
 use crate::constants::AOV_NONE;
-use crate::layout::AovSums;
+use crate::layout::{AovSums, DebugSums};
 
 /// Per-pixel AOV sums over the same samples as the film, row 0 at the top.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Aovs {
     pub sums: Vec<AovSums>,
+    /// The debug views' sums, when the render asked for them (`RenderSettings::debug_aovs`).
+    pub debug: Option<Vec<DebugSums>>,
 }
 
 impl Aovs {
@@ -53,6 +55,50 @@ impl Aovs {
     /// The material index of that hit; None where it hit nothing.
     pub fn material_id(&self) -> Vec<Option<u32>> {
         self.sums.iter().map(|a| id(a.ids[1])).collect()
+    }
+
+    /// A debug view's per-sample mean (`pick` chooses from a pixel's DebugSums); None without debug views.
+    fn debug_mean<const N: usize>(&self, pick: impl Fn(&DebugSums) -> [f32; N]) -> Option<Vec<[f32; N]>> {
+        let debug = self.debug.as_ref()?;
+        Some(
+            (self.sums.iter().zip(debug))
+                .map(|(a, d)| {
+                    let n = a.albedo[3];
+                    pick(d).map(|v| if n > 0.0 { v / n } else { 0.0 })
+                })
+                .collect(),
+        )
+    }
+
+    /// The mean geometric normal at the camera rays' first hits (facing the rays; zero where they hit nothing).
+    pub fn geometric_normal(&self) -> Option<Vec<[f32; 3]>> {
+        self.debug_mean(|d| [d.geometric[0], d.geometric[1], d.geometric[2]])
+    }
+
+    /// The mean shading normal there (before any bounce, unlike `normal`).
+    pub fn shading_normal(&self) -> Option<Vec<[f32; 3]>> {
+        self.debug_mean(|d| [d.shading[0], d.shading[1], d.shading[2]])
+    }
+
+    /// The mean TEXCOORD_0 there (zero where the scene keeps no texture coordinates on the device: no textures).
+    pub fn uv(&self) -> Option<Vec<[f32; 2]>> {
+        self.debug_mean(|d| [d.uv[0], d.uv[1]])
+    }
+
+    /// The mean number of BVH child boxes a camera ray tested (four per node visited).
+    pub fn bvh_cost(&self) -> Option<Vec<f32>> {
+        Some(
+            self.debug_mean(|d| [d.geometric[3]])?
+                .into_iter()
+                .map(|[v]| v)
+                .collect(),
+        )
+    }
+
+    /// The mean chance next-event estimation picks the light a camera ray found (an emitter's share of the light
+    /// table, or the environment's; zero for everything else).
+    pub fn light_pick(&self) -> Option<Vec<f32>> {
+        Some(self.debug_mean(|d| [d.shading[3]])?.into_iter().map(|[v]| v).collect())
     }
 }
 

@@ -42,7 +42,7 @@ struct StandIns {
 
 impl StandIns {
     /// The bindings a session, a probe or the tone map fills in, and the energy tables while they are being built.
-    const BINDINGS: [u32; 9] = [
+    const BINDINGS: [u32; 10] = [
         BINDING_PATHS,
         BINDING_QUEUES,
         BINDING_COUNTERS,
@@ -52,6 +52,7 @@ impl StandIns {
         BINDING_TONEMAP_OUT,
         BINDING_AOVS,
         BINDING_BUDGET,
+        BINDING_DEBUG_AOVS,
     ];
 
     fn new(ctx: &Context) -> Result<Self, Error> {

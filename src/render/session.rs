@@ -4,7 +4,7 @@ use super::Aovs;
 use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{AovSums, Counters, Frame, FrameCamera};
+use crate::layout::{AovSums, Counters, DebugSums, Frame, FrameCamera};
 use crate::vk::{Buffer, TexelViews};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -26,6 +26,8 @@ pub struct Session {
     film: Buffer,
     /// The AOVs' sums (`AovSums` per pixel), when the settings ask for AOVs.
     aovs: Option<Buffer>,
+    /// The debug views' sums (`DebugSums` per pixel), when the settings ask for them.
+    debug: Option<Buffer>,
     /// Adaptive sampling's budgets (a u32 per pixel), when the settings ask for it.
     budget: Option<Buffer>,
     /// Once the budgets are planned, the sample index past every pixel's budget: the render ends there.
@@ -48,6 +50,7 @@ impl Session {
         ];
         b.extend(self.aovs.as_ref().map(|a| (BINDING_AOVS, a)));
         b.extend(self.budget.as_ref().map(|a| (BINDING_BUDGET, a)));
+        b.extend(self.debug.as_ref().map(|a| (BINDING_DEBUG_AOVS, a)));
         b
     }
 
@@ -156,7 +159,25 @@ impl Renderer {
         )?;
         let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
         let aov_bytes = pixels * std::mem::size_of::<AovSums>() as u64;
-        let aovs = match s.aovs {
+        let debug_bytes = pixels * std::mem::size_of::<DebugSums>() as u64;
+        let debug = match s.debug_aovs {
+            true if debug_bytes > range => {
+                return Err(Error::Settings(format!(
+                    "{}x{} with debug views needs {debug_bytes} bytes of sums (48 a pixel) but this device's storage \
+                     buffers hold at most {range} bytes",
+                    s.width, s.height
+                )))
+            }
+            true => Some(Buffer::new(
+                ctx,
+                "debug views",
+                debug_bytes,
+                storage,
+                MemoryLocation::GpuOnly,
+            )?),
+            false => None,
+        };
+        let aovs = match s.aovs || s.debug_aovs {
             true if aov_bytes > range => {
                 return Err(Error::Settings(format!(
                     "{}x{} with AOVs needs {aov_bytes} bytes of AOV sums (64 a pixel) but this device's storage \
@@ -188,6 +209,7 @@ impl Renderer {
             counters,
             film,
             aovs,
+            debug,
             budget,
             planned_end: None,
             done: 0,
@@ -224,10 +246,11 @@ impl Renderer {
         session.stats = RenderStats::default();
         session.started = Instant::now();
         session.planned_end = None;
-        let (ctx, film, aovs, budget) = (&self.ctx, &session.film, &session.aovs, &session.budget);
+        let (ctx, film, budget) = (&self.ctx, &session.film, &session.budget);
+        let sums: Vec<&Buffer> = session.aovs.iter().chain(&session.debug).collect();
         ctx.submit_and_wait(|cmd| unsafe {
             ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0);
-            if let Some(a) = aovs {
+            for a in &sums {
                 ctx.device.cmd_fill_buffer(cmd, a.raw, 0, vk::WHOLE_SIZE, 0);
             }
             // Every sample is taken until the budgets are planned.
@@ -285,10 +308,11 @@ impl Renderer {
         let budget_max = result?;
         session.planned_end = Some(budget_max);
         // The pilot's samples leave the film (its work stays in the tallies).
-        let (ctx, film, aovs) = (&self.ctx, &session.film, &session.aovs);
+        let (ctx, film) = (&self.ctx, &session.film);
+        let sums: Vec<&Buffer> = session.aovs.iter().chain(&session.debug).collect();
         ctx.submit_and_wait(|cmd| unsafe {
             ctx.device.cmd_fill_buffer(cmd, film.raw, 0, vk::WHOLE_SIZE, 0);
-            if let Some(a) = aovs {
+            for a in &sums {
                 ctx.device.cmd_fill_buffer(cmd, a.raw, 0, vk::WHOLE_SIZE, 0);
             }
         })?;
@@ -353,8 +377,13 @@ impl Renderer {
         let aovs = match &session.aovs {
             Some(buffer) => {
                 let sums: Vec<AovSums> = buffer.download(&self.ctx)?;
+                let debug = match &session.debug {
+                    Some(d) => Some(d.download::<DebugSums>(&self.ctx)?[..pixels].to_vec()),
+                    None => None,
+                };
                 Some(Aovs {
                     sums: sums[..pixels].to_vec(),
+                    debug,
                 })
             }
             None => None,
@@ -391,7 +420,7 @@ impl Renderer {
         })?;
         let mut frame = self.frame(s);
         // AOVs do not change the samples: parts with and without them merge.
-        frame.flags &= !FLAG_AOVS;
+        frame.flags &= !(FLAG_AOVS | FLAG_DEBUG_AOVS);
         let frame = blake3::hash(bytemuck::bytes_of(&frame)).to_hex().to_string();
         Ok([scene, frame, self.kernels.render_fingerprint()])
     }
@@ -426,7 +455,8 @@ impl Renderer {
                 )
                 | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC)
                 | flag(s.exact_film, FLAG_EXACT_FILM)
-                | flag(s.aovs, FLAG_AOVS)
+                | flag(s.aovs || s.debug_aovs, FLAG_AOVS)
+                | flag(s.debug_aovs, FLAG_DEBUG_AOVS)
                 | flag(s.adaptive.is_some(), FLAG_ADAPTIVE),
             ..self.lit(Frame::default())
         }

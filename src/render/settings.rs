@@ -55,6 +55,9 @@ pub struct RenderSettings {
     pub exact_film: bool,
     /// Survey the AOVs (albedo, normal, depth, position, ids) over the same samples as the image: `Film::aovs`.
     pub aovs: bool,
+    /// Survey the debug views too (`Aovs::debug`: geometric and shading normals, UV, traversal cost, light-pick
+    /// probability); implies `aovs`.
+    pub debug_aovs: bool,
     /// Sample adaptively: pixels stop once their mean is estimated to be within the threshold.
     pub adaptive: Option<Adaptive>,
 }
@@ -84,6 +87,7 @@ impl Default for RenderSettings {
             first_sample: 0,
             exact_film: false,
             aovs: false,
+            debug_aovs: false,
             adaptive: None,
         }
     }

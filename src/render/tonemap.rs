@@ -21,12 +21,42 @@ impl Renderer {
         let mut bound = session.bindings().to_vec();
         bound.push((BINDING_TONEMAP_OUT, out));
         self.bind(&bound, session.texel_views());
+        let film = [session.settings.width, session.settings.height];
+        self.record_tone(cmd, film, session.done, out_size, op, exposure);
+    }
+
+    /// `record_tonemap` of an image the host made (`image`: a vec4 per pixel, rgb and 1, `size` pixels), e.g. the
+    /// denoised image or an AOV, in place of a session's film.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record_tonemap_image(
+        &self,
+        cmd: vk::CommandBuffer,
+        image: &Buffer,
+        size: [u32; 2],
+        out: &Buffer,
+        out_size: [u32; 2],
+        op: u32,
+        exposure: f32,
+    ) {
+        self.bind(&[(BINDING_FILM, image), (BINDING_TONEMAP_OUT, out)], &[]);
+        self.record_tone(cmd, size, 1, out_size, op, exposure);
+    }
+
+    fn record_tone(
+        &self,
+        cmd: vk::CommandBuffer,
+        film: [u32; 2],
+        samples: u32,
+        out_size: [u32; 2],
+        op: u32,
+        exposure: f32,
+    ) {
         let tone = crate::layout::ToneMap {
-            film_width: session.settings.width,
-            film_height: session.settings.height,
+            film_width: film[0],
+            film_height: film[1],
             out_width: out_size[0],
             out_height: out_size[1],
-            samples: session.done,
+            samples,
             op,
             exposure,
             pad: 0,

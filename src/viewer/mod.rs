@@ -39,6 +39,10 @@ pub struct ViewOptions {
     pub play: bool,
     /// How the scene was read, for reading it again with another KHR_materials_variants variant (V).
     pub load: crate::scene::LoadOptions,
+    /// Start showing this AOV or debug view (G cycles them).
+    pub show: Option<crate::output::Aov>,
+    /// Start denoising (Shift+D toggles it).
+    pub denoise: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -214,6 +218,9 @@ struct State {
     session: Session,
     swapchain: Swapchain,
     pixels: Buffer,
+    /// The image the host made for `display` or denoising (on the device, and linear for P), and at how many
+    /// samples: made again as they double.
+    shown: Option<(u32, Buffer, Vec<[f32; 3]>)>,
     shaders: Option<(ShaderDir, ShaderWatcher)>,
     renderer: Renderer,
     window: Window,
@@ -233,6 +240,12 @@ struct State {
     held: Vec<KeyCode>,
     cursor: (f64, f64),
     dragging: Option<MouseButton>,
+    shift: bool,
+    /// What the window shows (G cycles it): the image, or an AOV or debug view.
+    display: Option<crate::output::Aov>,
+    /// Shift+D: show the image denoised (Open Image Denoise, loaded on first use) once the camera is still.
+    denoiser: Option<crate::denoise::Denoiser>,
+    denoising: bool,
     frames: u32,
     started: Instant,
     last_frame: Instant,
@@ -281,6 +294,9 @@ impl ApplicationHandler for App {
                     state.key(code, &self.options)
                 } else {
                     state.held.retain(|k| *k != code);
+                    if matches!(code, KeyCode::ShiftLeft | KeyCode::ShiftRight) {
+                        state.shift = false;
+                    }
                     Ok(())
                 }
             }
@@ -356,7 +372,7 @@ impl State {
         if options.play && !scene.rig.animated() {
             eprintln!("warning: {}: the file has no animations to play", scene.path.display());
         }
-        Ok(State {
+        let mut state = State {
             playback: Playback {
                 playing: options.play && scene.rig.animated(),
                 scene,
@@ -383,11 +399,26 @@ impl State {
             held: Vec::new(),
             cursor: (0.0, 0.0),
             dragging: None,
+            shift: false,
+            display: None,
+            denoiser: None,
+            denoising: false,
+            shown: None,
             frames: 0,
             started: Instant::now(),
             last_frame: Instant::now(),
             frame_ms: 0.0,
-        })
+        };
+        // A view or denoising asked for on the command line: the session then surveys the AOVs.
+        if options.show.is_some() || options.denoise {
+            state.display = options.show;
+            if options.denoise {
+                state.denoiser = Some(crate::denoise::Denoiser::from_env()?);
+                state.denoising = true;
+            }
+            state.reset()?;
+        }
+        Ok(state)
     }
 
     /// Starts the accumulation again (camera, settings or shaders changed), at 1/scale of the window's resolution.
@@ -395,11 +426,17 @@ impl State {
         if self.camera_moved {
             self.renderer.set_camera(self.orbit.camera());
         }
+        self.shown = None;
         let mut settings = self.session.settings.clone();
         settings.aperture = if self.dof { self.aperture } else { 0.0 };
+        // The AOVs only while something shows them.
+        settings.aovs = self.denoising || self.display.is_some_and(|a| a.surveyed());
+        settings.debug_aovs = self.display.is_some_and(|a| a.debug());
         let w = (self.swapchain.extent[0] / self.scale).max(1);
         let h = (self.swapchain.extent[1] / self.scale).max(1);
-        if (w, h) != (settings.width, settings.height) {
+        let buffers =
+            (settings.aovs, settings.debug_aovs) != (self.session.settings.aovs, self.session.settings.debug_aovs);
+        if (w, h) != (settings.width, settings.height) || buffers {
             settings.width = w;
             settings.height = h;
             self.session = self.renderer.begin(&settings)?;
@@ -455,6 +492,13 @@ impl State {
                 self.dof = !self.dof;
                 self.reset()?;
             }
+            KeyCode::ShiftLeft | KeyCode::ShiftRight => self.shift = true,
+            KeyCode::KeyD if self.shift => self.toggle_denoise()?,
+            KeyCode::KeyG => {
+                self.display = next_display(self.display);
+                eprintln!("showing {}", self.display.map_or("the image", |a| a.name()));
+                self.reset()?;
+            }
             KeyCode::KeyW | KeyCode::KeyA | KeyCode::KeyS | KeyCode::KeyD | KeyCode::KeyQ | KeyCode::KeyE
                 if !self.held.contains(&code) =>
             {
@@ -463,6 +507,29 @@ impl State {
             _ => {}
         }
         Ok(())
+    }
+
+    /// Shift+D: denoising on or off; the library is found the first time (a failure leaves it off, with the reason).
+    fn toggle_denoise(&mut self) -> Result<(), Error> {
+        if !self.denoising && self.denoiser.is_none() {
+            match crate::denoise::Denoiser::from_env() {
+                Ok(d) => self.denoiser = Some(d),
+                Err(e) => {
+                    eprintln!("cannot denoise: {e}");
+                    return Ok(());
+                }
+            }
+        }
+        self.denoising = !self.denoising;
+        eprintln!(
+            "denoising {}",
+            if self.denoising {
+                "on (once the camera is still)"
+            } else {
+                "off"
+            }
+        );
+        self.reset()
     }
 
     /// Reads the scene again with its next KHR_materials_variants variant (after the last, none), at the same time
@@ -652,14 +719,75 @@ impl State {
         }
     }
 
+    /// The host's image for the display mode or denoising, made again once the samples have doubled (denoising
+    /// only while the camera is still: while it moves, the live image shows).
+    fn update_shown(&mut self) -> Result<(), Error> {
+        let still = self.last_move.is_none_or(|t| t.elapsed() > Duration::from_millis(300));
+        let wanted = self.display.is_some() || (self.denoising && still);
+        let done = self.session.done;
+        if !wanted || done == 0 || self.shown.as_ref().is_some_and(|(n, _, _)| done < 2 * n) {
+            return Ok(());
+        }
+        let film = self.renderer.film(&self.session)?;
+        let (w, h) = (film.width, film.height);
+        let linear: Vec<[f32; 3]> = match (self.display, &self.denoiser) {
+            (Some(aov), _) => {
+                let source = crate::output::AovSource {
+                    film: &film,
+                    noisy: None,
+                };
+                // The picture's sRGB bytes, back to linear: the clamp curve at exposure 0 shows them as they are.
+                let decode = |b: u8| crate::output::srgb_decode(b as f32 / 255.0);
+                match source.picture(aov, 0.0) {
+                    Some(p) => p.iter().map(|px| px.map(decode)).collect(),
+                    None => return Ok(()),
+                }
+            }
+            (None, Some(d)) => {
+                let aovs = film
+                    .aovs
+                    .as_ref()
+                    .ok_or_else(|| Error::Settings("no AOVs to denoise with".into()))?;
+                let (albedo, normal) = (aovs.albedo(), aovs.normal());
+                let guides = crate::denoise::Guides {
+                    albedo: Some(&albedo),
+                    normal: Some(&normal),
+                    clean: false,
+                };
+                d.denoise(w, h, &film.mean(), guides)?
+            }
+            (None, None) => return Ok(()),
+        };
+        let words: Vec<[f32; 4]> = linear.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
+        let mut image = Buffer::new(
+            self.renderer.context(),
+            "shown image",
+            (words.len() * 16) as u64,
+            ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::TRANSFER_DST,
+            gpu_allocator::MemoryLocation::GpuOnly,
+        )?;
+        image.upload(self.renderer.context(), bytemuck::cast_slice(&words))?;
+        self.shown = Some((done, image, linear));
+        Ok(())
+    }
+
     fn present(&mut self) -> Result<(), Error> {
+        self.update_shown()?;
         let bgra = self.swapchain.bgra;
-        let op = self.curve.code() | if bgra { crate::constants::TONEMAP_BGRA } else { 0 };
-        let exposure = 2f32.powf(self.exposure);
-        let (renderer, session, pixels) = (&self.renderer, &self.session, &self.pixels);
-        let ok = self.swapchain.present(renderer.context(), pixels, |cmd, extent| {
-            renderer.record_tonemap(cmd, session, pixels, extent, op, exposure)
-        })?;
+        let bgra_bit = if bgra { crate::constants::TONEMAP_BGRA } else { 0 };
+        let (curve, exposure) = match self.display {
+            Some(_) => (ToneCurve::Clamp, 1.0),
+            None => (self.curve, 2f32.powf(self.exposure)),
+        };
+        let op = curve.code() | bgra_bit;
+        let size = [self.session.settings.width, self.session.settings.height];
+        let (renderer, session, pixels, shown) = (&self.renderer, &self.session, &self.pixels, &self.shown);
+        let ok = self
+            .swapchain
+            .present(renderer.context(), pixels, |cmd, extent| match shown {
+                Some((_, image, _)) => renderer.record_tonemap_image(cmd, image, size, pixels, extent, op, exposure),
+                None => renderer.record_tonemap(cmd, session, pixels, extent, op, exposure),
+            })?;
         if !ok {
             let size = self.window.inner_size();
             self.resize(size)?;
@@ -670,17 +798,45 @@ impl State {
     /// Writes the running mean to `path`, and with `both` as EXR (linear) and PNG (this view's exposure) side by side.
     fn save(&mut self, path: &std::path::Path, both: bool) -> Result<(), Error> {
         let film = self.renderer.film(&self.session)?;
-        let pixels = film.mean();
+        // What the window shows: the denoised image or a view, once made; else the running mean.
+        let (pixels, exposure) = match (&self.shown, self.display) {
+            (Some((_, _, linear)), Some(_)) => (linear.clone(), 0.0),
+            (Some((_, _, linear)), None) => (linear.clone(), self.exposure),
+            (None, _) => (film.mean(), self.exposure),
+        };
         let paths = if both {
             vec![path.with_extension("exr"), path.with_extension("png")]
         } else {
             vec![path.to_path_buf()]
         };
         for p in paths {
-            crate::output::write_image(&p, film.width, film.height, &pixels, self.exposure)?;
+            crate::output::write_image(&p, film.width, film.height, &pixels, exposure)?;
             eprintln!("saved {} ({} spp)", p.display(), film.spp);
         }
         Ok(())
+    }
+}
+
+/// G's cycle: the image, then the AOVs a viewer can show, then the debug views, then the image again.
+fn next_display(now: Option<crate::output::Aov>) -> Option<crate::output::Aov> {
+    use crate::output::Aov;
+    const CYCLE: [Aov; 8] = [
+        Aov::Albedo,
+        Aov::Normal,
+        Aov::Depth,
+        Aov::GeometricNormal,
+        Aov::ShadingNormal,
+        Aov::Uv,
+        Aov::BvhCost,
+        Aov::LightPick,
+    ];
+    match now {
+        None => Some(CYCLE[0]),
+        Some(a) => CYCLE
+            .iter()
+            .position(|&c| c == a)
+            .and_then(|i| CYCLE.get(i + 1))
+            .copied(),
     }
 }
 
