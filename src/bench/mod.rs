@@ -1,4 +1,5 @@
 //! `pathwave bench`: a fixed set of renders measured the same way every time, printed as a table and as JSON.
+pub mod adaptive;
 pub mod compare;
 
 use crate::error::Error;
@@ -252,6 +253,8 @@ pub struct BenchReport {
     pub startup_s: Option<f64>,
     pub embree: Option<EmbreeComparison>,
     pub mitsuba: Option<MitsubaComparison>,
+    /// With the Mitsuba comparison: --adaptive against uniform sampling at equal time, per scene.
+    pub adaptive: Vec<adaptive::AdaptiveComparison>,
     pub total: Duration,
 }
 
@@ -273,6 +276,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         startup_s: None,
         embree: None,
         mitsuba: None,
+        adaptive: Vec::new(),
         total: Duration::ZERO,
     };
     if !o.only_compare {
@@ -290,6 +294,11 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         report.mitsuba = Some(compare::compare_mitsuba(
             &o.python, &o.device, &cornell, o.quick, progress,
         )?);
+        for scene in [&cornell, &glass] {
+            report
+                .adaptive
+                .push(adaptive::compare_adaptive(&o.device, scene, o.quick, progress)?);
+        }
     }
     report.device = (report.cases.first().map(|c| c.device.clone()))
         .or_else(|| report.embree.as_ref().map(|e| e.device.clone()))
@@ -444,6 +453,9 @@ impl BenchReport {
                 pct(m.mitsuba_mean_deviation)
             );
         }
+        for a in &self.adaptive {
+            s += &a.summary();
+        }
         s
     }
 
@@ -548,6 +560,7 @@ impl BenchReport {
                 "mean_sigma": m.mean_sigma,
                 "mitsuba_mean_deviation": m.mitsuba_mean_deviation,
             })),
+            "adaptive": self.adaptive.iter().map(|a| a.json()).collect::<Vec<_>>(),
             "total_s": self.total.as_secs_f64(),
             "cases": cases,
         }))
