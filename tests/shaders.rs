@@ -157,14 +157,20 @@ fn includes_decide_which_stages_are_stale() {
             "shade_texel",
             "shade_textured",
             "shade_textured_texel",
-            "sheen_table"
+            "sheen_table",
+            "survey",
+            "survey_alpha",
+            "survey_alpha_texel",
+            "survey_texel",
+            "survey_textured",
+            "survey_textured_texel"
         ]
     );
     let traverse = shaders.affected(&[root.join("include/traverse.glsl")]);
-    let want = ["connect", "extend", "follow", "probe_trace"];
+    let want = ["connect", "extend", "follow", "probe_trace", "survey"];
     let twins = |s: &&String| want.iter().any(|w| s.as_str() == *w || s.starts_with(&format!("{w}_")));
     assert!(
-        traverse.len() == 16 && traverse.iter().all(|s| twins(&s)),
+        traverse.len() == 22 && traverse.iter().all(|s| twins(&s)),
         "{traverse:?}"
     );
     assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);

@@ -40,5 +40,22 @@ fn a_render_passes_synchronization_validation() {
             .render(&common::settings(16, 16, 3, 0), &mut |_| {})
             .unwrap_or_else(|e| panic!("{schedule:?}: {e}"));
         assert!(film.mean().iter().any(|p| p[0] > 0.0));
+        // The AOV and debug-view surveys after each pass, and adaptive sampling's plan between passes (a part past
+        // sample 0, so its pilot, the plan and the cleared film too).
+        let s = pathwave::RenderSettings {
+            aovs: true,
+            debug_aovs: true,
+            adaptive: Some(pathwave::Adaptive {
+                threshold: 0.05,
+                pilot: 2,
+            }),
+            first_sample: 1,
+            spp: 6,
+            ..common::settings(16, 16, 6, 0)
+        };
+        let (film, _) = r
+            .render(&s, &mut |_| {})
+            .unwrap_or_else(|e| panic!("{schedule:?}, AOVs and adaptive: {e}"));
+        assert!(film.aovs.is_some_and(|a| a.debug.is_some()));
     }
 }
