@@ -4,6 +4,7 @@
 mod common;
 use common::gltf_builder::GltfBuilder;
 use common::{render, scene_renderer, settings};
+use pathwave::diff::rel_mse;
 use pathwave::{Adaptive, Film, RenderSettings, Renderer, Schedule};
 use serde_json::json;
 
@@ -56,14 +57,6 @@ fn means(img: &[[f32; 3]]) -> [f64; 3] {
 fn mean_standard_error(f: &Film) -> [f64; 3] {
     let v = f.mean_variance();
     std::array::from_fn(|c| (v.iter().map(|p| p[c] as f64).sum::<f64>()).sqrt() / v.len() as f64)
-}
-
-fn rel_mse(image: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
-    let sum: f64 = (image.iter().zip(reference))
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64, b[c] as f64)))
-        .map(|(a, b)| (a - b) * (a - b) / (b * b + pathwave::diff::REL_MSE_EPSILON))
-        .sum();
-    sum / (3 * image.len()) as f64
 }
 
 /// Would catch: budgets that ignore the noise (or favour the wrong half), a stopping rule that biases the mean

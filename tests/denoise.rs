@@ -4,6 +4,7 @@
 mod common;
 use common::{render, renderer, settings};
 use pathwave::denoise::{Denoiser, Guides};
+use pathwave::diff::rel_mse;
 use pathwave::RenderSettings;
 
 /// The denoiser, or None (skipping) outside CI when it is not installed.
@@ -16,14 +17,6 @@ fn denoiser() -> Option<Denoiser> {
         }
         Err(e) => panic!("CI must have Open Image Denoise (ci/setup.sh installs it): {e}"),
     }
-}
-
-fn rel_mse(image: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
-    let sum: f64 = (image.iter().zip(reference))
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64, b[c] as f64)))
-        .map(|(a, b)| (a - b) * (a - b) / (b * b + pathwave::diff::REL_MSE_EPSILON))
-        .sum();
-    sum / (3 * image.len()) as f64
 }
 
 fn means(image: &[[f32; 3]]) -> [f64; 3] {

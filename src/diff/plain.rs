@@ -19,6 +19,15 @@ pub fn srgb8(linear: f32) -> u8 {
     (crate::output::srgb_encode(linear.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
 }
 
+/// The mean over pixels and channels of (c - r)² / (r² + REL_MSE_EPSILON), on linear radiance.
+pub fn rel_mse(candidate: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
+    let sum: f64 = (candidate.iter().zip(reference))
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64, b[c] as f64)))
+        .map(|(a, b)| (a - b) * (a - b) / (b * b + REL_MSE_EPSILON))
+        .sum();
+    sum / (3 * candidate.len().max(1)) as f64
+}
+
 /// relMSE and FLIP of two images (FLIP at 67 pixels per degree, its default).
 pub fn plain(width: u32, height: u32, candidate: &[[f32; 3]], reference: &[[f32; 3]]) -> Result<Plain, String> {
     let (w, h) = (width as usize, height as usize);
@@ -42,13 +51,7 @@ pub fn plain(width: u32, height: u32, candidate: &[[f32; 3]], reference: &[[f32;
             ));
         }
     }
-    let rel_mse = candidate
-        .iter()
-        .zip(reference)
-        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] as f64, b[c] as f64)))
-        .map(|(a, b)| (a - b) * (a - b) / (b * b + REL_MSE_EPSILON))
-        .sum::<f64>()
-        / (3 * pixels) as f64;
+    let rel_mse = rel_mse(candidate, reference);
     let encode = |img: &[[f32; 3]]| img.iter().flat_map(|p| p.map(srgb8)).collect::<Vec<u8>>();
     let test = nv_flip::FlipImageRgb8::with_data(width, height, &encode(candidate));
     let refr = nv_flip::FlipImageRgb8::with_data(width, height, &encode(reference));
