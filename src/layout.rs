@@ -124,8 +124,10 @@ pub struct MotionKey {
 
 /// 112 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
 /// three rows each (x, y, z of a 3x4 affine map), and `info` = (its BLAS root node, 1 when the transform mirrors,
-/// its index in `Scene::instances`, 0). Record 0 is the header: `info` = (the TLAS root node, the instance count, 0, 0). See `Instance` in
-/// layout.glsl.
+/// its index in `Scene::instances`, the record of its key 1 when it moves over the shutter, else 0). Record 0 is the
+/// header: `info` = (the TLAS root node, the instance count, the first BLAS triangle, 0). The instances' records
+/// follow in the TLAS's order, then each moving instance's keys 1 ..= MOTION_SEGMENTS, whole records at those times.
+/// 112 bytes a still instance, 560 a moving one. See `Instance` in layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuInstance {

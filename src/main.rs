@@ -1011,7 +1011,7 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
             "instancing  {kept} of {} meshes kept once in object space under a two-level BVH, placed by {} instances \
              ({:.2} MiB of instance records)",
             file_meshes.len(),
-            packed.instances.len().saturating_sub(1),
+            packed.instances.first().map_or(0, |header| header.info[1]),
             std::mem::size_of_val(&packed.instances[..]) as f64 / (1 << 20) as f64
         );
     } else {

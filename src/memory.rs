@@ -130,10 +130,18 @@ impl Scene {
     /// of it is allocated.
     pub fn check_host_memory(&self, limit: u64) -> Result<(), Error> {
         // Meshes the renderer instances are stored once (Instancing::Auto's rule, which the renderer uses too).
-        let triangles = self.flattened_triangle_bound_except(&self.instanced_meshes(crate::scene::Instancing::Auto));
+        let instanced = self.instanced_meshes(crate::scene::Instancing::Auto);
+        let triangles = self.flattened_triangle_bound_except(&instanced);
+        // Motion keys are per flattened triangle: an instanced mesh moves by its instances' records.
+        let stored = (self.meshes.iter().zip(&instanced))
+            .filter(|(_, &i)| i)
+            .map(|(m, _)| m.primitives.iter().map(|p| p.triangles.len() as u64).sum::<u64>())
+            .fold(0, u64::saturating_add);
         let keys = self.motion.as_ref().map_or(0, |m| m.keys.len() as u64);
         let per_triangle = HOST_BYTES_PER_TRIANGLE + keys * HOST_BYTES_PER_MOTION_KEY;
-        let need = triangles.saturating_mul(per_triangle);
+        let need = (triangles - stored)
+            .saturating_mul(per_triangle)
+            .saturating_add(stored.saturating_mul(HOST_BYTES_PER_TRIANGLE));
         if need <= limit {
             return Ok(());
         }

@@ -7,7 +7,7 @@ use common::gltf_builder::GltfBuilder;
 use common::stats::beyond_noise;
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
-use pathwave::constants::{FEATURE_INSTANCES, NO_HIT, NO_INSTANCE};
+use pathwave::constants::{FEATURE_INSTANCES, FEATURE_MOTION, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE};
 use pathwave::render::gpu_scene::try_pack_with;
 use pathwave::scene::{load, Instancing, Scene};
 use pathwave::{Renderer, RendererOptions};
@@ -16,6 +16,12 @@ use serde_json::json;
 /// A floor (world space) and a lamp, and one sphere mesh placed five ways: rotated, scaled unevenly, mirrored,
 /// nested under a rotated and scaled parent, and plain.
 fn placed_spheres() -> (tempfile::TempDir, std::path::PathBuf) {
+    common::write_temp(&spheres(), "spheres.gltf")
+}
+
+/// `placed_spheres`' builder: nodes 0 floor, 1 lamp, 2 rotated, 3 squashed, 4 mirrored, 5 plain, 6 nested, 7 its
+/// parent.
+fn spheres() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
     // Glass, so that a mirrored instance's front face matters (entering and leaving refract differently).
@@ -53,7 +59,43 @@ fn placed_spheres() -> (tempfile::TempDir, std::path::PathBuf) {
     );
     b.add_child(parent, child);
     b.camera([0.0, 2.0, 5.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 45.0);
-    common::write_temp(&b, "spheres.gltf")
+    b
+}
+
+/// `placed_spheres` moving over [0, 1] s: the rotated sphere slides and turns, the mirrored one stretches (staying
+/// mirrored), the nested one's parent swings it round; the squashed and plain ones stay still.
+fn moving_spheres() -> Scene {
+    let mut b = spheres();
+    let turn = |a: f32| Quat::from_rotation_z(0.6) * Quat::from_rotation_x(a);
+    let (r0, r1) = (turn(0.0).to_array(), turn(1.2).to_array());
+    b.animate(
+        "move",
+        2,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[-1.5, 0.5, 0.0, -1.1, 0.7, 0.3],
+    );
+    b.animate("move", 2, "rotation", "LINEAR", &[0.0, 1.0], &[r0, r1].concat());
+    b.animate(
+        "move",
+        4,
+        "scale",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[-1.0, 1.0, 1.0, -1.4, 0.7, 1.2],
+    );
+    let (p0, p1) = (
+        Quat::from_rotation_y(0.9).to_array(),
+        Quat::from_rotation_y(1.7).to_array(),
+    );
+    b.animate("move", 7, "rotation", "LINEAR", &[0.0, 1.0], &[p0, p1].concat());
+    let (dir, path) = common::write_temp(&b, "moving-spheres.gltf");
+    let mut scene = load(&path, None).unwrap();
+    drop(dir);
+    scene.pose_shutter(pathwave::scene::PoseTime::default(), 1.0).unwrap();
+    assert!(scene.motion.is_some());
+    scene
 }
 
 fn rays(n: usize, seed: u64) -> Vec<Ray> {
@@ -105,7 +147,14 @@ fn two_level_traversal_finds_what_brute_force_over_the_placed_triangles_finds() 
         let gpu = device.probe_trace(&rays, any_hit).unwrap();
         for (ray, g) in rays.iter().zip(&gpu) {
             let want = brute_force(&flat.tri_verts, ray);
-            let cpu = trace_two_level(&packed.bvh.nodes, &packed.tri_verts, &packed.instances, ray, any_hit);
+            let cpu = trace_two_level(
+                &packed.bvh.nodes,
+                &packed.tri_verts,
+                &packed.instances,
+                ray,
+                any_hit,
+                0.0,
+            );
             for (who, got) in [("cpu twin", cpu), ("device", *g)] {
                 assert_eq!(
                     got.tri == NO_HIT,
@@ -122,6 +171,110 @@ fn two_level_traversal_finds_what_brute_force_over_the_placed_triangles_finds() 
         }
     }
     assert!(instanced_hits > 300, "only {instanced_hits} rays hit an instance");
+}
+
+/// Catches: moving instances placed at the wrong time or by the wrong map (their transforms not interpolated
+/// between the keys on either side, the inverse not that map's), TLAS boxes not holding an instance over the whole
+/// shutter, key records read for still instances, instanced triangles taken through world triangles' motion keys.
+/// The reference is every triangle flattened and moved linearly between its keys, as a flattened render has them.
+#[test]
+fn moving_instances_are_found_where_brute_force_finds_them_at_every_time() {
+    let scene = moving_spheres();
+    let packed = try_pack_with(&scene, Instancing::Always).unwrap();
+    let features = packed.features();
+    assert_ne!(features & FEATURE_INSTANCES, 0, "the sphere should be instanced");
+    assert_ne!(features & FEATURE_MOTION, 0);
+    let segments = MOTION_SEGMENTS as usize;
+    assert_eq!(
+        packed.instances.len(),
+        1 + 5 + 3 * segments,
+        "the header, five instances, and the keys of the three that move"
+    );
+    let rays = rays(3000, 8);
+    let mut device = renderer(&scene, Instancing::Always);
+    let mut instanced_hits = 0;
+    for time in [0.0, 0.15, 0.4, 0.62, 0.999] {
+        let placed = common::posed_tri_verts(&scene, time * segments as f32);
+        for any_hit in [false, true] {
+            let gpu = device.probe_trace_at(&rays, any_hit, time).unwrap();
+            for (ray, g) in rays.iter().zip(&gpu) {
+                let want = brute_force(&placed, ray);
+                let cpu = trace_two_level(
+                    &packed.bvh.nodes,
+                    &packed.tri_verts,
+                    &packed.instances,
+                    ray,
+                    any_hit,
+                    time,
+                );
+                for (who, got) in [("cpu twin", cpu), ("device", *g)] {
+                    assert_eq!(
+                        got.tri == NO_HIT,
+                        want.tri == NO_HIT,
+                        "{who} (time {time}, any hit {any_hit}) on {ray:?}"
+                    );
+                    if !any_hit && want.tri != NO_HIT {
+                        let tol = 2e-5 * want.t.max(1.0);
+                        assert!(
+                            (got.t - want.t).abs() < tol,
+                            "{who} at {time}: t {} against {}",
+                            got.t,
+                            want.t
+                        );
+                    }
+                }
+                assert_eq!(cpu.inst, g.inst, "the device and its twin hit different instances");
+                instanced_hits += (!any_hit && g.inst != NO_INSTANCE) as u32;
+            }
+        }
+    }
+    assert!(instanced_hits > 1500, "only {instanced_hits} rays hit an instance");
+}
+
+/// Catches: a moving instance shaded at another time than it was hit (normals, hit points), or its mirror flag lost
+/// while it moves: the image would differ from the flattened moving scene's beyond noise. Also: a mesh whose
+/// instance turns inside out over the shutter (a scale through 0) is flattened, not instanced.
+#[test]
+fn a_moving_instanced_scene_renders_like_its_triangles_moved_one_by_one() {
+    let scene = moving_spheres();
+    let s = common::settings(48, 36, 256, 4);
+    let flat = common::render(&mut renderer(&scene, Instancing::Never), &s);
+    let mut inst = renderer(&scene, Instancing::Always);
+    let a = common::render(&mut inst, &s);
+    let bad = beyond_noise(&a, &flat, 1e-3);
+    assert!(bad <= 3, "{bad} pixel channels differ beyond noise");
+    let sum = |m: &[[f32; 3]]| m.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
+    let (ma, mb) = (sum(&a.mean()), sum(&flat.mean()));
+    assert!((ma / mb - 1.0).abs() < 0.01, "{ma} against {mb}");
+    inst.set_schedule(pathwave::Schedule::Wavefront);
+    let w = common::render(&mut inst, &common::settings(24, 18, 8, 2));
+    inst.set_schedule(pathwave::Schedule::Fused);
+    let f = common::render(&mut inst, &common::settings(24, 18, 8, 2));
+    assert!(
+        w.sum == f.sum && w.sum_sq == f.sum_sq,
+        "the schedules differ on a moving instanced scene"
+    );
+
+    let mut b = spheres();
+    b.animate(
+        "flip",
+        4,
+        "scale",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[-1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "flipping.gltf");
+    let mut flipping = load(&path, None).unwrap();
+    flipping
+        .pose_shutter(pathwave::scene::PoseTime::default(), 1.0)
+        .unwrap();
+    let ball = flipping.meshes.iter().position(|m| m.name == "ball").unwrap();
+    assert!(
+        !flipping.instanced_meshes(Instancing::Always)[ball],
+        "a mesh turning inside out is flattened"
+    );
+    assert!(scene.instanced_meshes(Instancing::Always)[ball]);
 }
 
 /// Catches: normals not taken to world space by the inverse transpose, a mirrored instance's front face turned (the
@@ -195,7 +348,8 @@ fn many_instances_of_one_mesh_take_the_mesh_once_plus_a_record_each() {
 }
 
 /// The file: 25,600 nodes sharing one 80,000-triangle mesh (2 billion placed triangles). Before instancing,
-/// loading it tried to allocate tens of gigabytes and aborted; now it renders within a 400 MiB host budget.
+/// loading it tried to allocate tens of gigabytes and aborted; now it renders within a 400 MiB host budget, still
+/// and with every instance moving over the shutter.
 #[test]
 fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_budget() {
     let n = 200u32;
@@ -220,29 +374,49 @@ fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_bu
         let (x, z) = ((k % 160) as f32 - 80.0, (k / 160) as f32 - 80.0);
         b.place_last_mesh("grid", json!({ "translation": [x, 0.0, z] }));
     }
+    // Every grid hangs from one node the wind sways, so with the shutter open all 25,600 instances move.
+    let wind = b.node("wind", json!({}));
+    for k in 0..25_600 {
+        b.add_child(wind, k);
+    }
+    b.animate(
+        "sway",
+        wind,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[0.0, 0.0, 0.0, 0.3, 0.0, 0.1],
+    );
     b.camera([0.0, 40.0, 120.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 45.0);
     let (dir, path) = common::write_temp(&b, "forest.gltf");
     let out = dir.path().join("forest.png");
-    let o = common::pathwave_cli()
-        .arg("render")
-        .arg(&path)
-        .args([
-            "--env-color",
-            "1,1,1",
-            "--size",
-            "32x18",
-            "--spp",
-            "2",
-            "--max-memory",
-            "400M",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let log = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{log}");
-    assert!(out.exists());
+    // Still, then moving: the moving instances keep the mesh once (their keys cost 448 bytes each), where flattening
+    // them would need keys for 2 billion triangles.
+    for shutter in ["0", "0.5"] {
+        let o = common::pathwave_cli()
+            .arg("render")
+            .arg(&path)
+            .args([
+                "--env-color",
+                "1,1,1",
+                "--size",
+                "32x18",
+                "--spp",
+                "2",
+                "--shutter",
+                shutter,
+                "--max-memory",
+                "400M",
+                "-o",
+            ])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "shutter {shutter}: {log}");
+        assert!(out.exists());
+        std::fs::remove_file(&out).unwrap();
+    }
     let info = common::pathwave_cli().arg("info").arg(&path).output().unwrap();
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(text.contains("80000 stored, 2048000000 placed"), "{text}");

@@ -7,7 +7,7 @@ mod common;
 
 use common::gltf_builder::GltfBuilder;
 use glam::{Quat, Vec2, Vec3};
-use pathwave::scene::{load, PoseTime, Scene};
+use pathwave::scene::{load, PoseTime};
 use serde_json::json;
 use std::path::Path;
 
@@ -225,6 +225,96 @@ fn a_rotating_quad_blurs_into_its_swept_coverage() {
     assert_matches("rotation", &render_blurred(&path), &want);
 }
 
+/// `emitter`'s scene with a black quad (node 1) against a white environment, so a pixel's value is one less the
+/// coverage, and the quad's mesh placed again far outside the view (node 3): two instances, which the renderer may
+/// keep in object space under the two-level BVH, moving by their transforms.
+fn occluder(half: Vec2) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    b.node("root", json!({}));
+    let black = b.material("black", [0.0; 3], [0.0; 3], false);
+    let (x, y) = (half.x, half.y);
+    b.quad(
+        "quad",
+        [[-x, -y, 0.0], [x, -y, 0.0], [x, y, 0.0], [-x, y, 0.0]],
+        black,
+        Some([0.0, 0.0, 1.0]),
+    );
+    b.camera([0.0, 0.0, DISTANCE], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], YFOV_DEG);
+    b.place_last_mesh("far copy", json!({ "translation": [0.0, 10.0, 0.0] }));
+    b
+}
+
+/// One less the image `occluder`'s scene renders with the shutter open over [0, 1] s, its quad instanced.
+fn render_blurred_instanced(path: &Path) -> Vec<f32> {
+    use pathwave::scene::Instancing;
+    let mut scene = load(path, None).unwrap_or_else(|e| panic!("{e}"));
+    scene.pose_shutter(PoseTime::default(), 1.0).unwrap();
+    scene.environment = Some(pathwave::scene::Environment::constant([1.0; 3]));
+    let packed = pathwave::render::gpu_scene::try_pack_with(&scene, Instancing::Always).unwrap();
+    let moving_records = 1 + 2 + pathwave::constants::MOTION_SEGMENTS as usize;
+    assert_eq!(
+        packed.instances.len(),
+        moving_records,
+        "the header, two instances, one moving"
+    );
+    assert_eq!(packed.tri_verts.len(), 2, "the quad is stored once, in object space");
+    let ctx = pathwave::vk::Context::new(&Default::default(), common::validation()).unwrap();
+    let options = pathwave::RendererOptions {
+        instancing: Instancing::Always,
+        ..Default::default()
+    };
+    let mut r = pathwave::Renderer::with_options(&scene, ctx, options).unwrap_or_else(|e| panic!("{e}"));
+    let settings = pathwave::RenderSettings {
+        max_depth: Some(0),
+        ..common::settings(W, H, SPP, 7)
+    };
+    common::render(&mut r, &settings)
+        .mean()
+        .iter()
+        .map(|p| 1.0 - p[1])
+        .collect()
+}
+
+/// Catches: a moving instance placed by one key only (no blur), its transform interpolated to the wrong time or its
+/// inverse not the interpolated map's (the quad would be found where it is not), TLAS boxes not holding the motion.
+#[test]
+fn an_instance_moving_linearly_blurs_into_its_time_averaged_coverage() {
+    let mut b = occluder(HALF);
+    b.animate(
+        "move",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+    );
+    let (_dir, path) = common::write_temp(&b, "moving-instance.gltf");
+    assert_matches(
+        "instance translation",
+        &render_blurred_instanced(&path),
+        &expected(inside_moving_quad),
+    );
+}
+
+/// Catches: a rotating instance's rays moved by a rotation other than the one its keys interpolate to.
+#[test]
+fn a_rotating_instance_blurs_into_its_swept_coverage() {
+    let half = Vec2::new(0.45, 0.08);
+    let mut b = occluder(half);
+    let turn = 40f32.to_radians();
+    let keys: Vec<f32> = [0.0, turn]
+        .iter()
+        .flat_map(|&a| Quat::from_rotation_z(a).to_array())
+        .collect();
+    b.animate("spin", 1, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+    let (_dir, path) = common::write_temp(&b, "spinning-instance.gltf");
+    let want = expected(|p, t| {
+        let q = glam::Mat2::from_angle(-turn * t) * p;
+        q.abs().cmple(half).all()
+    });
+    assert_matches("instance rotation", &render_blurred_instanced(&path), &want);
+}
+
 fn moving_scene() -> (tempfile::TempDir, std::path::PathBuf) {
     let mut b = emitter(HALF);
     b.animate(
@@ -270,11 +360,12 @@ fn moving_triangles_are_found_where_brute_force_finds_them_at_every_time() {
     let segments = pathwave::constants::MOTION_SEGMENTS as f32;
     for time in [0.0, 0.1, 0.25, 0.6, 0.999] {
         // The triangles at `time` as the device should have them: keys on either side, linearly between.
-        let at = posed_triangles(&scene, time * segments);
+        let at = common::posed_tri_verts(&scene, time * segments);
         let hits = r.probe_trace_at(&rays, false, time).unwrap();
         let mut found = 0;
         for (ray, hit) in rays.iter().zip(&hits) {
-            let want = nearest(&at, ray);
+            let want = pathwave::bvh::brute_force(&at, ray);
+            let want = (want.tri != pathwave::constants::NO_HIT).then_some(want.t);
             assert_eq!(
                 hit.tri != pathwave::constants::NO_HIT,
                 want.is_some(),
@@ -291,40 +382,6 @@ fn moving_triangles_are_found_where_brute_force_finds_them_at_every_time() {
         }
         assert!(found > 200, "time {time}: only {found} rays hit the quad");
     }
-}
-
-/// Every world-space triangle at shutter position x (in segments), from the keys the scene holds.
-fn posed_triangles(scene: &Scene, x: f32) -> Vec<[Vec3; 3]> {
-    let (soup, keys) = scene.try_flatten_motion().unwrap();
-    let keys = keys.unwrap();
-    let k = (x as usize).min(keys.len() - 1);
-    let f = x - k as f32;
-    let key = |k: usize, i: usize| {
-        if k == 0 {
-            soup.positions()[i]
-        } else {
-            keys[k - 1][i].positions
-        }
-    };
-    (0..soup.len())
-        .map(|i| {
-            let (a, b) = (key(k, i), key(k + 1, i));
-            [0, 1, 2].map(|v| a[v] + (b[v] - a[v]) * f)
-        })
-        .collect()
-}
-
-fn nearest(tris: &[[Vec3; 3]], ray: &pathwave::bvh::Ray) -> Option<f32> {
-    tris.iter()
-        .filter_map(|t| {
-            let tv = pathwave::layout::TriVerts {
-                v0: t[0].extend(0.0).to_array(),
-                e1: (t[1] - t[0]).extend(0.0).to_array(),
-                e2: (t[2] - t[0]).extend(0.0).to_array(),
-            };
-            pathwave::bvh::intersect_triangle(&tv, ray.origin, ray.dir, ray.tmin, ray.tmax).map(|(t, _)| t)
-        })
-        .min_by(f32::total_cmp)
 }
 
 /// Catches: the wavefront and fused schedules giving moving scenes different times (their bytes would differ).

@@ -50,8 +50,10 @@ struct MotionKey {
 };
 
 // 112 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
-// 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, 0). Record 0 is the header: info = (the TLAS
-// root node, the instance count, 0, 0).
+// 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, the record of
+// its key 1 when it moves over the shutter, else 0). Record 0 is the header: info = (the TLAS root node, the
+// instance count, the first BLAS triangle, 0). A moving instance's keys 1 ..= MOTION_SEGMENTS are whole records
+// after the instances' (see instance_at).
 struct Instance {
     vec4 world0;
     vec4 world1;
@@ -413,10 +415,16 @@ bool motion_span(uint i, out MotionKey a, out MotionKey b, out float f) {
     return k > 0u;
 }
 
+// Whether triangle i is a world triangle with keys of its own (an instanced mesh's triangles, from the header's first
+// BLAS triangle on, move only with their instances).
+bool tri_moves(uint i) {
+    return !scene_has(FEATURE_INSTANCES) || i < instances[0].info.z;
+}
+
 // Triangle i at motion_time: its keys on either side, linearly between them (its w's, which do not move, from key 0).
 TriVerts load_tri_verts(uint i) {
     TriVerts tv = fetch_tri_verts(i);
-    if (scene_has(FEATURE_MOTION)) {
+    if (scene_has(FEATURE_MOTION) && tri_moves(i)) {
         MotionKey a, b;
         float f;
         vec3 v0 = tv.v0.xyz, e1 = tv.e1.xyz, e2 = tv.e2.xyz;
@@ -437,7 +445,7 @@ TriVerts load_tri_verts(uint i) {
 // that light selection used).
 TriShading load_tri_shading(uint i, TriVerts tv) {
     TriShading ts = fetch_tri_shading(i);
-    if (scene_has(FEATURE_MOTION)) {
+    if (scene_has(FEATURE_MOTION) && tri_moves(i)) {
         MotionKey a, b;
         float f;
         vec3 n0 = ts.n0.xyz, n1 = ts.n1.xyz, n2 = ts.n2.xyz;
@@ -462,6 +470,40 @@ vec3 rows_vector(vec4 r0, vec4 r1, vec4 r2, vec3 v) { return vec3(dot(r0.xyz, v)
 // A normal into the world: by the inverse transpose, the world-to-object rows transposed.
 vec3 instance_normal(Instance inst, vec3 n) {
     return inst.object0.xyz * n.x + inst.object1.xyz * n.y + inst.object2.xyz * n.z;
+}
+
+// The inverse of the affine map with rows r (o, as rows): the inverse's columns are the rows' cross products over
+// the determinant (written out: naga's SPIR-V reader, which tests/layout.rs uses, has no matrix inverse).
+void inverse_rows(vec4 r0, vec4 r1, vec4 r2, out vec4 o0, out vec4 o1, out vec4 o2) {
+    vec3 c0 = cross(r1.xyz, r2.xyz), c1 = cross(r2.xyz, r0.xyz), c2 = cross(r0.xyz, r1.xyz);
+    float inv_det = 1.0 / dot(r0.xyz, c0);
+    vec3 a0 = vec3(c0.x, c1.x, c2.x) * inv_det;
+    vec3 a1 = vec3(c0.y, c1.y, c2.y) * inv_det;
+    vec3 a2 = vec3(c0.z, c1.z, c2.z) * inv_det;
+    vec3 t = vec3(r0.w, r1.w, r2.w);
+    o0 = vec4(a0, -dot(a0, t));
+    o1 = vec4(a1, -dot(a1, t));
+    o2 = vec4(a2, -dot(a2, t));
+}
+
+// Instance record i placed at motion_time. A moving one's object-to-world rows go linearly between its keys on either
+// side, which moves each point of its mesh linearly between its places at the keys, as a flattened triangle's
+// vertices move; world-to-object is the inverse of that map (interpolating the keys' inverses would not undo it).
+Instance instance_at(uint i) {
+    Instance I = instances[i];
+    if (scene_has(FEATURE_MOTION) && I.info.w != 0u) {
+        uint k;
+        float f;
+        motion_segment(k, f);
+        // (Records picked by index: glslang stores a ternary of a local and a buffer struct as invalid SPIR-V.)
+        Instance a = instances[k == 0u ? i : I.info.w + k - 1u];
+        Instance b = instances[I.info.w + k];
+        I.world0 = a.world0 + (b.world0 - a.world0) * f;
+        I.world1 = a.world1 + (b.world1 - a.world1) * f;
+        I.world2 = a.world2 + (b.world2 - a.world2) * f;
+        inverse_rows(I.world0, I.world1, I.world2, I.object0, I.object1, I.object2);
+    }
+    return I;
 }
 
 uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }

@@ -66,7 +66,7 @@ Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
         // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
         // inverse transpose.
-        Instance I = instances[inst];
+        Instance I = instance_at(inst);
         tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
         tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
         tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);

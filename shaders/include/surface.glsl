@@ -121,7 +121,7 @@ bool tangent_frame(uint tri, vec2 b, vec3 ns, uint inst, out vec3 t, out vec3 bt
     TriTangents tt = load_tri_tangents(tri);
     vec4 t4 = (1.0 - b.x - b.y) * tt.t0 + b.x * tt.t1 + b.y * tt.t2;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
-        Instance I = instances[inst];
+        Instance I = instance_at(inst);
         t4.xyz = rows_vector(I.world0, I.world1, I.world2, t4.xyz);
         if (I.info.y != 0u) t4.w = -t4.w;
     }

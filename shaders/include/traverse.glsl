@@ -49,7 +49,7 @@ void to_object(Instance inst, inout vec3 o, inout vec3 d) {
 // The hit's barycentrics, from the same arithmetic that found it (traversal keeps only t and the triangle), in the
 // space it was found in.
 Hit with_barycentrics(Hit h, vec3 o, vec3 d, float tmin) {
-    if (scene_has(FEATURE_INSTANCES) && h.inst != NO_INSTANCE) to_object(instances[h.inst], o, d);
+    if (scene_has(FEATURE_INSTANCES) && h.inst != NO_INSTANCE) to_object(instance_at(h.inst), o, d);
     if (h.tri != NO_HIT) intersect_triangle(h.tri, o, d, tmin, uintBitsToFloat(0x7F800000u), h.uv);
     return h;
 }
@@ -289,7 +289,7 @@ Hit trace_instances(vec3 o, vec3 d, float tmin, Hit hit, bool any_hit, uint alph
             }
         } else {
             for (uint k = 0u; k < count; ++k) {
-                Instance inst = instances[first + k];
+                Instance inst = instance_at(first + k);
                 vec3 oo = o, od = d;
                 to_object(inst, oo, od);
                 Hit h = trace_hit(oo, od, tmin, hit.t, any_hit, alpha_key, inst.info.x);

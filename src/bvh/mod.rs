@@ -2,7 +2,9 @@
 //! (`layout::BvhNode`), with triangles reordered to match.
 mod traverse;
 
-pub use traverse::{brute_force, intersect_triangle, to_object, trace, trace_from, trace_two_level, Ray, TraceHit};
+pub use traverse::{
+    brute_force, instance_at, intersect_triangle, to_object, trace, trace_from, trace_two_level, Ray, TraceHit,
+};
 
 use crate::constants::{BVH_CHILD_INTERIOR, BVH_MAX_LEAF_TRIS, BVH_STACK_SIZE, BVH_WIDTH, STACK_COUNT_BITS};
 use crate::layout::BvhNode;

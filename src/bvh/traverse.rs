@@ -1,5 +1,5 @@
 //! CPU traversal of the exact GPU node layout; it mirrors shaders/include/traverse.glsl line for line.
-use crate::constants::{BVH_STACK_SIZE, BVH_WIDTH, NO_HIT, NO_INSTANCE, STACK_COUNT_BITS};
+use crate::constants::{BVH_STACK_SIZE, BVH_WIDTH, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE, STACK_COUNT_BITS};
 use crate::layout::{BvhNode, GpuInstance, TriVerts};
 use glam::{Vec2, Vec3};
 
@@ -210,14 +210,51 @@ pub fn to_object(inst: &GpuInstance, ray: &Ray) -> Ray {
     }
 }
 
-/// The two-level traversal of traverse.glsl's trace_all: the world BVH from node 0, then (unless any hit is done)
-/// the top-level BVH over `instances` (the header first), each instance traced from its own root in its space.
+/// Instance record `i` placed at `time` (the fraction of the shutter), as layout.glsl's instance_at: a moving
+/// record's object-to-world rows linearly between its keys on either side, and their inverse, by the same cross
+/// products.
+pub fn instance_at(instances: &[GpuInstance], i: u32, time: f32) -> GpuInstance {
+    let mut inst = instances[i as usize];
+    let first_key = inst.info[3];
+    if first_key == 0 {
+        return inst;
+    }
+    let x = time * MOTION_SEGMENTS as f32;
+    let k = (x as u32).min(MOTION_SEGMENTS - 1);
+    let f = x - k as f32;
+    let a = if k == 0 {
+        inst
+    } else {
+        instances[(first_key + k - 1) as usize]
+    };
+    let b = instances[(first_key + k) as usize];
+    let lerp = |a: [f32; 4], b: [f32; 4]| std::array::from_fn(|j| a[j] + (b[j] - a[j]) * f);
+    inst.world0 = lerp(a.world0, b.world0);
+    inst.world1 = lerp(a.world1, b.world1);
+    inst.world2 = lerp(a.world2, b.world2);
+    let r = [inst.world0, inst.world1, inst.world2].map(v3);
+    let c = [r[1].cross(r[2]), r[2].cross(r[0]), r[0].cross(r[1])];
+    let inv_det = 1.0 / r[0].dot(c[0]);
+    let t = Vec3::new(inst.world0[3], inst.world1[3], inst.world2[3]);
+    let row = |j: usize| {
+        let a = Vec3::new(c[0][j], c[1][j], c[2][j]) * inv_det;
+        [a.x, a.y, a.z, -a.dot(t)]
+    };
+    (inst.object0, inst.object1, inst.object2) = (row(0), row(1), row(2));
+    inst
+}
+
+/// The two-level traversal of traverse.glsl's trace_all at `time` (the fraction of the shutter; 0 without motion):
+/// the world BVH from node 0, then (unless any hit is done) the top-level BVH over `instances` (the header first),
+/// each instance placed at `time` and traced from its own root in its space. World triangles are taken as `tris`
+/// holds them (key 0): moving world triangles are checked against brute force in tests/motion.rs.
 pub fn trace_two_level(
     nodes: &[BvhNode],
     tris: &[TriVerts],
     instances: &[GpuInstance],
     ray: &Ray,
     any_hit: bool,
+    time: f32,
 ) -> TraceHit {
     let mut hit = trace_from(nodes, tris, 0, ray, any_hit);
     let Some(header) = instances.first() else {
@@ -243,10 +280,10 @@ pub fn trace_two_level(
             continue;
         }
         for i in first..first + count {
-            let inst = &instances[i as usize];
+            let inst = instance_at(instances, i, time);
             let local = Ray {
                 tmax: hit.t,
-                ..to_object(inst, ray)
+                ..to_object(&inst, ray)
             };
             let h = trace_from(nodes, tris, inst.info[0], &local, any_hit);
             if h.tri != NO_HIT {

@@ -33,25 +33,45 @@ pub fn invertible(world_from_object: &Mat4) -> bool {
 impl Scene {
     /// Per mesh, whether it is instanced. The rule: a mesh placed by two or more instances (with invertible
     /// transforms), whose instances place at least INSTANCING_MIN_TRIANGLES triangles (any number under
-    /// Instancing::Always), with no emissive material (light sampling picks world-space triangles), in a scene that
-    /// does not move over the shutter. Every other mesh is flattened. Normal maps are instanced too: tangents are
-    /// generated once in the mesh's space and taken into the world per instance.
+    /// Instancing::Always), with no emissive material (light sampling picks world-space triangles). In a scene that
+    /// moves over the shutter, the mesh must also be one of the file's own (not a skinned or morphed copy, whose
+    /// vertices move), and each of its instances invertible at every key with the same handedness: its instances
+    /// then move as rigid transforms interpolated per ray. Every other mesh is flattened. Normal maps are instanced
+    /// too: tangents are generated once in the mesh's space and taken into the world per instance.
     pub fn instanced_meshes(&self, rule: Instancing) -> Vec<bool> {
         let none = vec![false; self.meshes.len()];
-        if rule == Instancing::Never || self.motion.is_some() {
+        if rule == Instancing::Never {
             return none;
         }
         let mut uses = vec![0u64; self.meshes.len()];
-        for i in self.instances.iter().filter(|i| invertible(&i.world_from_object)) {
-            uses[i.mesh] += 1;
+        let mut rigid = vec![true; self.meshes.len()];
+        for (k, i) in self.instances.iter().enumerate() {
+            let still = invertible(&i.world_from_object);
+            if let Some(motion) = &self.motion {
+                // Out of object space at some key (a scale through 0), an instance is flattened, not dropped.
+                let hand = handedness(&i.world_from_object);
+                let keeps = |key: &super::rig::Placed| {
+                    let at = &key.instances[k];
+                    at.mesh == i.mesh && invertible(&at.world_from_object) && handedness(&at.world_from_object) == hand
+                };
+                rigid[i.mesh] &= still && i.mesh < self.rig.file_meshes && motion.keys.iter().all(keeps);
+            }
+            if still {
+                uses[i.mesh] += 1;
+            }
         }
-        (self.meshes.iter().zip(&uses))
-            .map(|(mesh, &n)| {
+        (self.meshes.iter().zip(uses.iter().zip(&rigid)))
+            .map(|(mesh, (&n, &rigid))| {
                 let plain =
                     (mesh.primitives.iter()).all(|p| self.materials[p.material as usize].emission.max_element() <= 0.0);
                 let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
-                n >= 2 && plain && big && mesh.triangles() > 0
+                n >= 2 && plain && big && rigid && mesh.triangles() > 0
             })
             .collect()
     }
+}
+
+/// Whether a transform mirrors (turns the winding of what it places).
+pub fn handedness(world_from_object: &Mat4) -> bool {
+    Mat3::from_mat4(*world_from_object).determinant() < 0.0
 }

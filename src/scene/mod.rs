@@ -10,7 +10,7 @@ pub mod texture;
 
 pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, MAX_FILE_BYTES, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
-pub use instancing::{invertible, Instancing, INSTANCING_MIN_TRIANGLES};
+pub use instancing::{handedness, invertible, Instancing, INSTANCING_MIN_TRIANGLES};
 pub use rig::{JointSet, MorphTarget, Motion, PoseTime, Rig};
 pub use soup::{box_corners, soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
 pub use texture::{Image, Texture, TextureRef, Wrap};

@@ -351,10 +351,20 @@ impl Scene {
     /// area at key 0 takes the normals of the first key where it has some.
     #[allow(clippy::type_complexity)]
     pub fn try_flatten_motion(&self) -> Result<(TriangleSoup, Option<Vec<Vec<KeyTriangle>>>), Error> {
+        self.try_flatten_motion_except(&vec![false; self.meshes.len()])
+    }
+
+    /// `try_flatten_motion` of the instances of every mesh but those `instanced` marks (which stay in object space,
+    /// moved by their instances' keys).
+    #[allow(clippy::type_complexity)]
+    pub fn try_flatten_motion_except(
+        &self,
+        instanced: &[bool],
+    ) -> Result<(TriangleSoup, Option<Vec<Vec<KeyTriangle>>>), Error> {
         let Some(motion) = &self.motion else {
-            return Ok((self.try_flatten()?, None));
+            return Ok((self.try_flatten_except(instanced)?, None));
         };
-        let n = self.flattened_triangle_bound();
+        let n = self.flattened_triangle_bound_except(instanced);
         let oom = || Error::Scene {
             path: self.path.clone(),
             message: format!("out of host memory placing its {n} triangles at every key of the motion"),
@@ -370,7 +380,7 @@ impl Scene {
             keys.push(v);
         }
         let key_count = motion.keys.len() + 1;
-        for (i, instance) in self.instances.iter().enumerate() {
+        for (i, instance) in self.instances.iter().enumerate().filter(|(_, i)| !instanced[i.mesh]) {
             let placements: Vec<Placement> = (0..key_count)
                 .map(|k| match k {
                     0 => Placement::new(instance.world_from_object),

@@ -100,3 +100,30 @@ pub fn write_temp(b: &gltf_builder::GltfBuilder, name: &str) -> (tempfile::TempD
     b.write(&path);
     (dir, path)
 }
+
+/// Every triangle of a moving scene, flattened, at shutter position `x` (in segments) as the device should place it:
+/// its keys on either side, linearly between (the reference moving traversals are checked against by brute force).
+pub fn posed_tri_verts(scene: &pathwave::scene::Scene, x: f32) -> Vec<pathwave::layout::TriVerts> {
+    let (soup, keys) = scene.try_flatten_motion().unwrap();
+    let keys = keys.expect("the scene moves");
+    let k = (x as usize).min(keys.len() - 1);
+    let f = x - k as f32;
+    let key = |k: usize, i: usize| {
+        if k == 0 {
+            soup.positions()[i]
+        } else {
+            keys[k - 1][i].positions
+        }
+    };
+    (0..soup.len())
+        .map(|i| {
+            let (a, b) = (key(k, i), key(k + 1, i));
+            let t = [0, 1, 2].map(|v| a[v] + (b[v] - a[v]) * f);
+            pathwave::layout::TriVerts {
+                v0: t[0].extend(0.0).to_array(),
+                e1: (t[1] - t[0]).extend(0.0).to_array(),
+                e2: (t[2] - t[0]).extend(0.0).to_array(),
+            }
+        })
+        .collect()
+}

@@ -250,11 +250,7 @@ pub fn try_pack(scene: &Scene) -> Result<PackedScene, Error> {
 pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Error> {
     scene.check_extent()?;
     let instanced = scene.instanced_meshes(rule);
-    let (soup, keys) = if instanced.contains(&true) {
-        (scene.try_flatten_except(&instanced)?, None)
-    } else {
-        scene.try_flatten_motion()?
-    };
+    let (soup, keys) = scene.try_flatten_motion_except(&instanced)?;
     // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
     // give it an error here; memory that runs out during the build (taken by another process) still aborts.
     if Vec::<u8>::new()
@@ -363,16 +359,31 @@ fn pack_instances(
         parts.push((m, blas, packed, soup.bounds()));
     }
     let part_of = |m: usize| parts.iter().position(|p| p.0 == m);
-    // (part, world from object, the instance's index in the scene).
-    let placed: Vec<(usize, glam::Mat4, u32)> = (scene.instances.iter().enumerate())
+    // (part, world from object at each key of the shutter, the instance's index in the scene). One key when the
+    // instance does not move; MOTION_SEGMENTS + 1 when it does (the rule made every one invertible).
+    let placed: Vec<(usize, Vec<glam::Mat4>, u32)> = (scene.instances.iter().enumerate())
         .filter(|(_, i)| instanced[i.mesh] && crate::scene::invertible(&i.world_from_object))
-        .filter_map(|(k, i)| Some((part_of(i.mesh)?, i.world_from_object, k as u32)))
+        .filter_map(|(k, i)| {
+            let mut keys = vec![i.world_from_object];
+            if let Some(motion) = &scene.motion {
+                keys.extend(motion.keys.iter().map(|key| key.instances[k].world_from_object));
+                if keys.iter().all(|w| *w == keys[0]) {
+                    keys.truncate(1);
+                }
+            }
+            Some((part_of(i.mesh)?, keys, k as u32))
+        })
         .collect();
+    // A moving instance's box holds its mesh at every key, so it holds it at every time: the device interpolates the
+    // transform linearly between keys, which moves each point linearly between its places at those keys.
     let boxes: Vec<(Vec3, Vec3)> = (placed.iter())
-        .map(|&(p, w, _)| {
-            let (lo, hi) = parts[p].3;
+        .map(|(p, keys, _)| {
+            let (lo, hi) = parts[*p].3;
             let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            for corner in crate::scene::box_corners(lo, hi) {
+            for (w, corner) in keys
+                .iter()
+                .flat_map(|w| crate::scene::box_corners(lo, hi).map(|c| (w, c)))
+            {
                 let q = w.transform_point3(corner);
                 b = (b.0.min(q), b.1.max(q));
             }
@@ -399,6 +410,7 @@ fn pack_instances(
     if colored && t.tri_colors.is_empty() {
         t.tri_colors = vec![white; t.tri_verts.len()];
     }
+    let first_blas_triangle = t.tri_verts.len() as u32;
     let mut roots = Vec::with_capacity(parts.len());
     for (_, blas, packed, _) in &mut parts {
         let root = bvh.nodes.len() as u32;
@@ -425,26 +437,44 @@ fn pack_instances(
         bvh.stats.max_leaf_tris = bvh.stats.max_leaf_tris.max(s.max_leaf_tris);
     }
     bvh.stats.nodes = bvh.nodes.len();
-    let mut records = Vec::with_capacity(placed.len() + 1);
+    let moving = placed.iter().filter(|p| p.1.len() > 1).count();
+    let mut records = Vec::new();
+    records
+        .try_reserve_exact(1 + placed.len() + moving * MOTION_SEGMENTS as usize)
+        .ok()?;
     records.push(GpuInstance {
-        info: [tlas_root, placed.len() as u32, 0, 0],
+        info: [tlas_root, placed.len() as u32, first_blas_triangle, 0],
         ..Default::default()
     });
+    // The TLAS's leaves in its order, then each moving instance's later keys (MOTION_SEGMENTS records, which its
+    // own record's info.w names).
+    let mut later_keys = 1 + placed.len() as u32;
+    let mut key_records = Vec::new();
     for &i in &tlas.order {
-        let (p, w, k) = placed[i as usize];
-        let o = w.inverse();
-        let mirrored = glam::Mat3::from_mat4(w).determinant() < 0.0;
-        records.push(GpuInstance {
-            world0: w.row(0).to_array(),
-            world1: w.row(1).to_array(),
-            world2: w.row(2).to_array(),
-            object0: o.row(0).to_array(),
-            object1: o.row(1).to_array(),
-            object2: o.row(2).to_array(),
-            info: [roots[p], mirrored as u32, k, 0],
-        });
+        let (p, keys, k) = &placed[i as usize];
+        let mirrored = crate::scene::handedness(&keys[0]);
+        let first_key = if keys.len() > 1 { later_keys } else { 0 };
+        later_keys += keys.len() as u32 - 1;
+        let info = [roots[*p], mirrored as u32, *k, first_key];
+        records.push(instance_record(&keys[0], info));
+        key_records.extend(keys[1..].iter().map(|w| instance_record(w, info)));
     }
+    records.append(&mut key_records);
     Some(records)
+}
+
+/// One instance record: `world_from_object` and its inverse as rows, and `info` (see GpuInstance).
+fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4]) -> GpuInstance {
+    let (w, o) = (world_from_object, world_from_object.inverse());
+    GpuInstance {
+        world0: w.row(0).to_array(),
+        world1: w.row(1).to_array(),
+        world2: w.row(2).to_array(),
+        object0: o.row(0).to_array(),
+        object1: o.row(1).to_array(),
+        object2: o.row(2).to_array(),
+        info,
+    }
 }
 
 /// The motion buffer: the camera's key records first (zeros when the scene has no camera of its own), then the
