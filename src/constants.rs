@@ -231,6 +231,8 @@ pub const LIGHT_KIND_SHIFT: u32 = 30;
 pub const LIGHT_KIND_TRIANGLE: u32 = 0;
 pub const LIGHT_KIND_ENV: u32 = 1;
 pub const LIGHT_KIND_PUNCTUAL: u32 = 2;
+/// An instance of an emissive mesh (its record's index): a triangle is then picked from the mesh's own table.
+pub const LIGHT_KIND_INSTANCE: u32 = 3;
 
 /// PunctualLight.position.w: which KHR_lights_punctual type.
 pub const PUNCTUAL_POINT: u32 = 0;

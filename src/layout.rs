@@ -122,12 +122,14 @@ pub struct MotionKey {
     pub n2: [f32; 4],
 }
 
-/// 112 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
-/// three rows each (x, y, z of a 3x4 affine map), and `info` = (its BLAS root node, 1 when the transform mirrors,
-/// its index in `Scene::instances`, the record of its key 1 when it moves over the shutter, else 0). Record 0 is the
-/// header: `info` = (the TLAS root node, the instance count, the first BLAS triangle, 0). The instances' records
-/// follow in the TLAS's order, then each moving instance's keys 1 ..= MOTION_SEGMENTS, whole records at those times.
-/// 112 bytes a still instance, 560 a moving one. See `Instance` in layout.glsl.
+/// 128 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
+/// three rows each (x, y, z of a 3x4 affine map), `info` = (its BLAS root node, 1 when the transform mirrors, its
+/// index in `Scene::instances`, the record of its key 1 when it moves over the shutter, else 0), and `light` = (where
+/// its mesh's emitters' table starts in the light buffer, how many it holds, the probability (f32 bits) light
+/// selection picks this instance with, 0); all 0 for a mesh that does not emit. Record 0 is the header: `info` =
+/// (the TLAS root node, the instance count, the first BLAS triangle, 0). The instances' records follow in the TLAS's
+/// order, then each moving instance's keys 1 ..= MOTION_SEGMENTS, whole records at those times. 128 bytes a still
+/// instance, 640 a moving one. See `Instance` in layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuInstance {
@@ -138,6 +140,7 @@ pub struct GpuInstance {
     pub object1: [f32; 4],
     pub object2: [f32; 4],
     pub info: [u32; 4],
+    pub light: [u32; 4],
 }
 
 /// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area, `n2[3]` = the
@@ -219,7 +222,9 @@ pub struct TriTangents {
     pub t2: [f32; 4],
 }
 
-/// 16 bytes, one per emissive triangle.
+/// 16 bytes, one per entry of light selection's table: an emissive triangle (world space), the environment, a
+/// punctual light, or an instance of an emissive mesh; then each emissive instanced mesh's table of its triangles
+/// (cdf and prob within the mesh, area in its space).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuLight {
@@ -305,7 +310,7 @@ const _: () = assert!(std::mem::size_of::<BvhNode>() == 48);
 const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
-const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuInstance>() == 128);
 
 /// 64 bytes: a pixel's AOV sums (survey.comp): albedo rgb and the samples added; the normal and the samples whose
 /// camera ray hit; the first hit's position and its distance along the camera ray (summed over hits); the instance

@@ -93,7 +93,7 @@ impl LoadArgs {
     /// The scene, refused if reading it or placing its instances would not fit the host memory budget.
     fn load(&self, path: &std::path::Path, camera: Option<usize>) -> Result<scene::Scene> {
         let scene = scene::load_with(path, &self.options(camera))?;
-        scene.check_host_memory(self.max_memory())?;
+        scene.check_host_memory(self.max_memory(), instancing_rule())?;
         Ok(scene)
     }
 }
@@ -204,7 +204,7 @@ impl SceneArgs {
         let pose = self.pose_time(scene, time)?;
         if scene.rig.animated() && (pose != scene.rig.posed || self.shutter > 0.0) {
             scene.pose_shutter(pose, self.shutter)?;
-            scene.check_host_memory(self.limits.max_memory())?;
+            scene.check_host_memory(self.limits.max_memory(), instancing_rule())?;
         }
         Ok(())
     }
@@ -949,7 +949,7 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
         eprintln!("warning: {}: {w}", path.display());
     }
     let start = Instant::now();
-    let packed = pathwave::render::gpu_scene::try_pack(&scene)?;
+    let packed = pathwave::render::gpu_scene::try_pack_with(&scene, instancing_rule())?;
     let build = start.elapsed();
     let st = &packed.bvh.stats;
     println!("scene       {}", path.display());
@@ -1004,7 +1004,7 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
             hi - lo
         );
     }
-    let instanced = scene.instanced_meshes(pathwave::scene::Instancing::Auto);
+    let instanced = scene.instanced_meshes(instancing_rule());
     let kept = instanced.iter().filter(|&&i| i).count();
     if kept > 0 {
         println!(
@@ -1018,9 +1018,20 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
         println!("instancing  none (every instance is placed into the world BVH)");
     }
     println!("materials   {}", scene.materials.len() - 1);
+    let instanced_lights = (packed.lights.iter().take(packed.light_count as usize))
+        .filter(|l| l.id >> pathwave::constants::LIGHT_KIND_SHIFT == pathwave::constants::LIGHT_KIND_INSTANCE)
+        .count();
+    let triangles = packed
+        .lights
+        .iter()
+        .filter(|l| l.id >> pathwave::constants::LIGHT_KIND_SHIFT == 0)
+        .count();
     println!(
-        "lights      {} emissive triangles, {:.4} W in total",
-        packed.lights.len(),
+        "lights      {triangles} emissive triangles{}, {:.4} W in total",
+        match instanced_lights {
+            0 => String::new(),
+            n => format!(" (instanced meshes' counted once) and {n} emissive instances"),
+        },
         packed.total_light_power + 0.0
     );
     println!(
@@ -1044,4 +1055,9 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
         build.as_secs_f64() * 1e3
     );
     Ok(())
+}
+
+/// The instancing rule the renderer will use (PATHWAVE_INSTANCING; a bad value is refused when the renderer reads it).
+fn instancing_rule() -> scene::Instancing {
+    pathwave::RendererOptions::from_env().map_or(scene::Instancing::Auto, |o| o.instancing)
 }

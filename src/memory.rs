@@ -127,10 +127,10 @@ impl Scene {
     }
 
     /// Refuses a scene whose flattening and packing would need more than `limit` bytes of host memory, before any
-    /// of it is allocated.
-    pub fn check_host_memory(&self, limit: u64) -> Result<(), Error> {
-        // Meshes the renderer instances are stored once (Instancing::Auto's rule, which the renderer uses too).
-        let instanced = self.instanced_meshes(crate::scene::Instancing::Auto);
+    /// of it is allocated, when the renderer instances meshes by `rule`.
+    pub fn check_host_memory(&self, limit: u64, rule: crate::scene::Instancing) -> Result<(), Error> {
+        // Meshes the renderer instances are stored once.
+        let instanced = self.instanced_meshes(rule);
         let triangles = self.flattened_triangle_bound_except(&instanced);
         // Motion keys are per flattened triangle: an instanced mesh moves by its instances' records.
         let stored = (self.meshes.iter().zip(&instanced))

@@ -180,10 +180,9 @@ fn shared_grid(nodes: u32) -> common::gltf_builder::GltfBuilder {
     b
 }
 
-/// 25,600 nodes sharing one 79,202-triangle emissive mesh (which light sampling needs in world space, so it is
-/// flattened rather than instanced) flatten to 2 billion triangles (hundreds of GiB): refused from the instance
-/// count before anything is placed, where it used to run for a minute and die out of memory. The same file with a
-/// plain material is instanced and renders (tests/instances.rs).
+/// 25,600 nodes sharing one 79,202-triangle mesh, with instancing off (PATHWAVE_INSTANCING=never), flatten to 2
+/// billion triangles (hundreds of GiB): refused from the instance count before anything is placed, where it used to
+/// run for a minute and die out of memory. With instancing (the default) such a file renders (tests/instances.rs).
 #[test]
 fn a_scene_whose_flattening_exceeds_the_budget_is_refused_fast() {
     let (dir, path) = common::write_temp(&shared_grid(25_600), "many.gltf");
@@ -191,6 +190,7 @@ fn a_scene_whose_flattening_exceeds_the_budget_is_refused_fast() {
     for (args, limit) in [(&[][..], "GiB"), (&["--max-memory", "512M"][..], "512.0 MiB")] {
         let (o, took) = run_within(
             pathwave()
+                .env("PATHWAVE_INSTANCING", "never")
                 .arg("render")
                 .arg(&path)
                 .arg("-o")
@@ -214,13 +214,17 @@ fn a_scene_whose_flattening_exceeds_the_budget_is_refused_fast() {
 }
 
 /// Past the budget check (a generous --max-memory) a host that cannot give the memory (here a 1.5 GB address-space
-/// limit; 15.8 M placed triangles need about 5 GB) is an error naming the scene, where the allocator used to abort.
+/// limit; 15.8 M placed triangles, instancing off, need about 5 GB) is an error naming the scene, where the
+/// allocator used to abort.
 #[test]
 fn running_out_of_host_memory_is_an_error_not_an_abort() {
     use std::os::unix::process::{CommandExt, ExitStatusExt};
     let (_dir, path) = common::write_temp(&shared_grid(200), "grids.gltf");
     let mut cmd = pathwave();
-    cmd.arg("info").arg(&path).args(["--max-memory", "100G"]);
+    cmd.env("PATHWAVE_INSTANCING", "never")
+        .arg("info")
+        .arg(&path)
+        .args(["--max-memory", "100G"]);
     // SAFETY: only setrlimit runs between fork and exec.
     unsafe {
         cmd.pre_exec(|| {

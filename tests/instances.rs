@@ -4,7 +4,7 @@
 mod common;
 
 use common::gltf_builder::GltfBuilder;
-use common::stats::beyond_noise;
+use common::stats::{beyond_noise, image_mean_and_stderr};
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
 use pathwave::constants::{FEATURE_INSTANCES, FEATURE_MOTION, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE};
@@ -277,6 +277,100 @@ fn a_moving_instanced_scene_renders_like_its_triangles_moved_one_by_one() {
     assert!(scene.instanced_meshes(Instancing::Always)[ball]);
 }
 
+/// A floor, a grey ball, and one glowing sphere mesh (single-sided: it emits outwards) placed four ways: rotated,
+/// stretched, mirrored and plain. Its instances are the only lights.
+fn lamps() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let glow = b.material("glow", [0.2; 3], [4.0, 3.0, 2.0], false);
+    b.quad(
+        "floor",
+        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.uv_sphere("ball", [0.0, 0.5, 0.0], 0.5, grey, true);
+    b.uv_sphere("bulb", [0.0, 0.0, 0.0], 0.3, glow, true);
+    b.transform_last_node(
+        json!({ "translation": [-1.4, 1.2, 0.3], "rotation": Quat::from_rotation_z(0.7).to_array() }),
+    );
+    b.place_last_mesh(
+        "stretched",
+        json!({ "translation": [1.3, 1.0, -0.4], "scale": [1.8, 0.5, 1.0] }),
+    );
+    b.place_last_mesh(
+        "mirrored",
+        json!({ "translation": [0.2, 1.8, -1.2], "scale": [-1.6, 1.6, 1.6] }),
+    );
+    b.place_last_mesh("plain", json!({ "translation": [0.5, 0.5, 1.2] }));
+    b.camera([0.0, 2.0, 5.0], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 45.0);
+    b
+}
+
+/// Catches, for each estimator: instanced emitters picked with probabilities other than those the device divides by
+/// (light sampling: the instance's pick times its triangle's within the mesh, over the triangle's area in the world),
+/// emission hits weighted against another density than light sampling's (MIS weights would not add to 1), a
+/// mirrored emitter's front turned (it emits outwards only), a stretched one's area taken in its mesh's space; and
+/// the same for emitters moving over the shutter. Each image must match the one whose emitters are placed triangle
+/// by triangle in the world.
+#[test]
+fn instanced_emitters_light_the_scene_as_placed_ones_do() {
+    use pathwave::{Estimator, RenderSettings};
+    let (dir, path) = common::write_temp(&lamps(), "lamps.gltf");
+    let still = load(&path, None).unwrap();
+    let bulb = still.meshes.iter().position(|m| m.name == "bulb").unwrap();
+    assert!(still.instanced_meshes(Instancing::Always)[bulb]);
+    let packed = try_pack_with(&still, Instancing::Always).unwrap();
+    assert_eq!(packed.light_count, 4, "one light per instance");
+    let mut b = lamps();
+    b.animate(
+        "move",
+        2,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[-1.4, 1.2, 0.3, -0.8, 1.5, 0.6],
+    );
+    b.animate(
+        "move",
+        3,
+        "scale",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[1.8, 0.5, 1.0, 1.0, 1.2, 0.8],
+    );
+    let moving_path = dir.path().join("moving-lamps.gltf");
+    b.write(&moving_path);
+    let mut moving = load(&moving_path, None).unwrap();
+    moving.pose_shutter(pathwave::scene::PoseTime::default(), 1.0).unwrap();
+    let cases = [
+        ("mis", &still, Estimator::Mis),
+        ("light", &still, Estimator::Light),
+        ("bsdf", &still, Estimator::Bsdf),
+        ("moving mis", &moving, Estimator::Mis),
+    ];
+    for (what, scene, estimator) in cases {
+        let s = RenderSettings {
+            estimator,
+            ..common::settings(40, 30, 256, 6)
+        };
+        let flat = common::render(&mut renderer(scene, Instancing::Never), &s);
+        let inst = common::render(&mut renderer(scene, Instancing::Always), &s);
+        let bad = beyond_noise(&inst, &flat, 1e-3);
+        // The image means within four standard errors of their difference (each an upper bound: see
+        // image_mean_and_stderr), which a mirrored emitter's front turned exceeds.
+        let ((mi, si), (mf, sf)) = (image_mean_and_stderr(&inst), image_mean_and_stderr(&flat));
+        let z = (mi - mf) / (si * si + sf * sf).sqrt();
+        eprintln!("{what}: {bad} channels beyond noise, means {mi} against {mf}, z {z:.2}");
+        assert!(bad <= 3, "{what}: {bad} pixel channels differ beyond noise");
+        assert!(
+            z.abs() < 4.0,
+            "{what}: mean {mi} against {mf}, {z:.1} standard errors apart"
+        );
+    }
+}
+
 /// Catches: normals not taken to world space by the inverse transpose, a mirrored instance's front face turned (the
 /// spheres are glass with absorption, so which side is inside shows), hit points left in object space: the image
 /// would differ from the flattened scene's beyond noise.
@@ -313,7 +407,7 @@ fn an_instanced_scene_renders_like_its_triangles_placed_one_by_one() {
 
 /// Catches: instances copied into the device buffers (memory growing with placed triangles), or the host memory
 /// check refusing a scene that instancing keeps small. 4,000 instances of a 2,048-triangle mesh place 8.2 M
-/// triangles; stored once they take the mesh's bytes plus 112 per instance.
+/// triangles; stored once they take the mesh's bytes plus 128 per instance.
 #[test]
 fn many_instances_of_one_mesh_take_the_mesh_once_plus_a_record_each() {
     let mut scene = Scene::default();
@@ -331,7 +425,7 @@ fn many_instances_of_one_mesh_take_the_mesh_once_plus_a_record_each() {
     scene.environment = Some(pathwave::scene::Environment::constant([1.0; 3]));
     assert!(scene.flattened_triangle_bound() > 8_000_000);
     scene
-        .check_host_memory(256 << 20)
+        .check_host_memory(256 << 20, Instancing::Auto)
         .expect("instancing keeps the scene within 256 MiB");
     let packed = try_pack_with(&scene, Instancing::Auto).unwrap();
     assert_eq!(packed.instances.len(), 4001);
@@ -340,7 +434,7 @@ fn many_instances_of_one_mesh_take_the_mesh_once_plus_a_record_each() {
         + std::mem::size_of_val(&packed.tri_shading[..])
         + std::mem::size_of_val(&packed.bvh.nodes[..])
         + std::mem::size_of_val(&packed.instances[..]);
-    let bound = tris * (48 + 48 + 48) + 4001 * (112 + 2 * 48);
+    let bound = tris * (48 + 48 + 48) + 4001 * (128 + 2 * 48);
     assert!(bytes <= bound, "{bytes} device bytes, more than the bound {bound}");
     let mut r = renderer(&scene, Instancing::Auto);
     let film = common::render(&mut r, &common::settings(16, 16, 2, 1));

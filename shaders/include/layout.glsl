@@ -49,11 +49,13 @@ struct MotionKey {
     vec4 n2;
 };
 
-// 112 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
+// 128 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
 // 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, the record of
-// its key 1 when it moves over the shutter, else 0). Record 0 is the header: info = (the TLAS root node, the
-// instance count, the first BLAS triangle, 0). A moving instance's keys 1 ..= MOTION_SEGMENTS are whole records
-// after the instances' (see instance_at).
+// its key 1 when it moves over the shutter, else 0); light = (the first entry of its mesh's emitter table in the
+// light buffer, their count, the probability (float bits) light selection picks the instance with, 0), zero for a
+// mesh that does not emit. Record 0 is the header: info = (the TLAS root node, the instance count, the first BLAS
+// triangle, 0). A moving instance's keys 1 ..= MOTION_SEGMENTS are whole records after the instances' (see
+// instance_at).
 struct Instance {
     vec4 world0;
     vec4 world1;
@@ -62,6 +64,7 @@ struct Instance {
     vec4 object1;
     vec4 object2;
     uvec4 info;
+    uvec4 light;
 };
 
 // 32 bytes: a material's use of a texture. The texture is sampled at (dot(u.xyz, vec3(uv, 1)), dot(v.xyz, vec3(uv, 1)))
@@ -484,6 +487,14 @@ void inverse_rows(vec4 r0, vec4 r1, vec4 r2, out vec4 o0, out vec4 o1, out vec4 
     o0 = vec4(a0, -dot(a0, t));
     o1 = vec4(a1, -dot(a1, t));
     o2 = vec4(a2, -dot(a2, t));
+}
+
+// An instanced triangle (in its mesh's space) in the world, as instance I places it (w's kept).
+TriVerts tri_to_world(Instance I, TriVerts tv) {
+    tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
+    tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
+    tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);
+    return tv;
 }
 
 // Instance record i placed at motion_time. A moving one's object-to-world rows go linearly between its keys on either

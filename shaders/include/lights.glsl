@@ -5,15 +5,25 @@
 #include "environment.glsl"
 #include "surface.glsl"
 
-// Smallest index whose inclusive cdf exceeds u; the host makes the last cdf exactly 1.
-uint pick_light(float u) {
-    uint lo = 0u;
-    uint hi = frame.light_count - 1u;
+// Smallest index of the table of `count` lights from `first` whose inclusive cdf exceeds u; the host makes each
+// table's last cdf exactly 1.
+uint pick_light_in(uint first, uint count, float u) {
+    uint lo = first;
+    uint hi = first + count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) >> 1u;
         if (u < load_light(mid).cdf) hi = mid; else lo = mid + 1u;
     }
     return lo;
+}
+
+// Light selection's pick from its table.
+uint pick_light(float u) { return pick_light_in(0u, frame.light_count, u); }
+
+// u's place within the share [cdf_lo, l.cdf) of light j of the table from `first`, in [0, 1).
+float rescale_pick(uint first, uint j, Light l, float u) {
+    float cdf_lo = j == first ? 0.0 : load_light(j - 1u).cdf;
+    return min((u - cdf_lo) / max(l.cdf - cdf_lo, 1e-30), 0.99999994);
 }
 
 struct LightSample {
@@ -36,8 +46,7 @@ LightSample sample_light(vec3 p, vec2 u) {
     ls.delta = false;
     uint picked = pick_light(u.x);
     Light l = load_light(picked);
-    float cdf_lo = picked == 0u ? 0.0 : load_light(picked - 1u).cdf;
-    vec2 u_point = vec2(min((u.x - cdf_lo) / max(l.cdf - cdf_lo, 1e-30), 0.99999994), u.y);
+    vec2 u_point = vec2(rescale_pick(0u, picked, l, u.x), u.y);
     if (scene_has(FEATURE_PUNCTUAL) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
         PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
         uint kind = floatBitsToUint(pl.position.w);
@@ -78,10 +87,30 @@ LightSample sample_light(vec3 p, vec2 u) {
         return ls;
     }
     uint tri = l.id & LIGHT_INDEX_MASK;
+    float prob = l.prob;
+    uint inst = NO_INSTANCE;
+    if (scene_has(FEATURE_INSTANCES) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_INSTANCE) {
+        // An instance of an emissive mesh: one of its triangles from the mesh's own table, u_point.x rescaled again
+        // to that triangle's share.
+        inst = tri;
+        uvec4 table = instances[inst].light;
+        uint j = pick_light_in(table.x, table.y, u_point.x);
+        Light t = load_light(j);
+        u_point.x = rescale_pick(table.x, j, t, u_point.x);
+        tri = t.id & LIGHT_INDEX_MASK;
+        prob *= t.prob;
+    }
     TriVerts lv = load_tri_verts(tri);
+    bool mirrored = false;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
+        Instance I = instance_at(inst);
+        lv = tri_to_world(I, lv);
+        mirrored = I.info.y != 0u;
+    }
     vec2 b = sample_triangle(u_point);
     vec3 q = lv.v0.xyz + b.x * lv.e1.xyz + b.y * lv.e2.xyz;
-    vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz));
+    // A mirroring instance turns the winding; its front is still the mesh's.
+    vec3 lng = normalize(cross(lv.e1.xyz, lv.e2.xyz)) * (mirrored ? -1.0 : 1.0);
     vec3 to_light = q - p;
     float dist2 = dot(to_light, to_light);
     if (!(dist2 > 0.0)) return ls;
@@ -98,10 +127,12 @@ LightSample sample_light(vec3 p, vec2 u) {
 #else
     ls.radiance = lm.emission.rgb;
 #endif
-    // A moving emitter's area at the ray's time (the table's is its mean over the shutter, for the pick).
-    float area = scene_has(FEATURE_MOTION) ? 0.5 * length(cross(lv.e1.xyz, lv.e2.xyz)) : l.area;
-    if (scene_has(FEATURE_MOTION) && !(area > 0.0)) return ls;
-    ls.pdf = l.prob / area * dist2 / abs(cos_l);
+    // A moving emitter's area at the ray's time (the table's is its mean over the shutter, for the pick), and an
+    // instanced one's in the world.
+    bool placed = scene_has(FEATURE_MOTION) || (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE);
+    float area = placed ? 0.5 * length(cross(lv.e1.xyz, lv.e2.xyz)) : l.area;
+    if (placed && !(area > 0.0)) return ls;
+    ls.pdf = prob / area * dist2 / abs(cos_l);
     return ls;
 }
 

@@ -67,13 +67,16 @@ Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
         // An instanced triangle, in its mesh's space: into the world by the instance's transform, its normals by the
         // inverse transpose.
         Instance I = instance_at(inst);
-        tv.v0.xyz = rows_point(I.world0, I.world1, I.world2, tv.v0.xyz);
-        tv.e1.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e1.xyz);
-        tv.e2.xyz = rows_vector(I.world0, I.world1, I.world2, tv.e2.xyz);
+        tv = tri_to_world(I, tv);
         ts.n0.xyz = instance_normal(I, ts.n0.xyz);
         ts.n1.xyz = instance_normal(I, ts.n1.xyz);
         ts.n2.xyz = instance_normal(I, ts.n2.xyz);
         mirrored = I.info.y != 0u;
+        // An emitter's light-sampling density per unit area, as sample_light has it: the instance's pick, the
+        // triangle's pick within its mesh (n0.w), over its area in the world now.
+        float area = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
+        ts.n0.w = ts.n0.w > 0.0 && area > 0.0 ? uintBitsToFloat(I.light.z) * ts.n0.w / area : 0.0;
+        ts.n1.w = area;
     }
     sf.m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
     sf.p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;

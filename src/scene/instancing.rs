@@ -33,7 +33,8 @@ pub fn invertible(world_from_object: &Mat4) -> bool {
 impl Scene {
     /// Per mesh, whether it is instanced. The rule: a mesh placed by two or more instances (with invertible
     /// transforms), whose instances place at least INSTANCING_MIN_TRIANGLES triangles (any number under
-    /// Instancing::Always), with no emissive material (light sampling picks world-space triangles). In a scene that
+    /// Instancing::Always); emissive ones too (light selection picks an instance, then a triangle from the mesh's
+    /// own table). In a scene that
     /// moves over the shutter, the mesh must also be one of the file's own (not a skinned or morphed copy, whose
     /// vertices move), and each of its instances invertible at every key with the same handedness: its instances
     /// then move as rigid transforms interpolated per ray. Every other mesh is flattened. Normal maps are instanced
@@ -62,10 +63,8 @@ impl Scene {
         }
         (self.meshes.iter().zip(uses.iter().zip(&rigid)))
             .map(|(mesh, (&n, &rigid))| {
-                let plain =
-                    (mesh.primitives.iter()).all(|p| self.materials[p.material as usize].emission.max_element() <= 0.0);
                 let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
-                n >= 2 && plain && big && rigid && mesh.triangles() > 0
+                n >= 2 && big && rigid && mesh.triangles() > 0
             })
             .collect()
     }

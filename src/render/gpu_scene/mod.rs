@@ -263,7 +263,7 @@ impl GpuScene {
             views,
             buffers,
             storage_ok,
-            light_count: packed.lights.len() as u32,
+            light_count: packed.light_count,
             env_prob: packed.env_prob,
             features: packed.features(),
             alpha_tested,

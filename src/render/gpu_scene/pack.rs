@@ -20,7 +20,11 @@ pub struct PackedScene {
     pub tri_verts: Vec<TriVerts>,
     pub tri_shading: Vec<TriShading>,
     pub materials: Vec<GpuMaterial>,
+    /// Light selection's table (its first `light_count` entries), then each emissive instanced mesh's table of its
+    /// triangles, which an instance's record points to.
     pub lights: Vec<GpuLight>,
+    /// The entries of `lights` light selection picks from.
+    pub light_count: u32,
     /// Sum of the lights' estimated power (W), what light selection is proportional to.
     pub total_light_power: f64,
     /// Probability that light selection picks the environment (0 without one).
@@ -280,13 +284,13 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         message: format!("out of host memory packing its {} triangles", soup.len()),
     })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
-    let instances = if instanced.contains(&true) {
+    let (mut instances, mesh_lights) = if instanced.contains(&true) {
         pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds).ok_or_else(|| Error::Scene {
             path: scene.path.clone(),
             message: "out of host memory packing its instanced meshes".into(),
         })?
     } else {
-        Vec::new()
+        (Vec::new(), Vec::new())
     };
     let bvh_build = if instances.is_empty() {
         bvh_build
@@ -311,7 +315,13 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             emitters.push((LIGHT_KIND_ENV << LIGHT_KIND_SHIFT, p, 0.0));
         }
     }
-    let (lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading);
+    let (mut lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading, &mut instances);
+    let light_count = lights.len() as u32;
+    // The instanced meshes' tables follow the one light selection picks from.
+    for record in instances.iter_mut().skip(1).filter(|r| r.light[1] > 0) {
+        record.light[0] += light_count;
+    }
+    lights.extend(mesh_lights);
     let (textures, texels) = pack_textures(scene);
     Ok(PackedScene {
         bounds,
@@ -321,6 +331,7 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         tri_shading: t.tri_shading,
         materials: scene.materials.iter().map(gpu_material).collect(),
         lights,
+        light_count,
         total_light_power,
         env_prob,
         env_data: scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default(),
@@ -339,13 +350,21 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
 /// Every mesh `instanced` marks in its own space, after the world's triangles, with a BVH of its own; a top-level
 /// BVH over the instances that place them; and the instance records (the header first). Nodes end up as [world
 /// BVH][TLAS][each mesh's BVH], every index offset to its place. Grows `bounds` by the instances' boxes.
+///
+/// An emissive mesh's triangles get a table of their own (returned; records point into it from 0, so the caller
+/// offsets them past light selection's table), picked in proportion to their power in the mesh's space, each
+/// triangle's TriShading.n0.w holding its probability there; each of its instances becomes one emitter in
+/// `t.emitters`, whose power is the mesh's scaled by the transform's area factor |det|^(2/3). Exact for rotations
+/// and uniform scales; under a stretch the pick is a little off the power, which costs variance, not bias: the
+/// device divides by the pick's own probability and the triangle's area in the world.
+#[allow(clippy::type_complexity)]
 fn pack_instances(
     scene: &Scene,
     instanced: &[bool],
     bvh: &mut Bvh,
     t: &mut PackedTriangles,
     bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
-) -> Option<Vec<GpuInstance>> {
+) -> Option<(Vec<GpuInstance>, Vec<GpuLight>)> {
     use glam::Vec3;
     // Each instanced mesh's BVH and packed triangles, and where they start.
     let mut parts: Vec<(usize, Bvh, PackedTriangles, (Vec3, Vec3))> = Vec::new();
@@ -412,9 +431,33 @@ fn pack_instances(
     }
     let first_blas_triangle = t.tri_verts.len() as u32;
     let mut roots = Vec::with_capacity(parts.len());
+    // Per part: (where its emitter table starts, its length, its power in the mesh's space).
+    let mut part_lights = Vec::with_capacity(parts.len());
+    let mut mesh_lights: Vec<GpuLight> = Vec::new();
     for (_, blas, packed, _) in &mut parts {
         let root = bvh.nodes.len() as u32;
         let tri_base = t.tri_verts.len() as u32;
+        let power: f64 = packed.emitters.iter().map(|e| e.1).sum();
+        part_lights.push((mesh_lights.len() as u32, packed.emitters.len() as u32, power));
+        let (mut acc, mut previous_cdf) = (0.0f64, 0.0f32);
+        for (i, &(slot, p, area)) in packed.emitters.iter().enumerate() {
+            acc += p;
+            let cdf = if i + 1 == packed.emitters.len() {
+                1.0
+            } else {
+                (acc / power) as f32
+            };
+            let prob = cdf - previous_cdf;
+            previous_cdf = cdf;
+            packed.tri_shading[slot as usize].n0[3] = prob;
+            mesh_lights.try_reserve(1).ok()?;
+            mesh_lights.push(GpuLight {
+                id: LIGHT_KIND_TRIANGLE << LIGHT_KIND_SHIFT | (tri_base + slot),
+                cdf,
+                prob,
+                area,
+            });
+        }
         bvh.nodes.extend(blas.nodes.iter().map(|n| {
             let mut n = *n;
             n.offset(root, tri_base);
@@ -456,15 +499,27 @@ fn pack_instances(
         let first_key = if keys.len() > 1 { later_keys } else { 0 };
         later_keys += keys.len() as u32 - 1;
         let info = [roots[*p], mirrored as u32, *k, first_key];
-        records.push(instance_record(&keys[0], info));
-        key_records.extend(keys[1..].iter().map(|w| instance_record(w, info)));
+        let (first_light, light_count, power) = part_lights[*p];
+        let light = [first_light, light_count, 0, 0];
+        if light_count > 0 {
+            let stretch = glam::Mat3::from_mat4(keys[0]).determinant().abs().powf(2.0 / 3.0) as f64;
+            t.emitters.try_reserve(1).ok()?;
+            t.emitters.push((
+                LIGHT_KIND_INSTANCE << LIGHT_KIND_SHIFT | records.len() as u32,
+                power * stretch,
+                0.0,
+            ));
+        }
+        records.push(instance_record(&keys[0], info, light));
+        // Only a key record's transforms are read (instance_at keeps the instance's own info and light).
+        key_records.extend(keys[1..].iter().map(|w| instance_record(w, info, [0; 4])));
     }
     records.append(&mut key_records);
-    Some(records)
+    Some((records, mesh_lights))
 }
 
-/// One instance record: `world_from_object` and its inverse as rows, and `info` (see GpuInstance).
-fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4]) -> GpuInstance {
+/// One instance record: `world_from_object` and its inverse as rows, `info` and `light` (see GpuInstance).
+fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4], light: [u32; 4]) -> GpuInstance {
     let (w, o) = (world_from_object, world_from_object.inverse());
     GpuInstance {
         world0: w.row(0).to_array(),
@@ -474,6 +529,7 @@ fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4]) -> GpuInstanc
         object1: o.row(1).to_array(),
         object2: o.row(2).to_array(),
         info,
+        light,
     }
 }
 
@@ -638,7 +694,11 @@ fn pack_punctual(scene: &Scene, radius: f32, emitters: &mut Vec<Emitter>) -> Vec
 
 /// The light table light selection picks from in proportion to power, the environment's probability in it, and
 /// the total power; each emissive triangle's NEE pdf per unit area goes into its shading record (for MIS).
-fn light_table(emitters: &[Emitter], tri_shading: &mut [TriShading]) -> (Vec<GpuLight>, f32, f64) {
+fn light_table(
+    emitters: &[Emitter],
+    tri_shading: &mut [TriShading],
+    instances: &mut [GpuInstance],
+) -> (Vec<GpuLight>, f32, f64) {
     let total: f64 = emitters.iter().map(|p| p.1).sum();
     let mut lights = Vec::with_capacity(emitters.len());
     let mut acc = 0.0f64;
@@ -660,6 +720,9 @@ fn light_table(emitters: &[Emitter], tri_shading: &mut [TriShading]) -> (Vec<Gpu
         match id >> LIGHT_KIND_SHIFT {
             LIGHT_KIND_ENV => env_prob = prob,
             LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = if prob > 0.0 { prob / area } else { 0.0 },
+            // Its triangles' density per unit area is this times their own probability over their world area, which
+            // the device finds at the hit (the instance may stretch or move).
+            LIGHT_KIND_INSTANCE => instances[(id & LIGHT_INDEX_MASK) as usize].light[2] = prob.to_bits(),
             _ => {} // punctual lights are never hit, so MIS never asks for their probability
         }
     }
