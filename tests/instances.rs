@@ -484,7 +484,7 @@ fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_bu
     b.camera([0.0, 40.0, 120.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 45.0);
     let (dir, path) = common::write_temp(&b, "forest.gltf");
     let out = dir.path().join("forest.png");
-    // Still, then moving: the moving instances keep the mesh once (their keys cost 448 bytes each), where flattening
+    // Still, then moving: the moving instances keep the mesh once (their keys cost 512 bytes each), where flattening
     // them would need keys for 2 billion triangles.
     for shutter in ["0", "0.5"] {
         let o = common::pathwave_cli()
