@@ -123,6 +123,52 @@ fn renderer(scene: &Scene, instancing: Instancing) -> Renderer {
     Renderer::with_options(scene, ctx, options).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// `rays` traced at `time` (closest and any hit) by the device and the CPU twin over `packed`, each checked against a
+/// brute force over `placed` (the same triangles placed in the world one by one, at that time); returns how many
+/// closest hits found an instance.
+fn check_against_brute_force(
+    packed: &pathwave::render::gpu_scene::PackedScene,
+    device: &mut Renderer,
+    rays: &[Ray],
+    placed: &[pathwave::layout::TriVerts],
+    time: f32,
+) -> u32 {
+    let mut instanced_hits = 0;
+    for any_hit in [false, true] {
+        let gpu = device.probe_trace_at(rays, any_hit, time).unwrap();
+        for (ray, g) in rays.iter().zip(&gpu) {
+            let want = brute_force(placed, ray);
+            let cpu = trace_two_level(
+                &packed.bvh.nodes,
+                &packed.tri_verts,
+                &packed.instances,
+                ray,
+                any_hit,
+                time,
+            );
+            for (who, got) in [("cpu twin", cpu), ("device", *g)] {
+                assert_eq!(
+                    got.tri == NO_HIT,
+                    want.tri == NO_HIT,
+                    "{who} (time {time}, any hit {any_hit}) on {ray:?}"
+                );
+                if !any_hit && want.tri != NO_HIT {
+                    let tol = 2e-5 * want.t.max(1.0);
+                    assert!(
+                        (got.t - want.t).abs() < tol,
+                        "{who} at {time}: t {} against {}",
+                        got.t,
+                        want.t
+                    );
+                }
+            }
+            assert_eq!(cpu.inst, g.inst, "the device and its twin hit different instances");
+            instanced_hits += (!any_hit && g.inst != NO_INSTANCE) as u32;
+        }
+    }
+    instanced_hits
+}
+
 /// Catches: rays not moved into the instance's space (or moved by the wrong matrix), distances measured in object
 /// space, TLAS boxes not holding their instances, BLAS indices not offset to where their nodes and triangles live,
 /// any hit stopping on a miss.
@@ -142,34 +188,7 @@ fn two_level_traversal_finds_what_brute_force_over_the_placed_triangles_finds() 
     assert_eq!(flat.features() & FEATURE_INSTANCES, 0);
     let rays = rays(3000, 5);
     let mut device = renderer(&scene, Instancing::Always);
-    let mut instanced_hits = 0;
-    for any_hit in [false, true] {
-        let gpu = device.probe_trace(&rays, any_hit).unwrap();
-        for (ray, g) in rays.iter().zip(&gpu) {
-            let want = brute_force(&flat.tri_verts, ray);
-            let cpu = trace_two_level(
-                &packed.bvh.nodes,
-                &packed.tri_verts,
-                &packed.instances,
-                ray,
-                any_hit,
-                0.0,
-            );
-            for (who, got) in [("cpu twin", cpu), ("device", *g)] {
-                assert_eq!(
-                    got.tri == NO_HIT,
-                    want.tri == NO_HIT,
-                    "{who} (any hit {any_hit}) on {ray:?}"
-                );
-                if !any_hit && want.tri != NO_HIT {
-                    let tol = 2e-5 * want.t.max(1.0);
-                    assert!((got.t - want.t).abs() < tol, "{who}: t {} against {}", got.t, want.t);
-                }
-            }
-            assert_eq!(cpu.inst, g.inst, "the device and its twin hit different instances");
-            instanced_hits += (!any_hit && g.inst != NO_INSTANCE) as u32;
-        }
-    }
+    let instanced_hits = check_against_brute_force(&packed, &mut device, &rays, &flat.tri_verts, 0.0);
     assert!(instanced_hits > 300, "only {instanced_hits} rays hit an instance");
 }
 
@@ -195,38 +214,7 @@ fn moving_instances_are_found_where_brute_force_finds_them_at_every_time() {
     let mut instanced_hits = 0;
     for time in [0.0, 0.15, 0.4, 0.62, 0.999] {
         let placed = common::posed_tri_verts(&scene, time * segments as f32);
-        for any_hit in [false, true] {
-            let gpu = device.probe_trace_at(&rays, any_hit, time).unwrap();
-            for (ray, g) in rays.iter().zip(&gpu) {
-                let want = brute_force(&placed, ray);
-                let cpu = trace_two_level(
-                    &packed.bvh.nodes,
-                    &packed.tri_verts,
-                    &packed.instances,
-                    ray,
-                    any_hit,
-                    time,
-                );
-                for (who, got) in [("cpu twin", cpu), ("device", *g)] {
-                    assert_eq!(
-                        got.tri == NO_HIT,
-                        want.tri == NO_HIT,
-                        "{who} (time {time}, any hit {any_hit}) on {ray:?}"
-                    );
-                    if !any_hit && want.tri != NO_HIT {
-                        let tol = 2e-5 * want.t.max(1.0);
-                        assert!(
-                            (got.t - want.t).abs() < tol,
-                            "{who} at {time}: t {} against {}",
-                            got.t,
-                            want.t
-                        );
-                    }
-                }
-                assert_eq!(cpu.inst, g.inst, "the device and its twin hit different instances");
-                instanced_hits += (!any_hit && g.inst != NO_INSTANCE) as u32;
-            }
-        }
+        instanced_hits += check_against_brute_force(&packed, &mut device, &rays, &placed, time);
     }
     assert!(instanced_hits > 1500, "only {instanced_hits} rays hit an instance");
 }

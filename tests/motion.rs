@@ -117,6 +117,36 @@ const HALF: Vec2 = Vec2::new(0.25, 0.25);
 const START_X: f32 = -0.6;
 const TRAVEL: f32 = 0.8;
 
+/// Moves node 1 (the quad) by TRAVEL along x over [0, 1] s, from START_X.
+fn slide(b: &mut GltfBuilder) {
+    b.animate(
+        "move",
+        1,
+        "translation",
+        "LINEAR",
+        &[0.0, 1.0],
+        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+    );
+}
+
+/// The rotation tests' quad: its half size, and how far node 1 turns it about z over [0, 1] s.
+const SPIN_HALF: Vec2 = Vec2::new(0.45, 0.08);
+const SPIN_DEGREES: f32 = 40.0;
+
+fn spin(b: &mut GltfBuilder) {
+    let keys: Vec<f32> = [0.0, SPIN_DEGREES.to_radians()]
+        .iter()
+        .flat_map(|&a| Quat::from_rotation_z(a).to_array())
+        .collect();
+    b.animate("spin", 1, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+}
+
+fn inside_spinning_quad(p: Vec2, t: f32) -> bool {
+    // Back into the quad's frame at time t.
+    let q = glam::Mat2::from_angle(-SPIN_DEGREES.to_radians() * t) * p;
+    q.abs().cmple(SPIN_HALF).all()
+}
+
 fn inside_moving_quad(p: Vec2, t: f32) -> bool {
     let c = Vec2::new(START_X + TRAVEL * t, 0.0);
     (p - c).abs().cmple(HALF).all()
@@ -127,14 +157,7 @@ fn inside_moving_quad(p: Vec2, t: f32) -> bool {
 #[test]
 fn a_node_moving_linearly_blurs_into_its_time_averaged_coverage() {
     let mut b = emitter(HALF);
-    b.animate(
-        "move",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
-    );
+    slide(&mut b);
     let (_dir, path) = common::write_temp(&b, "moving.gltf");
     assert_matches(
         "node translation",
@@ -208,21 +231,10 @@ fn a_skinned_quad_moved_by_its_two_bones_blurs_the_same_way() {
 /// vertices between keys must stay on the quad's path to within the bound).
 #[test]
 fn a_rotating_quad_blurs_into_its_swept_coverage() {
-    let half = Vec2::new(0.45, 0.08);
-    let mut b = emitter(half);
-    let turn = 40f32.to_radians();
-    let keys: Vec<f32> = [0.0, turn]
-        .iter()
-        .flat_map(|&a| Quat::from_rotation_z(a).to_array())
-        .collect();
-    b.animate("spin", 1, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+    let mut b = emitter(SPIN_HALF);
+    spin(&mut b);
     let (_dir, path) = common::write_temp(&b, "spin.gltf");
-    let want = expected(|p, t| {
-        // Back into the quad's frame at time t.
-        let q = glam::Mat2::from_angle(-turn * t) * p;
-        q.abs().cmple(half).all()
-    });
-    assert_matches("rotation", &render_blurred(&path), &want);
+    assert_matches("rotation", &render_blurred(&path), &expected(inside_spinning_quad));
 }
 
 /// `emitter`'s scene with a black quad (node 1) against a white environment, so a pixel's value is one less the
@@ -280,14 +292,7 @@ fn render_blurred_instanced(path: &Path) -> Vec<f32> {
 #[test]
 fn an_instance_moving_linearly_blurs_into_its_time_averaged_coverage() {
     let mut b = occluder(HALF);
-    b.animate(
-        "move",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
-    );
+    slide(&mut b);
     let (_dir, path) = common::write_temp(&b, "moving-instance.gltf");
     assert_matches(
         "instance translation",
@@ -299,32 +304,19 @@ fn an_instance_moving_linearly_blurs_into_its_time_averaged_coverage() {
 /// Catches: a rotating instance's rays moved by a rotation other than the one its keys interpolate to.
 #[test]
 fn a_rotating_instance_blurs_into_its_swept_coverage() {
-    let half = Vec2::new(0.45, 0.08);
-    let mut b = occluder(half);
-    let turn = 40f32.to_radians();
-    let keys: Vec<f32> = [0.0, turn]
-        .iter()
-        .flat_map(|&a| Quat::from_rotation_z(a).to_array())
-        .collect();
-    b.animate("spin", 1, "rotation", "LINEAR", &[0.0, 1.0], &keys);
+    let mut b = occluder(SPIN_HALF);
+    spin(&mut b);
     let (_dir, path) = common::write_temp(&b, "spinning-instance.gltf");
-    let want = expected(|p, t| {
-        let q = glam::Mat2::from_angle(-turn * t) * p;
-        q.abs().cmple(half).all()
-    });
-    assert_matches("instance rotation", &render_blurred_instanced(&path), &want);
+    assert_matches(
+        "instance rotation",
+        &render_blurred_instanced(&path),
+        &expected(inside_spinning_quad),
+    );
 }
 
 fn moving_scene() -> (tempfile::TempDir, std::path::PathBuf) {
     let mut b = emitter(HALF);
-    b.animate(
-        "move",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
-    );
+    slide(&mut b);
     b.animate(
         "spin",
         1,
