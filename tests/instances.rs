@@ -169,6 +169,16 @@ fn check_against_brute_force(
     instanced_hits
 }
 
+/// Both schedules give the same bytes on `what`, the scene `inst` renders.
+fn assert_schedules_agree(inst: &mut Renderer, what: &str) {
+    let s = common::settings(24, 18, 8, 2);
+    inst.set_schedule(pathwave::Schedule::Wavefront);
+    let w = common::render(inst, &s);
+    inst.set_schedule(pathwave::Schedule::Fused);
+    let f = common::render(inst, &s);
+    assert!(w.sum == f.sum && w.sum_sq == f.sum_sq, "the schedules differ on {what}");
+}
+
 /// Catches: rays not moved into the instance's space (or moved by the wrong matrix), distances measured in object
 /// space, TLAS boxes not holding their instances, BLAS indices not offset to where their nodes and triangles live,
 /// any hit stopping on a miss.
@@ -234,14 +244,7 @@ fn a_moving_instanced_scene_renders_like_its_triangles_moved_one_by_one() {
     let sum = |m: &[[f32; 3]]| m.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
     let (ma, mb) = (sum(&a.mean()), sum(&flat.mean()));
     assert!((ma / mb - 1.0).abs() < 0.01, "{ma} against {mb}");
-    inst.set_schedule(pathwave::Schedule::Wavefront);
-    let w = common::render(&mut inst, &common::settings(24, 18, 8, 2));
-    inst.set_schedule(pathwave::Schedule::Fused);
-    let f = common::render(&mut inst, &common::settings(24, 18, 8, 2));
-    assert!(
-        w.sum == f.sum && w.sum_sq == f.sum_sq,
-        "the schedules differ on a moving instanced scene"
-    );
+    assert_schedules_agree(&mut inst, "a moving instanced scene");
 
     let mut b = spheres();
     b.animate(
@@ -382,15 +385,7 @@ fn an_instanced_scene_renders_like_its_triangles_placed_one_by_one() {
         sum(&ma),
         sum(&mb)
     );
-    // Both schedules give the same bytes on an instanced scene too.
-    inst.set_schedule(pathwave::Schedule::Wavefront);
-    let w = common::render(&mut inst, &common::settings(24, 18, 8, 2));
-    inst.set_schedule(pathwave::Schedule::Fused);
-    let f = common::render(&mut inst, &common::settings(24, 18, 8, 2));
-    assert!(
-        w.sum == f.sum && w.sum_sq == f.sum_sq,
-        "the schedules differ on an instanced scene"
-    );
+    assert_schedules_agree(&mut inst, "an instanced scene");
 }
 
 /// Catches: instances copied into the device buffers (memory growing with placed triangles), or the host memory
