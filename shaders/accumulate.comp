@@ -10,7 +10,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     // A follow dispatch cut short left wrong samples: the host runs the pass again (Renderer::run_pass).
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
-    uint pixel = frame.pixel_offset + i;
+    uint pixel = pass_pixel(i);
     uint pixels = frame.width * frame.height;
     bool fused = (frame.flags & FLAG_FUSED_SUMS) != 0u;
     uint dropped = 0u;

@@ -1,7 +1,8 @@
 // plan: adaptive sampling's budgets, once the film holds exactly the pilot (plan_pilot() samples of every pixel). A
 // pixel's budget is the samples its mean needs for a relative standard error of plan_threshold(), estimated from
-// the pilot samples of its eight neighbours, never its own: its budget is then independent of its own samples, so
-// the mean of the samples it takes is an unbiased estimate of the pixel (see README, "Adaptive sampling").
+// the pilot samples of its 24 nearest neighbours, never its own: its budget is then independent of its own samples, so
+// the mean of the samples it takes is an unbiased estimate of the pixel (see README, "Adaptive sampling"). It also
+// counts the budgets per bucket, and a second dispatch ranks the pixels by them (the budget buffer's order).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
@@ -41,16 +42,36 @@ void pilot_of(uint q, out float n, out vec3 sum, out vec3 sum_sq) {
     }
 }
 
+// The second dispatch (FLAG_PIXEL_ORDER): the pixel's place among the pixels by budget, from the largest. Places
+// within a bucket go by arrival: which invocation later takes which pixel changes no sample (each is a function of its
+// pixel and index), so the image stays the same bytes.
+void rank(uint p, uint pixels) {
+    uint counts = 2u * pixels, cursors = counts + ORDER_BUCKETS;
+    uint b = order_bucket(budget[p]);
+    uint place = 0u;
+    for (uint k = b + 1u; k < ORDER_BUCKETS; k++) place += budget[counts + k];
+    place += atomicAdd(budget[cursors + b], 1u);
+    budget[pixels + place] = p;
+}
+
+// The neighbourhood the pilot is pooled over: 5x5 pixels but the pixel itself. Eight neighbours (3x3) predicted the
+// variance too poorly: on the Cornell box relMSE x samples was 1.24x uniform's with them, 1.15x with 24.
+const int R = 2;
 void main() {
     uint p = gl_GlobalInvocationID.x;
     uint pixels = frame.width * frame.height;
     if (p >= pixels) return;
+    if ((frame.flags & FLAG_PIXEL_ORDER) != 0u) {
+        rank(p, pixels);
+        return;
+    }
     int x = int(p % frame.width), y = int(p / frame.width);
-    // The neighbours' pilots pooled: pixels differing from each other raise the variance, so edges get more samples.
+    // The neighbours' pilots pooled (R pixels around): pixels differing from each other raise the variance, so edges
+    // get more samples.
     float n = 0.0;
     vec3 sum = vec3(0.0), sum_sq = vec3(0.0);
-    for (int dy = -1; dy <= 1; dy++) {
-        for (int dx = -1; dx <= 1; dx++) {
+    for (int dy = -R; dy <= R; dy++) {
+        for (int dx = -R; dx <= R; dx++) {
             int qx = x + dx, qy = y + dy;
             bool inside = qx >= 0 && qy >= 0 && qx < int(frame.width) && qy < int(frame.height);
             if ((dx != 0 || dy != 0) && inside) {
@@ -81,4 +102,7 @@ void main() {
     }
     budget[p] = need;
     atomicMax(counters.budget_max, need);
+    uint b = order_bucket(need);
+    atomicAdd(budget[2u * pixels + b], 1u);
+    atomicMax(budget[2u * pixels + 2u * ORDER_BUCKETS + b], need);
 }

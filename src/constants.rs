@@ -167,6 +167,10 @@ pub const FLAG_ADAPTIVE: u32 = 1024;
 /// survey adds the debug views too (BINDING_DEBUG_AOVS); read by survey, and by the host, which leaves it out of a
 /// film file's frame fingerprint like FLAG_AOVS.
 pub const FLAG_DEBUG_AOVS: u32 = 2048;
+/// A pass after adaptive sampling's plan: its pixels are the budget buffer's order (ORDER_*), the pixels by budget
+/// from the largest, so a pass covers only those that take its samples and a subgroup's pixels take about as many.
+/// plan.comp's second dispatch (which ranks them) carries it too.
+pub const FLAG_PIXEL_ORDER: u32 = 4096;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -222,6 +226,11 @@ pub const FEATURE_ADAPTIVE: u32 = 65536;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;
+/// The budget buffer (BINDING_BUDGET), in u32 words for P pixels: the budgets [0, P), the pixels by budget from the
+/// largest [P, 2P), then per bucket of budgets (ORDER_BUCKETS of them) their count, a cursor plan.comp ranks them with,
+/// and their largest. Budgets in one bucket differ by at most 1/8 (layout.glsl's order_bucket: a float of three
+/// mantissa bits, exact below 16), and a larger budget never falls in a lower bucket.
+pub const ORDER_BUCKETS: u32 = 256;
 /// Hit.inst of a world-space triangle (instance records start at 1, after the header).
 pub const NO_INSTANCE: u32 = 0;
 pub const FEATURES_ALL: u32 = 0xFFFFFFFF;

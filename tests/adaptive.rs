@@ -2,40 +2,14 @@
 //! half, its image agrees with a uniform render within their standard errors, it beats uniform sampling at an equal
 //! number of samples, and it stays exact: both schedules give the same bytes, and parts merge to one render's bits.
 mod common;
-use common::gltf_builder::GltfBuilder;
 use common::{render, scene_renderer, settings};
 use pathwave::diff::rel_mse;
 use pathwave::{Adaptive, Film, RenderSettings, Renderer, Schedule};
-use serde_json::json;
 
-/// A grey floor seen from low down: the left half of the view lit by the sun straight above (smooth: next-event
-/// estimation of a directional light is exact, and a plane sees nothing else), the right half under a low roof that
-/// the light reaches only by bouncing in from the lit side (noisy).
+/// scenes/halves.gltf (tests/common/scenes.rs): a floor half in the sun (smooth) and half under a roof lit by
+/// bounces (noisy).
 fn halves() -> pathwave::scene::Scene {
-    let mut b = GltfBuilder::new();
-    let grey = b.material("grey", [0.6; 3], [0.0; 3], true);
-    b.quad(
-        "floor",
-        [[-8.0, 0.0, -8.0], [8.0, 0.0, -8.0], [8.0, 0.0, 8.0], [-8.0, 0.0, 8.0]],
-        grey,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "roof",
-        [[0.0, 0.6, -8.0], [8.0, 0.6, -8.0], [8.0, 0.6, 3.0], [0.0, 0.6, 3.0]],
-        grey,
-        None,
-    );
-    // A directional light shines along its node's -z: turned a quarter about x, straight down.
-    let down = [
-        -std::f32::consts::FRAC_1_SQRT_2,
-        0.0,
-        0.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ];
-    b.punctual(json!({ "type": "directional" }), [1.0; 3], 3.0, [0.0, 5.0, 0.0], down);
-    b.camera([0.0, 0.4, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0);
-    let (_dir, path) = common::write_temp(&b, "halves.gltf");
+    let (_dir, path) = common::write_temp(&common::scenes::halves(), "halves.gltf");
     pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"))
 }
 

@@ -3,21 +3,7 @@ mod common;
 
 #[test]
 fn scene_files_match_their_generator() {
-    for (name, b) in [
-        ("cornell-box.gltf", common::scenes::cornell_box()),
-        ("furnace.gltf", common::scenes::furnace(0.5, 0.5)),
-        ("two-lights.gltf", common::scenes::two_lights()),
-        ("unequal-lights.gltf", common::scenes::unequal_lights()),
-        ("material-grid.gltf", common::scenes::material_grid()),
-        ("glass.gltf", common::scenes::glass()),
-        ("punctual-lights.gltf", common::scenes::punctual_lights()),
-        ("textured.gltf", common::scenes::textured()),
-        ("animated.gltf", common::scenes::animated()),
-        ("layers.gltf", common::scenes::layers()),
-        ("anisotropy.gltf", common::scenes::anisotropy()),
-        ("iridescence.gltf", common::scenes::iridescence()),
-        ("translucency.gltf", common::scenes::translucency()),
-    ] {
+    for (name, b) in common::scenes::all() {
         let on_disk = std::fs::read_to_string(common::scenes_dir().join(name)).unwrap();
         assert!(
             on_disk == b.to_json(),

@@ -324,6 +324,12 @@ layout(std430, set = 0, binding = BINDING_BUDGET) buffer BudgetBuf { uint budget
 bool sample_taken(uint pixel, uint s) {
     return !scene_has(FEATURE_ADAPTIVE) || s < budget[pixel];
 }
+// A budget's bucket (render::order_bucket's twin): the budget itself below 8, then eight buckets per octave.
+uint order_bucket(uint n) {
+    if (n < 8u) return n;
+    int m = findMSB(n);
+    return 8u * uint(m - 2) + ((n >> uint(m - 3)) & 7u);
+}
 
 // Per-triangle data, BVH nodes and image texels, read through texel views (TEXEL_READS variants) or the storage buffers above:
 // the same bytes either way. Everything outside layout.glsl reads them through these.
@@ -517,7 +523,25 @@ Instance instance_at(uint i) {
     return I;
 }
 
-uint path_pixel(uint path) { return frame.pixel_offset + path % frame.pass_pixels; }
+// The pass's i-th pixel: in image order, or after adaptive sampling's plan in the order of their budgets
+// (FLAG_PIXEL_ORDER).
+// In the order, workgroups alternate between the ends of the ranking (the first takes the largest budgets, the second
+// the smallest, and so on), so that a device handing each thread a contiguous run of workgroups (lavapipe) gives
+// each about as much work; invocations of one workgroup keep neighbouring ranks, so a subgroup's budgets stay alike.
+// A bijection on the pass's pixels: the last partial workgroup keeps its place.
+uint pass_pixel(uint i) {
+    if (scene_has(FEATURE_ADAPTIVE) && (frame.flags & FLAG_PIXEL_ORDER) != 0u) {
+        uint full = frame.pass_pixels / WORKGROUP_SIZE;
+        uint group = i / WORKGROUP_SIZE;
+        if (group < full) {
+            group = (group & 1u) == 0u ? group / 2u : full - 1u - group / 2u;
+            i = group * WORKGROUP_SIZE + i % WORKGROUP_SIZE;
+        }
+        return budget[frame.width * frame.height + frame.pixel_offset + i];
+    }
+    return frame.pixel_offset + i;
+}
+uint path_pixel(uint path) { return pass_pixel(path % frame.pass_pixels); }
 uint path_sample(uint path) { return frame.sample_index + path / frame.pass_pixels; }
 uint frame_estimator() { return (frame.flags >> ESTIMATOR_SHIFT) & 3u; }
 

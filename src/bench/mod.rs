@@ -294,7 +294,9 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         report.mitsuba = Some(compare::compare_mitsuba(
             &o.python, &o.device, &cornell, o.quick, progress,
         )?);
-        for scene in [&cornell, &glass] {
+        // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
+        let halves = o.scenes.join("halves.gltf");
+        for scene in [&cornell, &glass, &halves] {
             report
                 .adaptive
                 .push(adaptive::compare_adaptive(&o.device, scene, o.quick, progress)?);

@@ -2,6 +2,7 @@
 //! (the wavefront), or follow then accumulate (fused). Each stage is a method; `pass` reads like the algorithm.
 //! The wavefront's bounces go to the device in batches, so a deep `--max-depth` costs no host memory.
 use super::kernels::{Built, FusedKernels, Kernels, WavefrontKernels};
+use super::session::Planned;
 use super::{Renderer, Schedule};
 use crate::constants::*;
 use crate::error::Error;
@@ -113,18 +114,24 @@ impl Renderer {
     }
 
     /// Adaptive sampling's budgets from the film, which holds exactly `pilot` samples of every pixel: each pixel's
-    /// from its neighbours' (plan.comp). Returns the largest budget, where the render can end.
+    /// from its neighbours' (plan.comp), then the pixels ranked by them into the budget buffer's order.
     pub(super) fn plan(
         &mut self,
         frame: &Frame,
         counters: &Buffer,
+        budget: &Buffer,
         pilot: u32,
         threshold: f32,
         end: u32,
-    ) -> Result<u32, Error> {
+    ) -> Result<Planned, Error> {
         self.kernels.set_features(self.render_features(frame));
         let k = self.kernels.plan(&self.ctx)?;
         let f = frame.plan(pilot, threshold, end);
+        let pixels = f.width * f.height;
+        let rank = Frame {
+            flags: f.flags | FLAG_PIXEL_ORDER,
+            ..f
+        };
         let Renderer {
             ctx,
             kernels,
@@ -132,10 +139,21 @@ impl Renderer {
             ..
         } = self;
         record(ctx, kernels, timestamps, counters, true, |rec| {
-            rec.run(k, &f, f.width * f.height);
+            // The buckets' counts, cursors and largest budgets start at zero.
+            let (offset, size) = (2 * pixels as u64 * 4, 3 * ORDER_BUCKETS as u64 * 4);
+            unsafe { ctx.device.cmd_fill_buffer(rec.cmd, budget.raw, offset, size, 0) };
+            ctx.barrier(rec.cmd);
+            rec.run(k, &f, pixels);
+            rec.run(k, &rank, pixels);
         })?;
         let c: Counters = counters.download(ctx)?[0];
-        Ok(c.budget_max)
+        let words: Vec<u32> = budget.download(ctx)?;
+        let (at, n) = (2 * pixels as usize, ORDER_BUCKETS as usize);
+        Ok(Planned {
+            end: c.budget_max,
+            counts: words[at..at + n].to_vec(),
+            largest: words[at + 2 * n..at + 3 * n].to_vec(),
+        })
     }
 
     /// One pass: `frame.path_count` paths (pixels x samples), the whole path, every bounce: the fused schedule in one

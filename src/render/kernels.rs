@@ -251,11 +251,20 @@ pub struct FusedKernels {
 /// Every kernel's SPIR-V and the pipelines built from it so far, on the one shared descriptor set.
 pub struct Kernels {
     pub pipelines: Pipelines,
-    built: HashMap<Kernel, vk::Pipeline>,
+    /// Pipelines by kernel and the FEATURE_* bits a render stage was specialised for (0 for the other stages, which
+    /// keep the bits they were built with).
+    built: HashMap<(Kernel, u32), vk::Pipeline>,
     spirv: HashMap<Kernel, Vec<u8>>,
     /// FEATURE_* bits the render stages are specialised for (SCENE_FEATURES in layout.glsl).
     features: u32,
+    /// The feature sets whose render pipelines are kept, the latest last: a render that turns adaptive sampling, an
+    /// exact film or a lens on and off (the bench, the viewer) finds its pipelines built, where rebuilding cost
+    /// about 1.3 s on lavapipe every switch.
+    kept: Vec<u32>,
 }
+
+/// Render-stage feature sets kept built at once (each about 7 pipelines).
+const KEPT_FEATURE_SETS: usize = 4;
 
 impl Kernels {
     /// Builds the energy tables' and the tone map's stages now; the render stages when a pass first needs them,
@@ -266,6 +275,7 @@ impl Kernels {
             built: HashMap::new(),
             spirv: HashMap::new(),
             features,
+            kept: vec![features],
         };
         for (name, spv) in spirv {
             let kernel = Kernel::from_name(name)
@@ -278,23 +288,39 @@ impl Kernels {
         Ok(me)
     }
 
-    /// Specialises the render stages for `features` from now on: built ones are dropped and built again on use.
+    /// Specialises the render stages for `features` from now on. The pipelines of the last few feature sets stay
+    /// built; older ones are dropped.
     pub fn set_features(&mut self, features: u32) {
         if features == self.features {
             return;
         }
         self.features = features;
-        let stale: Vec<Kernel> = self.built.keys().copied().filter(|k| k.stage.renders()).collect();
-        for k in stale {
-            if let Some(old) = self.built.remove(&k) {
-                self.pipelines.destroy(old);
+        self.kept.retain(|&f| f != features);
+        self.kept.push(features);
+        if self.kept.len() > KEPT_FEATURE_SETS {
+            let old = self.kept.remove(0);
+            let stale: Vec<(Kernel, u32)> = self
+                .built
+                .keys()
+                .copied()
+                .filter(|&(k, f)| k.stage.renders() && f == old)
+                .collect();
+            for key in stale {
+                if let Some(p) = self.built.remove(&key) {
+                    self.pipelines.destroy(p);
+                }
             }
         }
     }
 
+    /// The key a kernel's pipeline is kept under for the current features.
+    fn key(&self, kernel: Kernel) -> (Kernel, u32) {
+        (kernel, if kernel.stage.renders() { self.features } else { 0 })
+    }
+
     /// The kernel's pipeline, built first if it is not yet.
     pub fn get(&mut self, ctx: &Context, kernel: Kernel) -> Result<Built, Error> {
-        let pipeline = match self.built.get(&kernel) {
+        let pipeline = match self.built.get(&self.key(kernel)) {
             Some(&p) => p,
             None => self.build(ctx, kernel)?,
         };
@@ -323,7 +349,7 @@ impl Kernels {
 
     /// The kernel's pipeline if it is built.
     pub fn built(&self, kernel: Kernel) -> Option<Built> {
-        self.built.get(&kernel).map(|&pipeline| Built {
+        self.built.get(&self.key(kernel)).map(|&pipeline| Built {
             stage: kernel.stage,
             pipeline,
         })
@@ -360,9 +386,22 @@ impl Kernels {
         self.get(ctx, Kernel::of(Stage::Plan))
     }
 
-    /// Replaces a kernel's SPIR-V (a user's shader) and builds it now, so a bad one fails here.
+    /// Replaces a kernel's SPIR-V (a user's shader) and builds it now, so a bad one fails here. Its pipelines for
+    /// other feature sets are dropped, to be built from the new SPIR-V when used.
     pub fn replace(&mut self, ctx: &Context, kernel: Kernel, spv: &[u8]) -> Result<(), Error> {
         self.spirv.insert(kernel, spv.to_vec());
+        let current = self.key(kernel);
+        let stale: Vec<(Kernel, u32)> = self
+            .built
+            .keys()
+            .copied()
+            .filter(|&(k, f)| k == kernel && (k, f) != current)
+            .collect();
+        for key in stale {
+            if let Some(p) = self.built.remove(&key) {
+                self.pipelines.destroy(p);
+            }
+        }
         self.build(ctx, kernel).map(|_| ())
     }
 
@@ -377,7 +416,7 @@ impl Kernels {
             self.features
         };
         let pipeline = self.pipelines.create(ctx, &kernel.name(), spv, features)?;
-        if let Some(old) = self.built.insert(kernel, pipeline) {
+        if let Some(old) = self.built.insert(self.key(kernel), pipeline) {
             self.pipelines.destroy(old);
         }
         Ok(pipeline)

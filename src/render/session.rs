@@ -28,15 +28,36 @@ pub struct Session {
     aovs: Option<Buffer>,
     /// The debug views' sums (`DebugSums` per pixel), when the settings ask for them.
     debug: Option<Buffer>,
-    /// Adaptive sampling's budgets (a u32 per pixel), when the settings ask for it.
+    /// Adaptive sampling's budgets and the pixels in their order (ORDER_BUCKETS), when the settings ask for it.
     budget: Option<Buffer>,
-    /// Once the budgets are planned, the sample index past every pixel's budget: the render ends there.
-    planned_end: Option<u32>,
+    /// Once the budgets are planned, where the render ends and which pixels each pass covers.
+    planned: Option<Planned>,
     /// Samples per pixel accumulated so far.
     pub done: u32,
     /// Tallies since the last (re)start.
     pub stats: RenderStats,
     pub(super) started: Instant,
+}
+
+/// Adaptive sampling's plan as the host keeps it: the sample index past every pixel's budget (the render ends there),
+/// and per bucket of budgets (plan.comp) how many pixels fall in it and the largest budget among them.
+#[derive(Clone, Debug)]
+pub(super) struct Planned {
+    pub end: u32,
+    pub counts: Vec<u32>,
+    pub largest: Vec<u32>,
+}
+
+impl Planned {
+    /// How many of the ordered pixels a pass from sample `s` covers: those of every bucket whose largest budget is
+    /// above `s`. Larger budgets rank first and never fall in a lower bucket, so these are a prefix of the order and
+    /// hold every pixel that still takes samples (and, within a bucket, a few that take fewer).
+    pub fn active(&self, s: u32) -> u32 {
+        (self.counts.iter().zip(&self.largest))
+            .filter(|&(_, &largest)| largest > s)
+            .map(|(&count, _)| count)
+            .sum()
+    }
 }
 
 impl Session {
@@ -58,8 +79,8 @@ impl Session {
     /// budget below them.
     pub fn target(&self) -> u32 {
         let s = &self.settings;
-        match self.planned_end {
-            Some(end) => end.saturating_sub(s.first_sample).min(s.spp),
+        match &self.planned {
+            Some(p) => p.end.saturating_sub(s.first_sample).min(s.spp),
             None => s.spp,
         }
     }
@@ -192,7 +213,7 @@ impl Renderer {
             Some(_) => Some(Buffer::new(
                 ctx,
                 "budgets",
-                pixels * 4,
+                (2 * pixels + 3 * ORDER_BUCKETS as u64) * 4,
                 storage,
                 MemoryLocation::GpuOnly,
             )?),
@@ -211,7 +232,7 @@ impl Renderer {
             aovs,
             debug,
             budget,
-            planned_end: None,
+            planned: None,
             done: 0,
             stats: RenderStats::default(),
             started: Instant::now(),
@@ -245,7 +266,7 @@ impl Renderer {
         session.done = 0;
         session.stats = RenderStats::default();
         session.started = Instant::now();
-        session.planned_end = None;
+        session.planned = None;
         let (ctx, film, budget) = (&self.ctx, &session.film, &session.budget);
         let sums: Vec<&Buffer> = session.aovs.iter().chain(&session.debug).collect();
         ctx.submit_and_wait(|cmd| unsafe {
@@ -272,19 +293,18 @@ impl Renderer {
         };
         let first = session.settings.first_sample;
         let end = first.saturating_add(session.settings.spp);
-        if session.planned_end.is_none() && first > 0 && session.done == 0 && end > a.pilot {
+        if session.planned.is_none() && first > 0 && session.done == 0 && end > a.pilot {
             self.pilot(session, a)?;
         }
         let next = first + session.done;
-        let samples = match session.planned_end {
+        let samples = match session.planned {
             None if next < a.pilot => samples.min(a.pilot - next),
             _ => samples,
         };
         let added = self.advance_pass(session, samples)?;
-        if session.planned_end.is_none() && first == 0 && session.done == a.pilot {
+        if session.planned.is_none() && first == 0 && session.done == a.pilot {
             self.bind(&session.bindings(), session.texel_views());
-            let budget_max = self.plan(&session.frame, &session.counters, a.pilot, a.threshold, end)?;
-            session.planned_end = Some(budget_max);
+            session.planned = Some(self.plan_session(session, a, end)?);
             self.check_validation()?;
         }
         Ok(added)
@@ -301,12 +321,11 @@ impl Renderer {
             }
             self.bind(&session.bindings(), session.texel_views());
             let end = first.saturating_add(session.settings.spp);
-            self.plan(&session.frame, &session.counters, a.pilot, a.threshold, end)
+            self.plan_session(session, a, end)
         })();
         session.settings.first_sample = first;
         session.done = 0;
-        let budget_max = result?;
-        session.planned_end = Some(budget_max);
+        session.planned = Some(result?);
         // The pilot's samples leave the film (its work stays in the tallies).
         let (ctx, film) = (&self.ctx, &session.film);
         let sums: Vec<&Buffer> = session.aovs.iter().chain(&session.debug).collect();
@@ -319,12 +338,28 @@ impl Renderer {
         self.check_validation()
     }
 
-    /// One pass of `advance`, adaptive or not.
+    /// The session's budgets, planned from the pilot in its film.
+    fn plan_session(&mut self, session: &Session, a: super::Adaptive, end: u32) -> Result<Planned, Error> {
+        let budget =
+            (session.budget.as_ref()).ok_or_else(|| Error::Vulkan("an adaptive session has no budgets".into()))?;
+        self.plan(&session.frame, &session.counters, budget, a.pilot, a.threshold, end)
+    }
+
+    /// One pass of `advance`, adaptive or not. Once adaptive sampling has planned, a pass covers only the pixels
+    /// that take its first sample, in the order of their budgets (FLAG_PIXEL_ORDER).
     fn advance_pass(&mut self, session: &mut Session, samples: u32) -> Result<u32, Error> {
         self.bind(&session.bindings(), session.texel_views());
-        let (pixels, capacity) = (session.pixels, session.capacity);
+        let capacity = session.capacity;
         let mut frame = session.frame;
         frame.sample_index = session.settings.first_sample + session.done;
+        let pixels = match &session.planned {
+            Some(p) => {
+                frame.flags |= FLAG_PIXEL_ORDER;
+                // A pass covers one pixel at least (which then may take no sample).
+                p.active(frame.sample_index).max(1) as u64
+            }
+            None => session.pixels,
+        };
         let mut stats = std::mem::take(&mut session.stats);
         let added = if pixels <= capacity as u64 {
             // Whole samples of every pixel, as many as fit. A fused pass keeps only a pixel's running sums in the

@@ -2,6 +2,26 @@
 #![allow(dead_code)]
 use super::gltf_builder::GltfBuilder;
 
+/// Every scene in scenes/ by file name.
+pub fn all() -> Vec<(&'static str, GltfBuilder)> {
+    vec![
+        ("cornell-box.gltf", cornell_box()),
+        ("furnace.gltf", furnace(0.5, 0.5)),
+        ("two-lights.gltf", two_lights()),
+        ("unequal-lights.gltf", unequal_lights()),
+        ("material-grid.gltf", material_grid()),
+        ("glass.gltf", glass()),
+        ("punctual-lights.gltf", punctual_lights()),
+        ("textured.gltf", textured()),
+        ("animated.gltf", animated()),
+        ("layers.gltf", layers()),
+        ("anisotropy.gltf", anisotropy()),
+        ("iridescence.gltf", iridescence()),
+        ("translucency.gltf", translucency()),
+        ("halves.gltf", halves()),
+    ]
+}
+
 /// The Cornell box with the measured dimensions (in metres) and the common RGB reflectances of its walls.
 pub fn cornell_box() -> GltfBuilder {
     let mut b = GltfBuilder::new();
@@ -805,5 +825,42 @@ pub fn translucency() -> GltfBuilder {
         Some([0.0, 0.0, 1.0]),
     );
     b.camera([0.0, 2.2, 6.5], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}
+
+/// Adaptive sampling's scene (tests/adaptive.rs, the bench): a grey floor seen from low down. The left half of the
+/// view is lit by the sun straight above (smooth: next-event estimation of a directional light is exact, and a plane
+/// sees nothing else), the right half is under a low roof the light reaches only by bouncing in from the lit side
+/// (noisy).
+pub fn halves() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [0.6; 3], [0.0; 3], true);
+    b.quad(
+        "floor",
+        [[-8.0, 0.0, -8.0], [8.0, 0.0, -8.0], [8.0, 0.0, 8.0], [-8.0, 0.0, 8.0]],
+        grey,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "roof",
+        [[0.0, 0.6, -8.0], [8.0, 0.6, -8.0], [8.0, 0.6, 3.0], [0.0, 0.6, 3.0]],
+        grey,
+        None,
+    );
+    // A directional light shines along its node's -z: turned a quarter about x, straight down.
+    let down = [
+        -std::f32::consts::FRAC_1_SQRT_2,
+        0.0,
+        0.0,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ];
+    b.punctual(
+        serde_json::json!({ "type": "directional" }),
+        [1.0; 3],
+        3.0,
+        [0.0, 5.0, 0.0],
+        down,
+    );
+    b.camera([0.0, 0.4, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0);
     b
 }
