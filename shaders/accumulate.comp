@@ -5,6 +5,13 @@
 #extension GL_GOOGLE_include_directive : require
 #include "stage.glsl"
 #include "film.glsl"
+#include "spectrum.glsl"
+
+// A path's sample as the film takes it: linear sRGB (spectrum_to_rgb at the sample's own wavelengths).
+vec3 sample_rgb(uint pixel, uint path) {
+    wavelengths_begin(pixel, path_sample(path));
+    return spectrum_to_rgb(path_get(PATH_RADIANCE, path));
+}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -21,7 +28,7 @@ void main() {
             pass = exact_load_slot(i);
         } else {
             for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-                if (sample_taken(pixel, path_sample(path))) dropped += exact_add(pass, path_get(PATH_RADIANCE, path).rgb);
+                if (sample_taken(pixel, path_sample(path))) dropped += exact_add(pass, sample_rgb(pixel, path));
             }
         }
         ExactSums sums = exact_load_film(pixel);
@@ -36,7 +43,7 @@ void main() {
         vec4 sum = film[pixel];
         vec4 sum_sq = film[pixels + pixel];
         for (uint path = i; path < frame.path_count; path += frame.pass_pixels) {
-            if (sample_taken(pixel, path_sample(path))) dropped += film_add(sum, sum_sq, path_get(PATH_RADIANCE, path).rgb);
+            if (sample_taken(pixel, path_sample(path))) dropped += film_add(sum, sum_sq, sample_rgb(pixel, path));
         }
         film[pixel] = sum;
         film[pixels + pixel] = sum_sq;

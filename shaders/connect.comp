@@ -4,6 +4,7 @@
 #include "stage.glsl"
 #include "rng.glsl"
 #include "traverse.glsl"
+#include "spectrum.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -15,7 +16,8 @@ void main() {
     uint key = ray_key(path_pixel(path), path_sample(path), frame.bounce, DIM_SHADOW_ALPHA);
     if (!occluded(o.xyz, d, 0.0, o.w, key)) {
         vec4 l = path_get(PATH_RADIANCE, path);
-        path_set(PATH_RADIANCE, path, vec4(l.rgb + path_get(PATH_SHADOW_RADIANCE, path).rgb, l.w));
+        vec4 shadow = path_get(PATH_SHADOW_RADIANCE, path);
+        path_set(PATH_RADIANCE, path, spectral() ? l + shadow : vec4(l.rgb + shadow.rgb, l.w));
     }
     check_loop_budget();
 }

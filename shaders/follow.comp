@@ -66,9 +66,9 @@ void main() {
             bounce++;
             if (!alive) {
                 if (scene_has(FEATURE_EXACT_FILM)) {
-                    dropped += exact_add(exact, v.radiance);
+                    dropped += exact_add(exact, spectrum_to_rgb(v.radiance));
                 } else {
-                    dropped += film_add(sum, sum_sq, v.radiance);
+                    dropped += film_add(sum, sum_sq, spectrum_to_rgb(v.radiance));
                 }
                 path += frame.pass_pixels;
                 s++;

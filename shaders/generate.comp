@@ -15,7 +15,7 @@ void main() {
     PathVertex v = start_path(pixel_xy(pixel), pixel, path_sample(i));
     path_set(PATH_ORIGIN, i, v.origin);
     path_set(PATH_DIR, i, vec4(v.dir, 0.0));
-    path_set(PATH_THROUGHPUT, i, vec4(v.beta, 0.0));
-    path_set(PATH_RADIANCE, i, vec4(v.radiance, 0.0));
+    path_set(PATH_THROUGHPUT, i, spectrum_store(v.beta));
+    path_set(PATH_RADIANCE, i, spectrum_store(v.radiance));
     queues[scene_has(FEATURE_ADAPTIVE) ? atomicAdd(counters.queue_count[0], 1u) : i] = i;
 }

@@ -20,14 +20,14 @@ void main() {
     } else {
         s.wi = r.x;
         s.pdf = bsdf_pdf(b, r.wo, r.x);
-        s.weight = vec3(0.0);
+        s.weight = Spectrum(0.0);
         s.delta = false;
     }
     records[k].wi = s.wi;
     records[k].pdf = s.pdf;
-    records[k].weight = s.weight;
+    records[k].weight = s.weight.rgb;
     records[k].flags = (s.delta ? PROBE_DELTA : 0u) | (ok ? PROBE_OK : 0u);
-    records[k].eval = bsdf_eval(b, r.wo, s.wi);
+    records[k].eval = bsdf_eval(b, r.wo, s.wi).rgb;
     records[k].pdf_wi = bsdf_pdf(b, r.wo, s.wi);
-    records[k].eval_reverse = bsdf_eval(b, s.wi, r.wo);
+    records[k].eval_reverse = bsdf_eval(b, s.wi, r.wo).rgb;
 }

@@ -24,28 +24,29 @@ void main() {
     if (i >= counters.queue_count[cur]) return;
     uint path = queues[cur * frame.path_capacity + i];
     motion_begin(path_pixel(path), path_sample(path));
+    wavelengths_begin(path_pixel(path), path_sample(path));
 
     PathVertex v;
     v.origin = path_get(PATH_ORIGIN, path);
     vec4 dir = path_get(PATH_DIR, path);
     v.dir = dir.xyz;
-    v.beta = path_get(PATH_THROUGHPUT, path).rgb;
-    v.radiance = path_get(PATH_RADIANCE, path).rgb;
+    v.beta = path_get(PATH_THROUGHPUT, path);
+    v.radiance = path_get(PATH_RADIANCE, path);
     ShadowRay shadow;
     uint inst = scene_has(FEATURE_INSTANCES) ? floatBitsToUint(dir.w) : NO_INSTANCE;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
-    path_set(PATH_RADIANCE, path, vec4(v.radiance, 0.0));
+    path_set(PATH_RADIANCE, path, spectrum_store(v.radiance));
     if (shadow.wanted) {
         queue_push(QUEUE_SHADOW, path);
         path_set(PATH_SHADOW_ORIGIN, path, shadow.origin);
         path_set(PATH_SHADOW_DIR, path, vec4(shadow.dir, 0.0));
-        path_set(PATH_SHADOW_RADIANCE, path, vec4(shadow.radiance, 0.0));
+        path_set(PATH_SHADOW_RADIANCE, path, spectrum_store(shadow.radiance));
     }
     if (alive) {
         path_set(PATH_ORIGIN, path, v.origin);
         path_set(PATH_DIR, path, vec4(v.dir, 0.0));
-        path_set(PATH_THROUGHPUT, path, vec4(v.beta, 0.0));
+        path_set(PATH_THROUGHPUT, path, spectrum_store(v.beta));
         queue_push(1u - cur, path);
     }
     check_loop_budget();

@@ -90,10 +90,10 @@ void main() {
         } else if (!specular || bounce + 1u == AOV_MAX_BOUNCES) {
             // f cos / pdf of a BSDF sample has the directional albedo as its mean: the AOV converges to the whole
             // BSDF's albedo at wo (every lobe and layer), and is exact at once for a Lambertian surface.
-            albedo = ok ? through * bs.weight : vec3(0.0);
+            albedo = ok ? through * bs.weight.rgb : vec3(0.0);
             open = false;
         } else {
-            through *= bs.weight;
+            through *= bs.weight.rgb;
             float size = offset_size(sf.tv);
             vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * sf.ns;
             v.origin = vec4(offset_ray(sf.p, bs.wi.z > 0.0 ? sf.n_in : -sf.n_in, size), 0.0);

@@ -11,6 +11,7 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod shaders;
+pub mod spectrum;
 pub mod variants;
 pub mod viewer;
 pub mod vk;

@@ -177,6 +177,13 @@ struct SceneArgs {
     /// skinned and morphed vertices) is blurred. 0, the default, is an instant and costs nothing.
     #[arg(long, default_value = "0", value_parser = parse_shutter, allow_hyphen_values = true)]
     shutter: f32,
+    /// Spectral transport: every path carries four wavelengths and colours become spectra at them (README,
+    /// "Spectral rendering"). Scenes with dispersion (KHR_materials_dispersion) render spectrally without it.
+    #[arg(long, conflicts_with = "rgb")]
+    spectral: bool,
+    /// RGB transport even for a scene with dispersion, which is then ignored (with a warning).
+    #[arg(long)]
+    rgb: bool,
     #[command(flatten)]
     env: EnvArgs,
     #[command(flatten)]
@@ -230,6 +237,24 @@ impl SceneArgs {
     }
 
     /// Render settings from these options; the caller sets the size and samples.
+    /// Whether the render is spectral: --spectral, or a scene with dispersion unless --rgb. Says which, on stderr, when
+    /// the scene decided.
+    fn spectral(&self, scene: &scene::Scene) -> bool {
+        let dispersive = scene.wants_spectral();
+        if dispersive && self.rgb {
+            eprintln!(
+                "warning: {}: --rgb renders without dispersion (KHR_materials_dispersion needs spectral transport)",
+                self.scene.display()
+            );
+        } else if dispersive && !self.spectral {
+            eprintln!(
+                "{}: dispersion (KHR_materials_dispersion): rendering spectrally (--rgb to force RGB)",
+                self.scene.display()
+            );
+        }
+        self.spectral || (dispersive && !self.rgb)
+    }
+
     fn settings(&self) -> RenderSettings {
         RenderSettings {
             max_depth: self.max_depth,
@@ -577,6 +602,7 @@ fn render(args: RenderArgs) -> Result<()> {
         }),
         estimator: args.estimator,
         energy_compensation: !args.no_energy_compensation,
+        spectral: args.common.spectral(&scene),
         ..args.common.settings()
     };
     let denoiser = denoiser.as_ref();
@@ -838,6 +864,7 @@ fn view(args: ViewArgs) -> Result<()> {
             height: args.size.1,
             // Only sizes the paths in flight: up to this many samples per pixel share a pass.
             spp: 256,
+            spectral: args.common.spectral,
             ..args.common.settings()
         },
         exposure: args.exposure,

@@ -66,6 +66,13 @@ fn the_cornell_box_is_the_same_bytes_either_way_with_either_bvh_read() {
         ..lens.clone()
     };
     assert_schedules_agree("cornell box, thin lens, depth 3", &mut r, &capped);
+    // Spectral transport: the wavelengths come from the pixel and sample alone, so both schedules find the same.
+    let spectral = RenderSettings {
+        spectral: true,
+        ..s.clone()
+    };
+    let with_spectra = assert_schedules_agree("cornell box, spectral", &mut r, &spectral);
+    assert!(with_spectra != pinhole, "spectral transport changed nothing");
     if r.set_bvh_reads(BvhReads::Storage).is_ok() {
         assert_schedules_agree("cornell box, storage reads", &mut r, &s);
     }

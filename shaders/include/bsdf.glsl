@@ -5,17 +5,19 @@
 #define BSDF_GLSL
 
 #include "sampling.glsl"
+#include "spectrum.glsl"
 
 // GGX alpha below this is a perfect mirror: the lobe becomes a delta (sampled, never evaluated).
 const float DELTA_ALPHA = 1e-4;
 
+// Colours are Spectrum (spectrum.glsl): RGB, or the path's wavelengths under FEATURE_SPECTRAL.
 struct Bsdf {
-    vec3 base_color;
+    Spectrum base_color;
     float metallic;
     float roughness;      // perceptual, for the energy tables
     float alpha;          // GGX alpha = roughness^2
     float specular;       // KHR_materials_specular weight of the dielectric layer
-    vec3 specular_f0;     // dielectric F0 = min(((ior - 1) / (ior + 1))^2 * specularColor, 1)
+    Spectrum specular_f0; // dielectric F0 = min(((ior - 1) / (ior + 1))^2 * specularColor, 1)
     bool compensate;      // add the metal's multiple scattering (Kulla-Conty)
     float transmission;   // fraction of the dielectric base that is a rough dielectric interface instead of diffuse
     bool thin;            // thin-walled: transmitted light passes straight through, unbent
@@ -26,7 +28,7 @@ struct Bsdf {
     vec3 coat_n;          // the clear coat's normal in the shading frame, and its tangents (its own normal map)
     vec3 coat_t;
     vec3 coat_b;
-    vec3 sheen_color;     // KHR_materials_sheen (black: no sheen)
+    Spectrum sheen_color; // KHR_materials_sheen (black: no sheen)
     float sheen_roughness;
     bool anisotropic;     // KHR_materials_anisotropy: the base's GGX lobes have alpha_xy along aniso_dir and across it
     vec2 aniso_alpha;
@@ -36,18 +38,18 @@ struct Bsdf {
     float film_thickness; // nm
     float outside_ior;    // above the film: air, or the clear coat's 1.5
     float diffuse_transmission; // KHR_materials_diffuse_transmission: the share of the diffuse lobe that passes
-    vec3 dt_color;
+    Spectrum dt_color;
     // Hemispherical averages a stretched lobe or a film needs on every evaluation, computed once per hit (see
     // bsdf_averages): inlined at each evaluation they made every stage's pipeline several times larger before
     // specialisation folded them away.
-    vec3 coat_avg;
+    Spectrum coat_avg;
     float metal_e_avg;
-    vec3 metal_f_avg;
+    Spectrum metal_f_avg;
 };
 
-vec3 coat_average(Bsdf b);
+Spectrum coat_average(Bsdf b);
 float spec_energy_average(Bsdf b, uint table);
-vec3 film_average(Bsdf b, vec3 f0, bool albedo);
+Spectrum film_average(Bsdf b, Spectrum f0, bool albedo);
 float film_weight(Bsdf b);
 
 // Only where a lobe is stretched or filmed: the isotropic averages are two table reads, cheaper at their use.
@@ -56,14 +58,14 @@ bool bsdf_needs_averages() {
 }
 
 void bsdf_averages(inout Bsdf b) {
-    b.coat_avg = vec3(0.0);
+    b.coat_avg = Spectrum(0.0);
     b.metal_e_avg = 0.0;
-    b.metal_f_avg = vec3(0.0);
+    b.metal_f_avg = Spectrum(0.0);
     if (!bsdf_needs_averages()) return;
     if (b.specular > 0.0) b.coat_avg = coat_average(b);
     if (b.metallic > 0.0) {
         b.metal_e_avg = spec_energy_average(b, 0u);
-        b.metal_f_avg = b.base_color + (vec3(1.0) - b.base_color) / 21.0;
+        b.metal_f_avg = b.base_color + (Spectrum(1.0) - b.base_color) / 21.0;
         if (film_weight(b) > 0.0) b.metal_f_avg = mix(b.metal_f_avg, film_average(b, b.base_color, false), film_weight(b));
     }
 }
@@ -77,7 +79,7 @@ const float CLEARCOAT_F0 = 0.04;
 // front: wo is on the front (counter-clockwise) side, outside the object.
 Bsdf bsdf_from_material(Material m, bool front) {
     Bsdf b;
-    b.base_color = m.base_color.rgb;
+    b.base_color = spectrum_reflectance(m.base_color.rgb);
     // A lobe no material in the scene has is a constant zero, and the code for it folds away (see scene_has).
     b.metallic = scene_has(FEATURE_METAL) ? m.params.x : 0.0;
     b.roughness = m.params.y;
@@ -85,7 +87,7 @@ Bsdf bsdf_from_material(Material m, bool front) {
     float ior = m.params.z;
     float r = (ior - 1.0) / (ior + 1.0);
     b.specular = scene_has(FEATURE_COAT) ? m.params.w : 0.0;
-    b.specular_f0 = min(vec3(r * r) * m.specular_color.rgb, vec3(1.0));
+    b.specular_f0 = min(Spectrum(r * r) * spectrum_unbounded(m.specular_color.rgb), Spectrum(1.0));
     b.compensate = (frame.flags & FLAG_ENERGY_COMPENSATION) != 0u;
     b.transmission = scene_has(FEATURE_TRANSMISSION) ? m.transmission.x : 0.0;
     b.thin = m.transmission.y > 0.5;
@@ -96,7 +98,7 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.coat_n = vec3(0.0, 0.0, 1.0);
     b.coat_t = vec3(1.0, 0.0, 0.0);
     b.coat_b = vec3(0.0, 1.0, 0.0);
-    b.sheen_color = scene_has(FEATURE_SHEEN) ? m.sheen.rgb : vec3(0.0);
+    b.sheen_color = scene_has(FEATURE_SHEEN) ? spectrum_reflectance(m.sheen.rgb) : Spectrum(0.0);
     b.sheen_roughness = m.sheen.w;
     b.anisotropic = scene_has(FEATURE_ANISOTROPY) && m.anisotropy.x > 0.0;
     b.aniso_dir = m.anisotropy.yz;
@@ -106,7 +108,7 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.film_thickness = m.iridescence.w;
     b.outside_ior = b.clearcoat > 0.0 ? 1.5 : 1.0;
     b.diffuse_transmission = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? m.diffuse_transmission.w : 0.0;
-    b.dt_color = m.diffuse_transmission.rgb;
+    b.dt_color = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? spectrum_reflectance(m.diffuse_transmission.rgb) : Spectrum(0.0);
     if (b.anisotropic) {
         float s = m.anisotropy.x;
         b.aniso_alpha = vec2(mix(b.alpha, 1.0, s * s), max(b.alpha, ANISO_MIN_ALPHA));
@@ -131,14 +133,6 @@ float schlick_weight(float c) {
     float m = clamp(1.0 - c, 0.0, 1.0);
     float m2 = m * m;
     return m2 * m2 * m;
-}
-
-float max3(vec3 v) {
-    return max(v.x, max(v.y, v.z));
-}
-
-float luminance(vec3 c) {
-    return dot(c, vec3(0.2126, 0.7152, 0.0722));
 }
 
 // Both take the direction in the shading frame and use x^2 + y^2 for sin^2: 1 - cos^2 cancels catastrophically
@@ -223,10 +217,10 @@ vec3 film_sensitivity(float opd_nm, vec3 shift) {
 // cos1 from a medium of IOR outside_ior, per channel: the first reflection, plus the light that crosses the film and
 // returns after any number of bounces inside it, summed with the phases their paths pick up (the Airy series, its
 // first two interference orders integrated against the eye's response in closed form).
-vec3 thin_film_fresnel(float outside_ior, float film_ior, float thickness_nm, vec3 base_f0, float cos1) {
+Spectrum thin_film_fresnel(float outside_ior, float film_ior, float thickness_nm, Spectrum base_f0, float cos1) {
     float n2 = film_ior;
     float sin2_sq = (outside_ior / n2) * (outside_ior / n2) * (1.0 - cos1 * cos1);
-    if (sin2_sq >= 1.0) return vec3(1.0); // total internal reflection at the film
+    if (sin2_sq >= 1.0) return Spectrum(1.0); // total internal reflection at the film
     float cos2 = sqrt(1.0 - sin2_sq);
     // Outside -> film.
     float R12 = fresnel_dielectric(cos1, n2 / outside_ior);
@@ -234,25 +228,29 @@ vec3 thin_film_fresnel(float outside_ior, float film_ior, float thickness_nm, ve
     float phi12 = n2 < outside_ior ? PI : 0.0;
     float phi21 = PI - phi12;
     // Film -> base, the base's IOR from its F0 (kept below 1 so the IOR stays finite).
-    vec3 s = sqrt(min(base_f0, vec3(0.9999)));
-    vec3 n3 = (vec3(1.0) + s) / (vec3(1.0) - s);
-    vec3 R23 = vec3(fresnel_dielectric(cos2, n3.x / n2), fresnel_dielectric(cos2, n3.y / n2), fresnel_dielectric(cos2, n3.z / n2));
-    vec3 phi23 = mix(vec3(0.0), vec3(PI), lessThan(n3, vec3(n2)));
+    Spectrum s = sqrt(min(base_f0, Spectrum(0.9999)));
+    Spectrum n3 = (Spectrum(1.0) + s) / (Spectrum(1.0) - s);
+    Spectrum R23 = Spectrum(fresnel_dielectric(cos2, n3.x / n2), fresnel_dielectric(cos2, n3.y / n2),
+                            fresnel_dielectric(cos2, n3.z / n2), spectral() ? fresnel_dielectric(cos2, n3.w / n2) : 0.0);
+    Spectrum phi23 = mix(Spectrum(0.0), Spectrum(PI), lessThan(n3, Spectrum(n2)));
     // The optical path difference of one round trip through the film.
     float opd = 2.0 * n2 * thickness_nm * cos2;
-    vec3 phi = vec3(phi21) + phi23;
+    Spectrum phi = Spectrum(phi21) + phi23;
     // (No floor above 0: a film matching the medium above it must leave the base's Fresnel exactly.)
-    vec3 R123 = clamp(R12 * R23, vec3(0.0), vec3(0.9999));
-    vec3 r123 = sqrt(R123);
-    vec3 Rs = T121 * T121 * R23 / (vec3(1.0) - R123);
-    // The incoherent sum (the series' mean), then its interference terms, which fall off with r123^m.
-    vec3 I = R12 + Rs;
-    vec3 Cm = Rs - T121;
+    Spectrum R123 = clamp(R12 * R23, Spectrum(0.0), Spectrum(0.9999));
+    Spectrum r123 = sqrt(R123);
+    Spectrum Rs = T121 * T121 * R23 / (Spectrum(1.0) - R123);
+    // The incoherent sum (the series' mean), then its interference terms, which fall off with r123^m. At one
+    // wavelength a term is the cosine of its phase; in RGB it is that cosine integrated against each channel.
+    Spectrum I = R12 + Rs;
+    Spectrum Cm = Rs - T121;
     for (int k = 1; k <= 2; ++k) {
         Cm *= r123;
-        I += Cm * 2.0 * film_sensitivity(float(k) * opd, float(k) * phi);
+        Spectrum term = spectral() ? cos(float(k) * (2.0 * PI * opd / path_lambda + phi))
+                                   : Spectrum(film_sensitivity(float(k) * opd, float(k) * phi.xyz), 0.0);
+        I += Cm * 2.0 * term;
     }
-    return clamp(I, vec3(0.0), vec3(1.0));
+    return clamp(I, Spectrum(0.0), Spectrum(1.0));
 }
 
 // How much of the base's Fresnel is the film's: the material's factor, faded out below a few tens of nanometres, as
@@ -263,19 +261,19 @@ float film_weight(Bsdf b) {
 }
 
 // The film over F0 at c, blended in by film_weight.
-vec3 with_film(Bsdf b, vec3 schlick, vec3 f0, float c) {
+Spectrum with_film(Bsdf b, Spectrum schlick, Spectrum f0, float c) {
     float w = film_weight(b);
     if (w == 0.0) return schlick;
     return mix(schlick, thin_film_fresnel(b.outside_ior, b.film_ior, b.film_thickness, f0, c), w);
 }
 
 // Fresnel of the dielectric layer (per channel) and of the metal, at the cosine c between wo and the microfacet normal.
-vec3 dielectric_fresnel(Bsdf b, float c) {
-    return with_film(b, b.specular_f0 + (vec3(1.0) - b.specular_f0) * schlick_weight(c), b.specular_f0, c);
+Spectrum dielectric_fresnel(Bsdf b, float c) {
+    return with_film(b, b.specular_f0 + (Spectrum(1.0) - b.specular_f0) * schlick_weight(c), b.specular_f0, c);
 }
 
-vec3 metal_fresnel(Bsdf b, float c) {
-    return with_film(b, b.base_color + (vec3(1.0) - b.base_color) * schlick_weight(c), b.base_color, c);
+Spectrum metal_fresnel(Bsdf b, float c) {
+    return with_film(b, b.base_color + (Spectrum(1.0) - b.base_color) * schlick_weight(c), b.base_color, c);
 }
 
 // Bilinear lookup in one of the energy tables (table 0: E1, 1: E2, 2: Esheen) at (cos theta, roughness).
@@ -356,7 +354,7 @@ float spec_energy_average(Bsdf b, uint table) {
 // Schlick's weight equals the lobe's mean one (E2 / E1). Exact for a mirror (the cosine is then w's own) and for a
 // film that is no film; for rough lobes an approximation (tests/bsdf.rs measures it: a white plastic under a strong
 // film returns 0.98 to 1.02 of what arrives; the film's reflectance at w's own cosine was off by 8 % at grazing).
-vec3 film_albedo(Bsdf b, vec3 f0, vec3 w) {
+Spectrum film_albedo(Bsdf b, Spectrum f0, vec3 w) {
     float e1 = bsdf_is_delta(b) ? 1.0 : spec_energy(b, 0u, w);
     float e2 = bsdf_is_delta(b) ? schlick_weight(w.z) : spec_energy(b, 1u, w);
     float c = 1.0 - pow(clamp(e2 / max(e1, 1e-6), 0.0, 1.0), 0.2);
@@ -365,33 +363,33 @@ vec3 film_albedo(Bsdf b, vec3 f0, vec3 w) {
 
 // 2 int film_albedo mu dmu over the hemisphere, by four-point Gauss-Legendre in mu (the film's colour changes slowly
 // with angle next to the lobe's own falloff); `albedo` false averages the film's reflectance alone (E1 = 1).
-vec3 film_average(Bsdf b, vec3 f0, bool albedo) {
+Spectrum film_average(Bsdf b, Spectrum f0, bool albedo) {
     const vec4 x = vec4(0.0694318, 0.3300095, 0.6699905, 0.9305682);
     const vec4 w = vec4(0.1739274, 0.3260726, 0.3260726, 0.1739274);
-    vec3 sum = vec3(0.0);
+    Spectrum sum = Spectrum(0.0);
     [[dont_unroll]] for (uint k = 0u; k < 4u; ++k) {
         float mu = x[k];
-        vec3 f = albedo ? film_albedo(b, f0, vec3(sqrt(1.0 - mu * mu), 0.0, mu))
+        Spectrum f = albedo ? film_albedo(b, f0, vec3(sqrt(1.0 - mu * mu), 0.0, mu))
                         : thin_film_fresnel(b.outside_ior, b.film_ior, b.film_thickness, f0, mu);
         sum += w[k] * 2.0 * mu * f;
     }
     return sum;
 }
 
-vec3 coat_albedo(Bsdf b, vec3 w) {
+Spectrum coat_albedo(Bsdf b, vec3 w) {
     if (bsdf_is_delta(b)) return b.specular * dielectric_fresnel(b, w.z);
-    vec3 a = b.specular_f0 * spec_energy(b, 0u, w) + (vec3(1.0) - b.specular_f0) * spec_energy(b, 1u, w);
+    Spectrum a = b.specular_f0 * spec_energy(b, 0u, w) + (Spectrum(1.0) - b.specular_f0) * spec_energy(b, 1u, w);
     if (film_weight(b) > 0.0) a = mix(a, film_albedo(b, b.specular_f0, w), film_weight(b));
     return b.specular * a;
 }
 
-vec3 coat_average(Bsdf b) {
-    vec3 a;
+Spectrum coat_average(Bsdf b) {
+    Spectrum a;
     if (bsdf_is_delta(b)) {
         // For a mirror, E1 = 1 and the average of (1 - mu)^5 over the projected hemisphere is 1/21.
-        a = b.specular_f0 + (vec3(1.0) - b.specular_f0) / 21.0;
+        a = b.specular_f0 + (Spectrum(1.0) - b.specular_f0) / 21.0;
     } else {
-        a = b.specular_f0 * spec_energy_average(b, 0u) + (vec3(1.0) - b.specular_f0) * spec_energy_average(b, 1u);
+        a = b.specular_f0 * spec_energy_average(b, 0u) + (Spectrum(1.0) - b.specular_f0) * spec_energy_average(b, 1u);
     }
     if (film_weight(b) > 0.0) a = mix(a, film_average(b, b.specular_f0, true), film_weight(b));
     return b.specular * a;
@@ -401,21 +399,21 @@ vec3 coat_average(Bsdf b) {
 // base returns exactly what the coat does not reflect. glTF's reference weights the base by 1 - F(VdotH), which can
 // reflect more than arrives (1.025 for a white, nearly smooth plastic at 60 degrees); this form is reciprocal and
 // conserves energy.
-vec3 coat_transmittance(Bsdf b, vec3 wo, vec3 wi) {
+Spectrum coat_transmittance(Bsdf b, vec3 wo, vec3 wi) {
     // No coat (KHR_materials_specular weight 0, as in a pure Lambertian): nothing to look up.
-    if (b.specular == 0.0) return vec3(1.0);
-    vec3 avg = bsdf_needs_averages() ? b.coat_avg : coat_average(b);
-    return (vec3(1.0) - coat_albedo(b, wo)) * (vec3(1.0) - coat_albedo(b, wi)) / max(vec3(1.0) - avg, vec3(1e-6));
+    if (b.specular == 0.0) return Spectrum(1.0);
+    Spectrum avg = bsdf_needs_averages() ? b.coat_avg : coat_average(b);
+    return (Spectrum(1.0) - coat_albedo(b, wo)) * (Spectrum(1.0) - coat_albedo(b, wi)) / max(Spectrum(1.0) - avg, Spectrum(1e-6));
 }
 
 // Kulla-Conty multiple scattering of the metal lobe: the energy single scattering loses, returned in a diffuse-like
 // lobe coloured by the average Fresnel. Zero for a mirror (it loses nothing).
-vec3 metal_multiple_scattering(Bsdf b, vec3 wo, vec3 wi) {
-    if (!b.compensate || bsdf_is_delta(b)) return vec3(0.0);
+Spectrum metal_multiple_scattering(Bsdf b, vec3 wo, vec3 wi) {
+    if (!b.compensate || bsdf_is_delta(b)) return Spectrum(0.0);
     float e_avg = bsdf_needs_averages() ? b.metal_e_avg : spec_energy_average(b, 0u);
-    if (e_avg >= 1.0) return vec3(0.0);
-    vec3 f_avg = bsdf_needs_averages() ? b.metal_f_avg : b.base_color + (vec3(1.0) - b.base_color) / 21.0;
-    vec3 f_ms = f_avg * f_avg * e_avg / (vec3(1.0) - f_avg * (1.0 - e_avg));
+    if (e_avg >= 1.0) return Spectrum(0.0);
+    Spectrum f_avg = bsdf_needs_averages() ? b.metal_f_avg : b.base_color + (Spectrum(1.0) - b.base_color) / 21.0;
+    Spectrum f_ms = f_avg * f_avg * e_avg / (Spectrum(1.0) - f_avg * (1.0 - e_avg));
     float lobe = (1.0 - spec_energy(b, 0u, wo)) * (1.0 - spec_energy(b, 0u, wi)) / (PI * (1.0 - e_avg));
     return f_ms * lobe;
 }
@@ -483,8 +481,8 @@ float sheen_lobe(float roughness, vec3 wo, vec3 wi) {
 }
 
 float sheen_albedo(Bsdf b, float mu) {
-    if (max3(b.sheen_color) == 0.0) return 0.0;
-    return max3(b.sheen_color) * energy_lookup(2u, mu, b.sheen_roughness);
+    if (spectrum_max(b.sheen_color) == 0.0) return 0.0;
+    return spectrum_max(b.sheen_color) * energy_lookup(2u, mu, b.sheen_roughness);
 }
 
 // The clear coat's albedo at wo (0 in scenes without one).
@@ -546,14 +544,14 @@ bool refract_dir(vec3 wo, vec3 n, float eta, out vec3 wt) {
 // 2.8, 2.3, 2.6 and 3.4 times smaller than a cosine sample's at roughness 0.1, 0.3, 0.6 and 1 (1.1 to 4.1 times over
 // cos 0.2 to 0.9).
 vec4 lobe_probabilities(Bsdf b, vec3 wo) {
-    vec3 fd = dielectric_fresnel(b, wo.z);
+    Spectrum fd = dielectric_fresnel(b, wo.z);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
-    float spec = opaque * b.specular * luminance(fd) + b.metallic * luminance(metal_fresnel(b, wo.z));
-    vec3 tint = b.base_color;
+    float spec = opaque * b.specular * spectrum_luminance(fd) + b.metallic * spectrum_luminance(metal_fresnel(b, wo.z));
+    Spectrum tint = b.base_color;
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) tint = mix(b.base_color, b.dt_color, b.diffuse_transmission);
-    float diff = opaque * (1.0 - b.specular * max3(fd)) * luminance(tint);
+    float diff = opaque * (1.0 - b.specular * spectrum_max(fd)) * spectrum_luminance(tint);
     if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
-        diff += b.metallic * (1.0 - spec_energy(b, 0u, wo)) * luminance(b.base_color);
+        diff += b.metallic * (1.0 - spec_energy(b, 0u, wo)) * spectrum_luminance(b.base_color);
     }
     float glass = (1.0 - b.metallic) * b.transmission;
     float coat = 0.0;
@@ -564,7 +562,7 @@ vec4 lobe_probabilities(Bsdf b, vec3 wo) {
         spec *= w;
         diff *= w;
         glass *= w;
-        if (scene_has(FEATURE_SHEEN)) sheen = (1.0 - cc) * luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
+        if (scene_has(FEATURE_SHEEN)) sheen = (1.0 - cc) * spectrum_luminance(b.sheen_color) * energy_lookup(2u, wo.z, b.sheen_roughness);
         coat = cc;
     }
     float total = spec + diff + glass + coat + sheen;
@@ -597,8 +595,8 @@ bool glass_passes_through(Bsdf b) {
 
 // The glass lobe without its weight or tint: f and the density of sampling wi within the lobe.
 // Reflection and transmission are chosen by Fresnel at the sampled microfacet (pbrt-v4's DielectricBxDF).
-void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
-    f = vec3(0.0);
+void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out Spectrum f, out float pdf) {
+    f = Spectrum(0.0);
     pdf = 0.0;
     if (bsdf_is_delta(b) || glass_passes_through(b) || wi.z == 0.0) return;
     bool reflect_side = wi.z > 0.0;
@@ -608,7 +606,7 @@ void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
         float F = fresnel_dielectric(dot(wo, m), b.eta);
         float weight = reflect_side ? F : 1.0 - F;
         float g = 1.0 / (1.0 + spec_lambda(b, wo) + spec_lambda(b, w));
-        f = vec3(spec_d(b, m) * g * weight / (4.0 * wo.z * w.z));
+        f = Spectrum(spec_d(b, m) * g * weight / (4.0 * wo.z * w.z));
         pdf = vndf_pdf(b, wo, m) / (4.0 * dot(wo, m)) * weight;
         if (!reflect_side) f *= b.base_color;
         return;
@@ -629,14 +627,14 @@ void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out vec3 f, out float pdf) {
 }
 
 // The base's f(wo, wi), below the layers.
-vec3 base_eval(Bsdf b, vec3 wo, vec3 wi) {
+Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     float glass_w = (1.0 - b.metallic) * b.transmission;
-    vec3 glass_f = vec3(0.0);
+    Spectrum glass_f = Spectrum(0.0);
     float glass_pdf;
     if (glass_w > 0.0) glass_eval_pdf(b, wo, wi, glass_f, glass_pdf);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     if (wi.z < 0.0) {
-        vec3 below = glass_w * glass_f;
+        Spectrum below = glass_w * glass_f;
         // Diffuse transmission: Lambertian on the far side, through the dielectric layer on both ways as the diffuse
         // reflection is (so the two share the energy the layer lets in).
         if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
@@ -646,8 +644,8 @@ vec3 base_eval(Bsdf b, vec3 wo, vec3 wi) {
     }
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
-    vec3 fd = dielectric_fresnel(b, c);
-    vec3 diffuse = opaque * coat_transmittance(b, wo, wi) * b.base_color / PI;
+    Spectrum fd = dielectric_fresnel(b, c);
+    Spectrum diffuse = opaque * coat_transmittance(b, wo, wi) * b.base_color / PI;
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) diffuse *= 1.0 - b.diffuse_transmission;
     if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo, wi);
     // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).
@@ -658,17 +656,17 @@ vec3 base_eval(Bsdf b, vec3 wo, vec3 wi) {
 }
 
 // f(wo, wi) without the cosine; zero for delta lobes.
-vec3 bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z == 0.0) return vec3(0.0);
-    vec3 f = base_eval(b, wo, wi);
+Spectrum bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z == 0.0) return Spectrum(0.0);
+    Spectrum f = base_eval(b, wo, wi);
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
         float cc = coat_albedo_at(b, wo);
-        vec3 under = f * base_weight_under(b, wo, cc);
-        if (scene_has(FEATURE_SHEEN) && wi.z > 0.0 && max3(b.sheen_color) > 0.0) {
+        Spectrum under = f * base_weight_under(b, wo, cc);
+        if (scene_has(FEATURE_SHEEN) && wi.z > 0.0 && spectrum_max(b.sheen_color) > 0.0) {
             under += (1.0 - cc) * b.sheen_color * sheen_lobe(b.sheen_roughness, wo, wi);
         }
         f = under;
-        if (scene_has(FEATURE_CLEARCOAT)) f += vec3(clearcoat_eval(b, wo, wi));
+        if (scene_has(FEATURE_CLEARCOAT)) f += Spectrum(clearcoat_eval(b, wo, wi));
     }
     return f;
 }
@@ -679,7 +677,7 @@ float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
     vec4 p = lobe_probabilities(b, wo);
     float pdf = 0.0;
     if (p.x > 0.0) {
-        vec3 f;
+        Spectrum f;
         float glass_pdf;
         glass_eval_pdf(b, wo, wi, f, glass_pdf);
         pdf += p.x * glass_pdf;
@@ -728,7 +726,7 @@ vec3 sample_spec_vndf(Bsdf b, vec3 wo, vec2 u) {
 
 struct BsdfSample {
     vec3 wi;
-    vec3 weight;  // f * |cos| / pdf (for a delta lobe: its throughput over the lobe's probability)
+    Spectrum weight; // f * |cos| / pdf (for a delta lobe: its throughput over the lobe's probability)
     float pdf;    // 0 for a delta lobe
     bool delta;
 };
@@ -737,7 +735,7 @@ struct BsdfSample {
 // Returns false when the sample carries no energy.
 bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
     s.wi = vec3(0.0, 0.0, 1.0);
-    s.weight = vec3(0.0);
+    s.weight = Spectrum(0.0);
     s.pdf = 0.0;
     s.delta = false;
     if (wo.z <= 0.0) return false;
@@ -759,7 +757,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             s.delta = true;
             if (u_rt < F) {
                 s.wi = vec3(-wo.x, -wo.y, wo.z);
-                s.weight = vec3(glass_w * under / p.x);
+                s.weight = Spectrum(glass_w * under / p.x);
             } else if (b.thin) {
                 s.wi = -wo;
                 s.weight = b.base_color * (glass_w * under / p.x);
@@ -785,7 +783,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             s.wi = vec3(-wo.x, -wo.y, wo.z);
             s.delta = true;
             float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
-            vec3 f = opaque * b.specular * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
+            Spectrum f = opaque * b.specular * dielectric_fresnel(b, wo.z) + b.metallic * metal_fresnel(b, wo.z);
             s.weight = f * under / p.y;
             return true;
         }
@@ -799,7 +797,7 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             s.wi = from_coat(b, vec3(-o.x, -o.y, o.z));
             if (s.wi.z <= 0.0) return false;
             s.delta = true;
-            s.weight = vec3(b.clearcoat * coat_fresnel(o.z) / p.z);
+            s.weight = Spectrum(b.clearcoat * coat_fresnel(o.z) / p.z);
             return true;
         }
         s.wi = from_coat(b, reflect(-o, sample_ggx_vndf(o, vec2(b.coat_alpha), u.xy)));

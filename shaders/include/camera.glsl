@@ -5,6 +5,7 @@
 
 #include "rng.glsl"
 #include "sampling.glsl"
+#include "spectrum.glsl"
 
 // Where pixel (row-major from the top left) is on the image. An integer division is eight scalar divides on
 // lavapipe, so follow finds this once per pixel rather than once per sample.
@@ -56,19 +57,20 @@ void camera_ray(uvec2 xy, uint pixel, uint s, out vec3 origin, out vec3 d) {
 struct PathVertex {
     vec4 origin;   // of the ray just traced; .w: the pdf of the BSDF sample that chose it, 0 after a delta bounce
     vec3 dir;      // of that ray, unit length
-    vec3 beta;     // throughput up to the ray's origin
-    vec3 radiance; // gathered so far
+    Spectrum beta;     // throughput up to the ray's origin
+    Spectrum radiance; // gathered so far
 };
 
 // Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
 // counted like a delta bounce.
 PathVertex start_path(uvec2 xy, uint pixel, uint s) {
     motion_begin(pixel, s);
+    wavelengths_begin(pixel, s);
     PathVertex v;
     camera_ray(xy, pixel, s, v.origin.xyz, v.dir);
     v.origin.w = 0.0;
-    v.beta = vec3(1.0);
-    v.radiance = vec3(0.0);
+    v.beta = Spectrum(1.0);
+    v.radiance = Spectrum(0.0);
     return v;
 }
 

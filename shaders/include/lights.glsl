@@ -4,6 +4,7 @@
 
 #include "environment.glsl"
 #include "surface.glsl"
+#include "spectrum.glsl"
 
 // Smallest index of the table of `count` lights from `first` whose inclusive cdf exceeds u; the host makes each
 // table's last cdf exactly 1.
@@ -29,7 +30,7 @@ float rescale_pick(uint first, uint j, Light l, float u) {
 struct LightSample {
     vec3 wi;        // towards the light
     float dist;     // to the light's point; effectively infinite for the environment
-    vec3 radiance;  // arriving along -wi
+    Spectrum radiance; // arriving along -wi
     float pdf;      // solid-angle density including the selection probability; 0 when the light cannot reach p
     bool delta;     // a punctual light: pdf is only the selection probability, and no BSDF sample can find it
 };
@@ -40,7 +41,7 @@ struct LightSample {
 LightSample sample_light(vec3 p, vec2 u) {
     LightSample ls;
     ls.pdf = 0.0;
-    ls.radiance = vec3(0.0);
+    ls.radiance = Spectrum(0.0);
     ls.wi = vec3(0.0, 0.0, 1.0);
     ls.dist = 0.0;
     ls.delta = false;
@@ -55,7 +56,7 @@ LightSample sample_light(vec3 p, vec2 u) {
         if (kind == PUNCTUAL_DIRECTIONAL) {
             ls.wi = -pl.direction.xyz;
             ls.dist = 1e30;
-            ls.radiance = pl.intensity.rgb;
+            ls.radiance = spectrum_illuminant(pl.intensity.rgb);
             return ls;
         }
         vec3 to_light = pl.position.xyz - p;
@@ -75,14 +76,14 @@ LightSample sample_light(vec3 p, vec2 u) {
             falloff = t * t;
         }
         // "Radiance" here is what multiplies f cos / pdf: the irradiance normal to wi, I / d^2.
-        ls.radiance = pl.intensity.rgb * (falloff / dist2);
+        ls.radiance = spectrum_illuminant(pl.intensity.rgb) * (falloff / dist2);
         return ls;
     }
     if (scene_has(FEATURE_ENV) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_ENV) {
         float pdf_dir;
         ls.wi = env_sample(u_point, pdf_dir);
         ls.dist = 1e30;
-        ls.radiance = env_radiance(ls.wi);
+        ls.radiance = spectrum_illuminant(env_radiance(ls.wi));
         ls.pdf = l.prob * pdf_dir;
         return ls;
     }
@@ -123,9 +124,9 @@ LightSample sample_light(vec3 p, vec2 u) {
     if (!faces) return ls;
     // Emissive textures and cut-out or blended parts, as a ray hitting the point would find them.
 #ifdef TEXTURED
-    ls.radiance = material_at(lm, tri, b).emission.rgb * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
+    ls.radiance = spectrum_illuminant(material_at(lm, tri, b).emission.rgb) * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
 #else
-    ls.radiance = lm.emission.rgb;
+    ls.radiance = spectrum_illuminant(lm.emission.rgb);
 #endif
     // A moving emitter's area at the ray's time (the table's is its mean over the shutter, for the pick), and an
     // instanced one's in the world.

@@ -11,7 +11,7 @@
 struct ShadowRay {
     vec4 origin;
     vec3 dir;
-    vec3 radiance;
+    Spectrum radiance;
     bool wanted;
 };
 
@@ -124,11 +124,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     uint tri = floatBitsToUint(hit.y);
     vec4 ray_o = v.origin;
     vec3 ray_d = v.dir;
-    vec3 beta = v.beta;
+    Spectrum beta = v.beta;
     shadow.wanted = false;
     shadow.origin = vec4(0.0);
     shadow.dir = vec3(0.0);
-    shadow.radiance = vec3(0.0);
+    shadow.radiance = Spectrum(0.0);
     // After the camera or a delta bounce, nothing else could have found this light: it counts in full.
     bool camera_or_delta = bounce == 0u || ray_o.w == 0.0;
 
@@ -146,7 +146,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
                     w = power_heuristic(ray_o.w, frame.env_prob * env_pdf(ray_d));
                 }
             }
-            v.radiance += beta * env_radiance(ray_d) * w;
+            v.radiance += beta * spectrum_illuminant(env_radiance(ray_d)) * w;
         }
     }
 
@@ -176,12 +176,12 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
                 w = power_heuristic(ray_o.w, pdf_light);
             }
         }
-        v.radiance += beta * m.emission.rgb * w;
+        v.radiance += beta * spectrum_illuminant(m.emission.rgb) * w;
     }
     // An unlit surface shows its colour to whatever ray reaches it and ends the path. No light sampling aims at it, so
     // the colour counts in full after every kind of bounce.
     if (scene_has(FEATURE_UNLIT) && (floatBitsToUint(m.alpha.w) & MATERIAL_UNLIT) != 0u) {
-        if (alive) v.radiance += beta * m.base_color.rgb;
+        if (alive) v.radiance += beta * spectrum_illuminant(m.base_color.rgb);
         alive = false;
     }
     alive = alive && bounce < frame.max_depth;
@@ -191,7 +191,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     bool enters = (scene_has(FEATURE_TRANSMISSION) && m.transmission.x > 0.0) ||
                   (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && m.diffuse_transmission.w > 0.0);
     if (enters && !front && m.transmission.y < 0.5) {
-        beta *= exp(-m.attenuation.rgb * hit.x);
+        beta *= exp(-spectrum_unbounded(m.attenuation.rgb) * hit.x);
     }
     Bsdf bsdf = bsdf_from_material(m, front);
     float size = offset_size(tv);
@@ -209,11 +209,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         float side = dot(n_in, ls.wi);
         bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
         if (alive && wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
-            vec3 f = bsdf_eval(bsdf, wo, wi_local);
+            Spectrum f = bsdf_eval(bsdf, wo, wi_local);
             bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
-            vec3 contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
-            shadow.wanted = any(greaterThan(contribution, vec3(0.0)));
+            Spectrum contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
+            shadow.wanted = spectrum_positive(contribution);
             // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
             shadow.origin = vec4(side > 0.0 ? p_off : p_back, ls.dist * (1.0 - 1e-4));
             shadow.dir = ls.wi;
@@ -229,7 +229,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
     beta *= bs.weight;
     if (bounce >= RR_START_BOUNCE) {
-        float survive = min(max(beta.r, max(beta.g, beta.b)), 0.95);
+        float survive = min(spectrum_max(beta), 0.95);
         alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
         beta /= survive;
     }

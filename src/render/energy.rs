@@ -1,5 +1,6 @@
 //! The microfacet and sheen energy tables energy compensation and layering read: the grid from the device (the BSDF's
-//! own sampling), the hemispherical averages from the host.
+//! own sampling), the hemispherical averages from the host; and after them the spectral tables (SPECTRUM_*), from
+//! the host.
 use super::kernels::{Kernel, Stage};
 use super::Renderer;
 use crate::constants::*;
@@ -21,8 +22,12 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
-        // Zeros first: the sheen and anisotropic grids are read only by scenes that have them built.
-        energy.upload(&self.ctx, bytemuck::cast_slice(&vec![0f32; floats]))?;
+        // Zeros first: the sheen and anisotropic grids are read only by scenes that have them built. The spectral
+        // tables come from the host.
+        let mut floats_in = vec![0f32; SPECTRUM_MATRIX as usize];
+        floats_in.extend(crate::spectrum::tables().device_floats());
+        debug_assert_eq!(floats_in.len(), floats);
+        energy.upload(&self.ctx, bytemuck::cast_slice(&floats_in))?;
         self.run_energy_pass(&mut energy, Stage::EnergyTables)?;
         Ok(energy)
     }
@@ -123,6 +128,6 @@ impl Renderer {
     pub fn aniso_energy_tables(&self) -> Result<Vec<f32>, Error> {
         let energy = self.energy.as_ref().expect("built in Renderer::new");
         let t: Vec<f32> = energy.download(&self.ctx)?;
-        Ok(t[ENERGY_TABLE_FLOATS as usize..ENERGY_BUFFER_FLOATS as usize].to_vec())
+        Ok(t[ENERGY_TABLE_FLOATS as usize..SPECTRUM_MATRIX as usize].to_vec())
     }
 }

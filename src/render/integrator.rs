@@ -110,7 +110,8 @@ impl Renderer {
         let flag = |bit: u32, feature: u32| if frame.flags & bit != 0 { feature } else { 0 };
         let exact = flag(FLAG_EXACT_FILM, FEATURE_EXACT_FILM);
         let adaptive = flag(FLAG_ADAPTIVE, FEATURE_ADAPTIVE);
-        self.scene.features | lens | exact | adaptive
+        let spectral = flag(FLAG_SPECTRAL, FEATURE_SPECTRAL);
+        self.scene.features | lens | exact | adaptive | spectral
     }
 
     /// Adaptive sampling's budgets from the film, which holds exactly `pilot` samples of every pixel: each pixel's

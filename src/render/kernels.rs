@@ -1,6 +1,6 @@
 //! The compute kernels: the `Stage` enum, each stage's compiled variants (`Kernel`), and the pipelines built for
 //! them on demand, handed out as typed handles so a pass can only dispatch what it built.
-use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK, FEATURE_INSTANCES, FEATURE_MOTION};
+use crate::constants::{FEATURES_ALL, FEATURE_DEEP_STACK, FEATURE_INSTANCES, FEATURE_MOTION, FEATURE_SPECTRAL};
 use crate::error::Error;
 use crate::layout::Frame;
 use crate::variants::STAGE_VARIANTS;
@@ -411,7 +411,10 @@ impl Kernels {
             .get(&kernel)
             .ok_or_else(|| Error::Vulkan(format!("no SPIR-V for kernel {}", kernel.name())))?;
         let features = if kernel.stage.scene_independent() {
-            (FEATURES_ALL & !SCENE_OWNED) | (self.features & SCENE_OWNED)
+            (FEATURES_ALL & !SCENE_OWNED & !FEATURE_SPECTRAL) | (self.features & SCENE_OWNED)
+        } else if kernel.stage == Stage::Survey {
+            // The AOVs are RGB whatever the beauty is: an albedo is a colour, not a spectrum at four wavelengths.
+            self.features & !FEATURE_SPECTRAL
         } else {
             self.features
         };

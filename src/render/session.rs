@@ -492,7 +492,8 @@ impl Renderer {
                 | flag(s.exact_film, FLAG_EXACT_FILM)
                 | flag(s.aovs || s.debug_aovs, FLAG_AOVS)
                 | flag(s.debug_aovs, FLAG_DEBUG_AOVS)
-                | flag(s.adaptive.is_some(), FLAG_ADAPTIVE),
+                | flag(s.adaptive.is_some(), FLAG_ADAPTIVE)
+                | flag(s.spectral, FLAG_SPECTRAL),
             ..self.lit(Frame::default())
         }
         .with_camera(&camera)

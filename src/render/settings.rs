@@ -60,6 +60,9 @@ pub struct RenderSettings {
     pub debug_aovs: bool,
     /// Sample adaptively: pixels stop once their mean is estimated to be within the threshold.
     pub adaptive: Option<Adaptive>,
+    /// Spectral transport (FEATURE_SPECTRAL): paths carry four wavelengths, colours become spectra at them (see
+    /// `spectrum`); off, the render is RGB. `Scene::wants_spectral` says when a scene needs it (dispersion).
+    pub spectral: bool,
 }
 
 /// Adaptive sampling (FEATURE_ADAPTIVE): every pixel takes the first `pilot` samples; then each pixel's budget is the
@@ -89,6 +92,7 @@ impl Default for RenderSettings {
             aovs: false,
             debug_aovs: false,
             adaptive: None,
+            spectral: false,
         }
     }
 }

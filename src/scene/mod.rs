@@ -37,6 +37,9 @@ pub struct Material {
     pub roughness: f32,
     /// KHR_materials_ior (1.5 by default: F0 = 0.04).
     pub ior: f32,
+    /// KHR_materials_dispersion: 20 / the Abbe number, how much the IOR changes with wavelength (0: not at all). Only
+    /// spectral transport sees it (`Scene::wants_spectral`).
+    pub dispersion: f32,
     /// KHR_materials_specular: weight of the dielectric coat (0 makes a pure Lambertian) and its F0 colour.
     pub specular: f32,
     pub specular_color: Vec3,
@@ -273,6 +276,7 @@ impl Default for Material {
             iridescence: Iridescence::default(),
             diffuse_transmission: DiffuseTransmission::default(),
             unlit: false,
+            dispersion: 0.0,
         }
     }
 }
@@ -493,6 +497,14 @@ pub struct PunctualLight {
 }
 
 impl Scene {
+    /// Whether the scene needs spectral transport to look right: some material disperses light
+    /// (KHR_materials_dispersion), which RGB transport ignores.
+    pub fn wants_spectral(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| m.dispersion > 0.0 && m.transmission > 0.0)
+    }
+
     /// Adds a mesh with one instance of it; returns the mesh's index.
     pub fn add_mesh(&mut self, mesh: Mesh, world_from_object: Mat4) -> usize {
         self.meshes.push(mesh);

@@ -73,6 +73,7 @@ impl Loader<'_> {
         let anisotropy = self.anisotropy(&name, m)?;
         let iridescence = self.iridescence(&name, m)?;
         let diffuse_transmission = self.diffuse_transmission(&name, m)?;
+        let dispersion = self.dispersion(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
         let mut pbr_metallic = pbr.metallic_factor().clamp(0.0, 1.0);
         let mut specular = d.specular.clamp(0.0, 1.0);
@@ -92,6 +93,7 @@ impl Loader<'_> {
             metallic: pbr_metallic,
             roughness: pbr.roughness_factor().clamp(0.0, 1.0),
             ior: d.ior,
+            dispersion: if unlit { 0.0 } else { dispersion },
             specular,
             specular_color: d.specular_color.max(Vec3::ZERO),
             alpha,
@@ -233,6 +235,28 @@ impl Loader<'_> {
             texture: self.json_texture(name, what, ext, "iridescenceTexture")?,
             thickness_texture: self.json_texture(name, what, ext, "iridescenceThicknessTexture")?,
         })
+    }
+
+    /// KHR_materials_dispersion, read from its JSON: `dispersion` is 20 / V (V the Abbe number); 0 is none.
+    fn dispersion(&mut self, name: &str, m: &gltf::Material) -> Result<f32, Error> {
+        let Some(ext) = m.extension_value("KHR_materials_dispersion") else {
+            return Ok(0.0);
+        };
+        // Glass has 20 / V of 0.2 to 0.6 and diamond 0.45; 100 (an Abbe number of 0.2) is far past any material and
+        // keeps the IOR's change across the visible range finite.
+        match ext.get("dispersion") {
+            None => Ok(0.0),
+            Some(v) => v
+                .as_f64()
+                .filter(|x| x.is_finite() && (0.0..=100.0).contains(x))
+                .map(|x| x as f32)
+                .ok_or_else(|| {
+                    scene_err(
+                        self.path,
+                        format!("material '{name}': KHR_materials_dispersion.dispersion is not a number in [0, 100]"),
+                    )
+                }),
+        }
     }
 
     /// KHR_materials_diffuse_transmission, read from its JSON.
