@@ -33,7 +33,9 @@ void main() {
     v.beta = path_get(PATH_THROUGHPUT, path);
     v.radiance = path_get(PATH_RADIANCE, path);
     ShadowRay shadow;
-    uint inst = scene_has(FEATURE_INSTANCES) ? floatBitsToUint(dir.w) : NO_INSTANCE;
+    uint dir_bits = floatBitsToUint(dir.w);
+    v.hero_only = spectral() && (dir_bits & PATH_HERO_ONLY) != 0u;
+    uint inst = scene_has(FEATURE_INSTANCES) ? (spectral() ? dir_bits & ~PATH_HERO_ONLY : dir_bits) : NO_INSTANCE;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
     path_set(PATH_RADIANCE, path, spectrum_store(v.radiance));
@@ -45,7 +47,7 @@ void main() {
     }
     if (alive) {
         path_set(PATH_ORIGIN, path, v.origin);
-        path_set(PATH_DIR, path, vec4(v.dir, 0.0));
+        path_set(PATH_DIR, path, vec4(v.dir, v.hero_only ? uintBitsToFloat(PATH_HERO_ONLY) : 0.0));
         path_set(PATH_THROUGHPUT, path, spectrum_store(v.beta));
         queue_push(1u - cur, path);
     }

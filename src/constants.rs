@@ -337,6 +337,9 @@ pub const DIM_ALPHA: u32 = 8;
 pub const DIM_SHADOW_ALPHA: u32 = 9;
 /// The path's time in the shutter (x), drawn once per camera sample.
 pub const DIM_TIME: u32 = 10;
+/// Set in a path's direction's w (PATH_DIR, beside the instance bits) once a dispersive surface has left it its hero
+/// wavelength alone (spectral transport, path.glsl).
+pub const PATH_HERO_ONLY: u32 = 0x80000000;
 /// The path's hero wavelength (x), drawn once per camera sample (spectrum.glsl).
 pub const DIM_WAVELENGTH: u32 = 11;
 

@@ -165,6 +165,7 @@ pub struct GpuMaterial {
     pub emission: [f32; 4],
     pub params: [f32; 4],
     pub specular_color: [f32; 4],
+    /// x factor, y 1 if thin-walled, z KHR_materials_dispersion (20 / Abbe number; 0 for thin walls), w unused.
     pub transmission: [f32; 4],
     pub attenuation: [f32; 4],
     pub alpha: [f32; 4],

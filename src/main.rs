@@ -867,6 +867,7 @@ fn view(args: ViewArgs) -> Result<()> {
             spectral: args.common.spectral,
             ..args.common.settings()
         },
+        rgb: args.common.rgb,
         exposure: args.exposure,
         tonemap: args.tonemap,
         shader_dir: args.shader_dir,

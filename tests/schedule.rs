@@ -96,6 +96,20 @@ fn glass_punctual_textured_alpha_and_layered_scenes_are_the_same_bytes_either_wa
 }
 
 #[test]
+fn a_dispersive_scene_is_the_same_bytes_either_way() {
+    // The prism, spectral: a path that crossed dispersive glass keeps its hero wavelength alone, which the wavefront
+    // carries in its path state between stages (PATH_HERO_ONLY) and the fused schedule in registers.
+    let mut r = renderer(&scenes_dir().join("prism.gltf"));
+    let s = RenderSettings {
+        spectral: true,
+        ..settings(24, 16, 8, 3)
+    };
+    let spectral = assert_schedules_agree("prism, spectral", &mut r, &s);
+    let rgb = assert_schedules_agree("prism, RGB", &mut r, &settings(24, 16, 8, 3));
+    assert!(spectral != rgb, "dispersion changed nothing");
+}
+
+#[test]
 fn an_environment_lit_scene_is_the_same_bytes_either_way() {
     let mut scene = load("material-grid.gltf");
     scene.environment = Some(Environment::constant([0.6, 0.7, 0.9]));

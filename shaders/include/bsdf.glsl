@@ -85,6 +85,8 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.roughness = m.params.y;
     b.alpha = m.params.y * m.params.y;
     float ior = m.params.z;
+    // A dispersive volume's IOR at the hero wavelength, the only one its paths keep (shade_path).
+    if (spectral() && m.transmission.z > 0.0) ior = dispersive_ior(ior, m.transmission.z, path_lambda.x);
     float r = (ior - 1.0) / (ior + 1.0);
     b.specular = scene_has(FEATURE_COAT) ? m.params.w : 0.0;
     b.specular_f0 = min(Spectrum(r * r) * spectrum_unbounded(m.specular_color.rgb), Spectrum(1.0));

@@ -59,6 +59,7 @@ struct PathVertex {
     vec3 dir;      // of that ray, unit length
     Spectrum beta;     // throughput up to the ray's origin
     Spectrum radiance; // gathered so far
+    bool hero_only;    // a dispersive surface left the path its hero wavelength alone (spectral transport)
 };
 
 // Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
@@ -71,6 +72,7 @@ PathVertex start_path(uvec2 xy, uint pixel, uint s) {
     v.origin.w = 0.0;
     v.beta = Spectrum(1.0);
     v.radiance = Spectrum(0.0);
+    v.hero_only = false;
     return v;
 }
 

@@ -80,7 +80,8 @@ struct Material {
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
     vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
-    vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), zw unused
+    vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), z
+                         // KHR_materials_dispersion's 20 / Abbe number (0 when thin-walled), w unused
     vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused
     vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w: MATERIAL_* bits
     vec4 clearcoat;      // KHR_materials_clearcoat: x factor, y roughness (perceptual), z its normal map's scale, w unused

@@ -193,6 +193,15 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     if (enters && !front && m.transmission.y < 0.5) {
         beta *= exp(-spectrum_unbounded(m.attenuation.rgb) * hit.x);
     }
+    // Dispersion (KHR_materials_dispersion): the surface bends each wavelength its own way, so the direction sampled
+    // here serves the hero alone and the path drops the others (pbrt-v4's rule). The hero then stands for all of the
+    // film's mean over WAVELENGTHS wavelengths, so its throughput is multiplied by WAVELENGTHS; what the path gathered
+    // before this hit keeps every wavelength, which stays unbiased (each wavelength's share before, the hero's after)
+    // and keeps more colour than pbrt's dropping of the whole path's others.
+    if (spectral() && m.transmission.z > 0.0 && m.transmission.x > 0.0 && !v.hero_only) {
+        beta = Spectrum(beta.x * float(WAVELENGTHS), 0.0, 0.0, 0.0);
+        v.hero_only = true;
+    }
     Bsdf bsdf = bsdf_from_material(m, front);
     float size = offset_size(tv);
     vec3 p_back = offset_ray(p, -n_in, size); // origin for rays that go through the surface

@@ -165,6 +165,16 @@ bool spectrum_positive(Spectrum c) {
     return spectral() ? any(greaterThan(c, vec4(0.0))) : any(greaterThan(c.rgb, vec3(0.0)));
 }
 
+// KHR_materials_dispersion's IOR at nm: Cauchy's n = A + B / λ², through the IOR ior at the Fraunhofer d line with
+// Abbe number V = 20 / dispersion, which fixes the change between the F and C lines: n_F − n_C = (ior − 1) / V.
+float dispersive_ior(float ior, float dispersion, float nm) {
+    const float d_line = 587.56;
+    const float f_line = 486.13;
+    const float c_line = 656.27;
+    float b = (ior - 1.0) * dispersion / 20.0 / (1.0 / (f_line * f_line) - 1.0 / (c_line * c_line));
+    return max(ior + b * (1.0 / (nm * nm) - 1.0 / (d_line * d_line)), 1.0);
+}
+
 // As a path-state texel: RGB keeps w at zero, as before spectra.
 vec4 spectrum_store(Spectrum c) {
     return spectral() ? c : vec4(c.rgb, 0.0);

@@ -502,7 +502,7 @@ impl Scene {
     pub fn wants_spectral(&self) -> bool {
         self.materials
             .iter()
-            .any(|m| m.dispersion > 0.0 && m.transmission > 0.0)
+            .any(|m| m.dispersion > 0.0 && m.transmission > 0.0 && !m.thin_walled)
     }
 
     /// Adds a mesh with one instance of it; returns the mesh's index.

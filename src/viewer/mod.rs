@@ -20,8 +20,11 @@ use winit::window::{Window, WindowId};
 /// What `pathwave view` was asked for.
 pub struct ViewOptions {
     pub device: DeviceChoice,
-    /// Window size; `settings.width/height` follow the window.
+    /// Window size; `settings.width/height` follow the window. A scene with dispersion renders spectrally even
+    /// when `settings.spectral` is off, unless `rgb`.
     pub settings: RenderSettings,
+    /// RGB transport even for a scene with dispersion (`--rgb`).
+    pub rgb: bool,
     /// Stops of exposure before the tone curve.
     pub exposure: f32,
     pub tonemap: ToneCurve,
@@ -367,6 +370,7 @@ impl State {
         settings.width = swapchain.extent[0];
         settings.height = swapchain.extent[1];
         settings.focus_distance = Some(focus);
+        settings.spectral = s.spectral || (scene.wants_spectral() && !options.rgb);
         let session = renderer.begin(&settings)?;
         let pixels = pixel_buffer(renderer.context(), swapchain.extent)?;
         if options.play && !scene.rig.animated() {

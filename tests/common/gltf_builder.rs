@@ -73,6 +73,30 @@ impl GltfBuilder {
         i
     }
 
+    /// KHR_materials_dispersion on material `i`: `dispersion` is 20 / its Abbe number.
+    pub fn dispersion(&mut self, i: usize, dispersion: f32) {
+        self.materials[i]["extensions"]["KHR_materials_dispersion"] = json!({ "dispersion": dispersion });
+        self.use_extension("KHR_materials_dispersion");
+    }
+
+    /// A closed convex solid from its corners and faces (corner indices, any winding, 3 or 4 corners): each face is
+    /// wound to face away from the corners' centre.
+    pub fn convex_solid(&mut self, name: &str, corners: &[[f32; 3]], faces: &[&[usize]], material: usize) {
+        let centre = corners.iter().map(|c| Vec3::from(*c)).sum::<Vec3>() / corners.len() as f32;
+        let mut indices = Vec::new();
+        for f in faces {
+            let p = |k: usize| Vec3::from(corners[f[k]]);
+            let n = (p(1) - p(0)).cross(p(2) - p(0));
+            let out = n.dot(p(0) - centre) > 0.0;
+            for k in 1..f.len() - 1 {
+                let tri = [f[0], f[k], f[k + 1]];
+                let tri = if out { tri } else { [tri[0], tri[2], tri[1]] };
+                indices.extend(tri.map(|i| i as u32));
+            }
+        }
+        self.mesh(name, corners, &indices, material);
+    }
+
     /// A glTF metallic-roughness material.
     pub fn pbr_material(
         &mut self,

@@ -19,6 +19,7 @@ pub fn all() -> Vec<(&'static str, GltfBuilder)> {
         ("iridescence.gltf", iridescence()),
         ("translucency.gltf", translucency()),
         ("halves.gltf", halves()),
+        ("prism.gltf", prism()),
     ]
 }
 
@@ -862,5 +863,72 @@ pub fn halves() -> GltfBuilder {
         down,
     );
     b.camera([0.0, 0.4, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0);
+    b
+}
+
+/// A triangular prism of strongly dispersive glass (KHR_materials_dispersion 1.5: an Abbe number of 13, three times
+/// dense flint's dispersion) before thin white stripes on a dark wall, under a small light: seen through the prism
+/// each stripe fans out into its spectrum. The scene renders spectrally by default; `--rgb` shows it without.
+pub fn prism() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.5; 3], [0.0; 3], false);
+    let wall = b.material("wall", [0.05; 3], [0.0; 3], false);
+    let stripe = b.material("stripe", [0.0; 3], [6.0; 3], false);
+    let light = b.material("light", [0.0; 3], [30.0; 3], false);
+    let glass = b.glass_material("flint", [1.0; 3], 1.6, 0.0, false, None);
+    b.dispersion(glass, 1.5);
+    b.quad(
+        "floor",
+        [[-4.0, 0.0, -2.0], [4.0, 0.0, -2.0], [4.0, 0.0, 4.0], [-4.0, 0.0, 4.0]],
+        floor,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "wall",
+        [[-4.0, 0.0, -1.5], [4.0, 0.0, -1.5], [4.0, 3.0, -1.5], [-4.0, 3.0, -1.5]],
+        wall,
+        Some([0.0, 0.0, 1.0]),
+    );
+    for i in 0..7 {
+        let x = -1.2 + 0.4 * i as f32;
+        b.quad(
+            &format!("stripe {i}"),
+            [
+                [x - 0.015, 0.2, -1.49],
+                [x + 0.015, 0.2, -1.49],
+                [x + 0.015, 2.2, -1.49],
+                [x - 0.015, 2.2, -1.49],
+            ],
+            stripe,
+            Some([0.0, 0.0, 1.0]),
+        );
+    }
+    b.quad(
+        "light",
+        [[-0.2, 3.5, 0.3], [0.2, 3.5, 0.3], [0.2, 3.5, 0.7], [-0.2, 3.5, 0.7]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    // Upright, its apex towards the camera: rays enter a front face and leave by the back one, bent sideways.
+    let (r, lo, hi) = (0.6f32, 0.3f32, 1.9f32);
+    let corner = |deg: f32, y: f32| {
+        let a = deg.to_radians();
+        [r * a.cos(), y, r * a.sin() + 0.2]
+    };
+    let corners = [
+        corner(90.0, lo),
+        corner(210.0, lo),
+        corner(330.0, lo),
+        corner(90.0, hi),
+        corner(210.0, hi),
+        corner(330.0, hi),
+    ];
+    b.convex_solid(
+        "prism",
+        &corners,
+        &[&[0, 1, 2], &[3, 4, 5], &[0, 1, 4, 3], &[1, 2, 5, 4], &[2, 0, 3, 5]],
+        glass,
+    );
+    b.camera([0.0, 1.1, 3.6], [0.0, 1.1, 0.0], [0.0, 1.0, 0.0], 40.0);
     b
 }

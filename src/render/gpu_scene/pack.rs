@@ -174,7 +174,13 @@ fn gpu_material(m: &Material) -> GpuMaterial {
         emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
         params: [m.metallic, m.roughness, m.ior, m.specular],
         specular_color: v4(m.specular_color, 0.0),
-        transmission: [m.transmission, if m.thin_walled { 1.0 } else { 0.0 }, 0.0, 0.0],
+        // Dispersion bends light only through a volume (KHR_materials_dispersion needs KHR_materials_volume).
+        transmission: [
+            m.transmission,
+            if m.thin_walled { 1.0 } else { 0.0 },
+            if m.thin_walled { 0.0 } else { m.dispersion },
+            0.0,
+        ],
         attenuation: v4(m.attenuation, 0.0),
         alpha: [
             f32::from_bits(mode),
