@@ -4,14 +4,6 @@ use std::process::Command;
 
 include!("src/variants.rs");
 
-#[path = "src/spectrum/fit.rs"]
-#[allow(dead_code)]
-mod fit;
-
-#[path = "src/constants.rs"]
-#[allow(dead_code)]
-mod constants;
-
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
@@ -24,7 +16,6 @@ fn main() {
 
     let generated = out.join("generated");
     std::fs::create_dir_all(&generated).unwrap();
-    spectral_tables(&root, &out);
     let constants = std::fs::read_to_string(root.join("src/constants.rs")).unwrap();
     std::fs::write(generated.join("shared_constants.glsl"), glsl_constants(&constants)).unwrap();
     let constants_stage = generated.join("probe_constants.comp");
@@ -264,41 +255,4 @@ fn constants_table(src: &str) -> String {
     }
     s.push_str("];\n");
     s
-}
-
-/// The RGB-to-spectrum table (rgb2spec.bin, f32 little-endian, fit::build_table's layout), which spectrum::tables
-/// reads. The fit takes seconds, so it runs again only when its inputs change, not with every shader edit.
-fn spectral_tables(root: &std::path::Path, out: &std::path::Path) {
-    use std::hash::{Hash, Hasher};
-    println!("cargo:rerun-if-changed=src/spectrum/fit.rs");
-    println!("cargo:rerun-if-changed=data/cie1931_d65.tsv");
-    let text = std::fs::read_to_string(root.join("data/cie1931_d65.tsv")).unwrap();
-    let cie = fit::Cie::parse(&text);
-    assert_eq!(
-        cie.first_nm,
-        constants::LAMBDA_MIN as f64,
-        "the CIE table starts at LAMBDA_MIN"
-    );
-    assert_eq!(
-        cie.last_nm(),
-        constants::LAMBDA_MAX as f64,
-        "the CIE table ends at LAMBDA_MAX"
-    );
-    let res = constants::RGB2SPEC_RES as usize;
-    let mut key = std::collections::hash_map::DefaultHasher::new();
-    (
-        std::fs::read_to_string(root.join("src/spectrum/fit.rs")).unwrap(),
-        &text,
-        res,
-    )
-        .hash(&mut key);
-    let key = format!("{:016x}", key.finish());
-    let bin = out.join("rgb2spec.bin");
-    let stamp = out.join("rgb2spec.key");
-    if !bin.exists() || std::fs::read_to_string(&stamp).ok().as_deref() != Some(key.as_str()) {
-        let table = fit::build_table(&fit::Fit::new(&cie), res);
-        let bytes: Vec<u8> = table.iter().flat_map(|v| v.to_le_bytes()).collect();
-        std::fs::write(&bin, bytes).unwrap();
-        std::fs::write(&stamp, &key).unwrap();
-    }
 }

@@ -146,8 +146,8 @@ pub const LAMBDA_MIN: f32 = 360.0;
 pub const LAMBDA_MAX: f32 = 830.0;
 /// Wavelengths a path carries (hero wavelength sampling: one drawn, the others at equal offsets of the sampling CDF).
 pub const WAVELENGTHS: u32 = 4;
-/// The RGB-to-spectrum table's nodes per axis (spectrum::fit, built by build.rs): 3 * 32^3 coefficient triples,
-/// 1.2 MB. At 64 the mean round-trip error falls from 0.0009 to 0.0002 but the build spends 50 s on it instead of 7.
+/// The RGB-to-spectrum table's nodes per axis (spectrum::fit; data/rgb2spec_srgb_32.bin): 3 * 32^3 coefficient
+/// triples, 1.2 MB. At 64 the mean round-trip error falls from 0.0009 to 0.0002, for 9.4 MB and 50 s of fitting.
 pub const RGB2SPEC_RES: u32 = 32;
 /// Rows of the CIE table (1 nm from LAMBDA_MIN to LAMBDA_MAX).
 pub const CIE_ROWS: u32 = 471;

@@ -4,8 +4,9 @@ mod common;
 
 use common::rng::Rng;
 use common::stats::{chi2_p_value, chi2_statistic};
+use pathwave::constants::RGB2SPEC_RES;
 use pathwave::constants::{LAMBDA_MAX, LAMBDA_MIN};
-use pathwave::spectrum;
+use pathwave::spectrum::{self, fit};
 
 fn to_f64(v: [f32; 3]) -> [f64; 3] {
     v.map(|x| x as f64)
@@ -224,4 +225,39 @@ fn emission_keeps_its_colour() {
             );
         }
     }
+}
+
+/// The table in data/ is the fit's output: 24 of its columns (picked by a fixed seed over the three largest channels,
+/// grey columns aside) solved again by fit::solve_column match it to f32 rounding, and every grey node is continued
+/// from the diagonal as fit::continue_grey_nodes does. Catches a table left stale after the fit or the CIE tables
+/// changed (run `cargo run --release --example rgb2spec`).
+#[test]
+fn the_kept_table_is_the_fits_output() {
+    let t = spectrum::tables();
+    let table = t.coefficient_table();
+    let res = RGB2SPEC_RES as usize;
+    let mut rng = Rng(17);
+    let mut checked = 0;
+    while checked < 24 {
+        let pick = |rng: &mut Rng, n: usize| ((rng.next() * n as f32) as usize).min(n - 1);
+        let (l, x, y) = (pick(&mut rng, 3), pick(&mut rng, res), pick(&mut rng, res));
+        if x == res - 1 && y == res - 1 {
+            continue;
+        }
+        for (z, c) in fit::solve_column(&t.fit, res, l, x, y).iter().enumerate() {
+            let i = (((l * res + z) * res + y) * res + x) * 3;
+            for k in 0..3 {
+                let kept = table[i + k] as f64;
+                assert!(
+                    (kept - c[k]).abs() <= 1e-6 * c[k].abs().max(1.0),
+                    "column (l {l}, x {x}, y {y}) node {z}: kept {kept}, the fit gives {}",
+                    c[k]
+                );
+            }
+        }
+        checked += 1;
+    }
+    let mut continued = table.to_vec();
+    fit::continue_grey_nodes(&mut continued, res);
+    assert!(continued == table, "the grey nodes are not continued from the diagonal");
 }

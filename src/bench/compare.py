@@ -1,4 +1,4 @@
-# pathwave bench's other renderers: Mitsuba 3 (llvm_ad_rgb) and Embree (embreex), driven over stdin/stdout.
+# pathwave bench's other renderers: Mitsuba 3 (llvm_ad_rgb, llvm_ad_spectral) and Embree (embreex), driven over stdin/stdout.
 # One JSON request per line in, one JSON reply per line out; arrays travel as raw little-endian files so the
 # timings measure rendering and tracing, not serialisation. Written for the bench, run by it; not a public tool.
 import json
@@ -63,7 +63,9 @@ class Mitsuba:
     def load(self, req):
         import mitsuba as mi
 
-        mi.set_variant("llvm_ad_rgb")
+        # llvm_ad_spectral for pathwave --spectral: the same scene, with RGB inputs upsampled and the emitters times
+        # D65, as pathwave does.
+        mi.set_variant(req.get("variant", "llvm_ad_rgb"))
         self.mi = mi
         desc = json.load(open(req["scene"]))
         cam = desc["camera"]

@@ -232,6 +232,8 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
 pub struct MitsubaComparison {
     pub device: String,
     pub version: String,
+    /// Mitsuba's variant, llvm_ad_rgb or (with pathwave spectral) llvm_ad_spectral.
+    pub variant: String,
     pub width: u32,
     pub height: u32,
     pub reference_spp: u32,
@@ -249,6 +251,77 @@ pub struct MitsubaComparison {
     pub mean_sigma: [f64; 3],
     /// The same deviation for Mitsuba's rounds: checks the reference and the scene translation.
     pub mitsuba_mean_deviation: [f64; 3],
+}
+
+impl MitsubaComparison {
+    /// Median over rounds of pathwave's relMSE x time.
+    pub fn pathwave_score(&self) -> f64 {
+        median(self.rounds.iter().map(|r| r[0].1 * r[0].2).collect())
+    }
+
+    pub fn summary(&self) -> String {
+        let mut s = String::new();
+        s += &format!(
+            "equal time vs Mitsuba {} {} (Cornell box {}x{}; pathwave {}; reference: Mitsuba at {} spp{}):\n",
+            self.version,
+            self.variant,
+            self.width,
+            self.height,
+            if self.variant.ends_with("spectral") {
+                "--spectral"
+            } else {
+                "RGB"
+            },
+            self.reference_spp,
+            if self.reference_cached { ", cached" } else { "" }
+        );
+        for (k, [(sp, tp, ep), (sm, tm, em), (sl, tl, el)]) in self.rounds.iter().enumerate() {
+            s += &format!(
+                "  round {}: pathwave {sp} spp {tp:.2} s relMSE {ep:.5} (x time {:.5}); Mitsuba {sm} spp {tm:.2} s \
+                 relMSE {em:.5} (x time {:.5}), ratio {:.3}; Mitsuba ldsampler {sl} spp {tl:.2} s relMSE {el:.5} \
+                 (x time {:.5}), ratio {:.3}\n",
+                k + 1,
+                ep * tp,
+                em * tm,
+                (ep * tp) / (em * tm),
+                el * tl,
+                (ep * tp) / (el * tl)
+            );
+        }
+        let pct = |v: [f64; 3]| v.map(|x| format!("{:+.3}", 100.0 * x)).join(" ");
+        s += &format!(
+            "  median ratio of relMSE x time {:.3} (target <= 1.0); against Mitsuba with ldsampler {:.3}\n  channel \
+             means vs reference, %: pathwave {} (one sigma {}, as if samples were independent); \
+             Mitsuba {}\n",
+            self.ratio,
+            self.ratio_ld,
+            pct(self.mean_deviation),
+            self.mean_sigma.map(|x| format!("{:.3}", 100.0 * x)).join(" "),
+            pct(self.mitsuba_mean_deviation)
+        );
+        s
+    }
+
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+        "variant": self.variant,
+            "version": self.version,
+            "width": self.width,
+            "height": self.height,
+            "reference_spp": self.reference_spp,
+            "reference_cached": self.reference_cached,
+            "rounds": self.rounds.iter().map(|[(sp, tp, ep), (sm, tm, em), (sl, tl, el)]| serde_json::json!({
+                "pathwave": {"spp": sp, "seconds": tp, "rel_mse": ep},
+                "mitsuba": {"spp": sm, "seconds": tm, "rel_mse": em},
+                "mitsuba_ldsampler": {"spp": sl, "seconds": tl, "rel_mse": el},
+            })).collect::<Vec<_>>(),
+            "ratio": self.ratio,
+            "ratio_ldsampler": self.ratio_ld,
+            "mean_deviation": self.mean_deviation,
+            "mean_sigma": self.mean_sigma,
+            "mitsuba_mean_deviation": self.mitsuba_mean_deviation,
+        })
+    }
 }
 
 /// Writes `scene` for the helper: one PLY per material and a JSON description. Only what both renderers agree on
@@ -427,8 +500,10 @@ pub fn compare_mitsuba(
     device: &DeviceChoice,
     cornell: &Path,
     quick: bool,
+    spectral: bool,
     progress: &mut dyn FnMut(&str),
 ) -> Result<MitsubaComparison, Error> {
+    let variant = if spectral { "llvm_ad_spectral" } else { "llvm_ad_rgb" };
     let size = if quick { (64, 64) } else { (256, 256) };
     let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (8192, 8.0, 3) };
     let mut h = Helper::start(python)?;
@@ -436,10 +511,10 @@ pub fn compare_mitsuba(
     let dir = h.dir.path().to_path_buf();
     let (desc_path, desc) = write_mitsuba_scene(&scene, size, &dir)?;
     let loaded = h
-        .call(json!({"cmd": "mitsuba_load", "scene": desc_path}))
+        .call(json!({"cmd": "mitsuba_load", "scene": desc_path, "variant": variant}))
         .map_err(|e| {
             err(format!(
-                "{e}; Mitsuba 3 needs `pip install mitsuba` and, for llvm_ad_rgb, `apt-get install libllvm19`"
+                "{e}; Mitsuba 3 needs `pip install mitsuba` and, for {variant}, `apt-get install libllvm19`"
             ))
         })?;
     let version = loaded["version"].as_str().unwrap_or("?").to_string();
@@ -447,7 +522,8 @@ pub fn compare_mitsuba(
     let mitsuba_with =
         |h: &mut Helper, sampler: &str, spp: u32, seed: u32| mitsuba_render(h, pixels, sampler, spp, seed);
     let mitsuba = |h: &mut Helper, spp: u32, seed: u32| mitsuba_with(h, "independent", spp, seed);
-    let key_text = format!("{desc}{version}{reference_spp}");
+    // The RGB reference keeps its old name; the spectral one is another image.
+    let key_text = format!("{desc}{version}{reference_spp}{}", if spectral { variant } else { "" });
     let (ref_a, ref_b, reference_cached) = mitsuba_reference(&mut h, pixels, &key_text, reference_spp, progress)?;
 
     let ctx = Context::new(device, Validation::Off)?;
@@ -459,6 +535,7 @@ pub fn compare_mitsuba(
             height: size.1,
             spp,
             seed,
+            spectral,
             ..Default::default()
         };
         let (film, stats) = r.render(&settings, &mut |_| {})?;
@@ -486,6 +563,7 @@ pub fn compare_mitsuba(
     let mut result = MitsubaComparison {
         device,
         version,
+        variant: variant.into(),
         width: size.0,
         height: size.1,
         reference_spp,

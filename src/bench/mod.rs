@@ -146,15 +146,27 @@ pub fn terrain(side: usize) -> Scene {
     s
 }
 
+/// How a case departs from the default render: BVH reads, a fixed schedule, spectral transport.
+#[derive(Clone, Copy, Default)]
+struct Variation {
+    reads: Option<BvhReads>,
+    schedule: Option<Schedule>,
+    spectral: bool,
+}
+
 fn measure(
     name: &str,
     scene: &Scene,
     size: (u32, u32),
     spp: u32,
     device: &DeviceChoice,
-    reads: Option<BvhReads>,
-    schedule: Option<Schedule>,
+    variation: Variation,
 ) -> Result<CaseResult, Error> {
+    let Variation {
+        reads,
+        schedule,
+        spectral,
+    } = variation;
     let ctx = Context::new(device, Validation::Off)?;
     let device_name = ctx.device_name();
     let mut r = Renderer::with_context(scene, ctx)?;
@@ -170,6 +182,7 @@ fn measure(
         width: size.0,
         height: size.1,
         spp,
+        spectral,
         ..Default::default()
     };
     let (film, stats) = r.render(&settings, &mut |_| {})?;
@@ -253,6 +266,8 @@ pub struct BenchReport {
     pub startup_s: Option<f64>,
     pub embree: Option<EmbreeComparison>,
     pub mitsuba: Option<MitsubaComparison>,
+    /// The same with spectral transport, against Mitsuba's llvm_ad_spectral.
+    pub mitsuba_spectral: Option<MitsubaComparison>,
     /// With the Mitsuba comparison: --adaptive against uniform sampling at equal time, per scene.
     pub adaptive: Vec<adaptive::AdaptiveComparison>,
     pub total: Duration,
@@ -276,6 +291,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         startup_s: None,
         embree: None,
         mitsuba: None,
+        mitsuba_spectral: None,
         adaptive: Vec::new(),
         total: Duration::ZERO,
     };
@@ -292,7 +308,11 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     if o.compare.contains(&Compare::Mitsuba) {
         progress("Mitsuba comparison");
         report.mitsuba = Some(compare::compare_mitsuba(
-            &o.python, &o.device, &cornell, o.quick, progress,
+            &o.python, &o.device, &cornell, o.quick, false, progress,
+        )?);
+        progress("Mitsuba comparison, spectral");
+        report.mitsuba_spectral = Some(compare::compare_mitsuba(
+            &o.python, &o.device, &cornell, o.quick, true, progress,
         )?);
         // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
         let halves = o.scenes.join("halves.gltf");
@@ -323,35 +343,57 @@ fn run_cases(
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(name, &scene, (256, 256), spp, &o.device, None, None)?;
+        let mut c = measure(name, &scene, (256, 256), spp, &o.device, Variation::default())?;
         c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
         cases.push(c);
         if name == "cornell-box" {
             // The same render with the BVH read from storage buffers (the texel path's gain), and with each schedule
             // fixed (the default on a CPU device tries both in its first passes), in this run.
-            let storage = Some(BvhReads::Storage);
-            cases.push(measure(
-                "cornell-storage",
-                &scene,
-                (256, 256),
-                spp,
-                &o.device,
-                storage,
-                None,
-            )?);
+            let storage = Variation {
+                reads: Some(BvhReads::Storage),
+                ..Default::default()
+            };
+            cases.push(measure("cornell-storage", &scene, (256, 256), spp, &o.device, storage)?);
             for (name, schedule) in [
                 ("cornell-fused", Schedule::Fused),
                 ("cornell-wavefront", Schedule::Wavefront),
             ] {
-                cases.push(measure(name, &scene, (256, 256), spp, &o.device, None, Some(schedule))?);
+                let fixed = Variation {
+                    schedule: Some(schedule),
+                    ..Default::default()
+                };
+                cases.push(measure(name, &scene, (256, 256), spp, &o.device, fixed)?);
             }
+            // Spectral transport's cost (--spectral): four wavelengths per path and every colour upsampled.
+            let spectral = Variation {
+                spectral: true,
+                ..Default::default()
+            };
+            cases.push(measure(
+                "cornell-spectral",
+                &scene,
+                (256, 256),
+                spp,
+                &o.device,
+                spectral,
+            )?);
         }
     }
     progress("terrain");
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangle_count() / 1000);
-    cases.push(measure(&name, &t, (256, 256), spp_mesh, &o.device, None, None)?);
-    let storage = Some(BvhReads::Storage);
+    cases.push(measure(
+        &name,
+        &t,
+        (256, 256),
+        spp_mesh,
+        &o.device,
+        Variation::default(),
+    )?);
+    let storage = Variation {
+        reads: Some(BvhReads::Storage),
+        ..Default::default()
+    };
     cases.push(measure(
         "terrain-storage",
         &t,
@@ -359,7 +401,6 @@ fn run_cases(
         spp_mesh,
         &o.device,
         storage,
-        None,
     )?);
     // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
     progress("instances");
@@ -372,8 +413,7 @@ fn run_cases(
         (256, 256),
         spp_mesh.min(8),
         &o.device,
-        None,
-        None,
+        Variation::default(),
     )?;
     c.process_s = Some(build.elapsed().as_secs_f64());
     cases.push(c);
@@ -383,7 +423,7 @@ fn run_cases(
         progress("terrain past the storage range");
         let big = terrain(1300);
         let name = format!("terrain-{}k", big.triangle_count() / 1000);
-        cases.push(measure(&name, &big, (256, 256), 8, &o.device, None, None)?);
+        cases.push(measure(&name, &big, (256, 256), 8, &o.device, Variation::default())?);
     }
     Ok(())
 }
@@ -421,38 +461,18 @@ impl BenchReport {
                 100.0 * e.agreement
             );
         }
-        if let Some(m) = &self.mitsuba {
+        for m in self.mitsuba.iter().chain(&self.mitsuba_spectral) {
+            s += &m.summary();
+        }
+        if let (Some(rgb), Some(spectral)) = (&self.mitsuba, &self.mitsuba_spectral) {
             s += &format!(
-                "equal time vs Mitsuba {} llvm_ad_rgb (Cornell box {}x{}; reference: Mitsuba at {} spp{}):\n",
-                m.version,
-                m.width,
-                m.height,
-                m.reference_spp,
-                if m.reference_cached { ", cached" } else { "" }
-            );
-            for (k, [(sp, tp, ep), (sm, tm, em), (sl, tl, el)]) in m.rounds.iter().enumerate() {
-                s += &format!(
-                    "  round {}: pathwave {sp} spp {tp:.2} s relMSE {ep:.5} (x time {:.5}); Mitsuba {sm} spp {tm:.2} s \
-                     relMSE {em:.5} (x time {:.5}), ratio {:.3}; Mitsuba ldsampler {sl} spp {tl:.2} s relMSE {el:.5} \
-                     (x time {:.5}), ratio {:.3}\n",
-                    k + 1,
-                    ep * tp,
-                    em * tm,
-                    (ep * tp) / (em * tm),
-                    el * tl,
-                    (ep * tp) / (el * tl)
-                );
-            }
-            let pct = |v: [f64; 3]| v.map(|x| format!("{:+.3}", 100.0 * x)).join(" ");
-            s += &format!(
-                "  median ratio of relMSE x time {:.3} (target <= 1.0); against Mitsuba with ldsampler {:.3}\n  channel \
-                 means vs reference, %: pathwave {} (one sigma {}, as if samples were independent); \
-                 Mitsuba {}\n",
-                m.ratio,
-                m.ratio_ld,
-                pct(m.mean_deviation),
-                m.mean_sigma.map(|x| format!("{:.3}", 100.0 * x)).join(" "),
-                pct(m.mitsuba_mean_deviation)
+                "spectral transport's cost (pathwave, Cornell box {}x{}): {} against {} spp in the same budget; \
+                 relMSE x time, spectral over RGB (each against its own Mitsuba reference): {:.3}\n",
+                rgb.width,
+                rgb.height,
+                spectral.rounds.first().map_or(0, |r| r[0].0),
+                rgb.rounds.first().map_or(0, |r| r[0].0),
+                spectral.pathwave_score() / rgb.pathwave_score()
             );
         }
         for a in &self.adaptive {
@@ -545,23 +565,8 @@ impl BenchReport {
                 "ratio": e.ratio,
                 "agreement": e.agreement,
             })),
-            "mitsuba": self.mitsuba.as_ref().map(|m| serde_json::json!({
-                "version": m.version,
-                "width": m.width,
-                "height": m.height,
-                "reference_spp": m.reference_spp,
-                "reference_cached": m.reference_cached,
-                "rounds": m.rounds.iter().map(|[(sp, tp, ep), (sm, tm, em), (sl, tl, el)]| serde_json::json!({
-                    "pathwave": {"spp": sp, "seconds": tp, "rel_mse": ep},
-                    "mitsuba": {"spp": sm, "seconds": tm, "rel_mse": em},
-                    "mitsuba_ldsampler": {"spp": sl, "seconds": tl, "rel_mse": el},
-                })).collect::<Vec<_>>(),
-                "ratio": m.ratio,
-                "ratio_ldsampler": m.ratio_ld,
-                "mean_deviation": m.mean_deviation,
-                "mean_sigma": m.mean_sigma,
-                "mitsuba_mean_deviation": m.mitsuba_mean_deviation,
-            })),
+            "mitsuba": self.mitsuba.as_ref().map(|m| m.json()),
+            "mitsuba_spectral": self.mitsuba_spectral.as_ref().map(|m| m.json()),
             "adaptive": self.adaptive.iter().map(|a| a.json()).collect::<Vec<_>>(),
             "total_s": self.total.as_secs_f64(),
             "cases": cases,

@@ -1,5 +1,5 @@
-// The Jakob–Hanika fit (2019): for an RGB, the sigmoid-of-quadratic reflectance whose colour under D65 is that RGB.
-// std only: build.rs compiles this file too, to make the table the renderer ships (spectrum::table).
+// The Jakob–Hanika fit (2019): for an RGB, the sigmoid-of-quadratic reflectance whose colour under D65 is that RGB,
+// and the table of them the renderer ships (data/rgb2spec_srgb_32.bin, made by examples/rgb2spec.rs).
 
 /// The CIE 1931 2° observer and the D65 illuminant at 1 nm (data/cie1931_d65.tsv; data/make_cie.py says where the
 /// numbers come from).
@@ -214,66 +214,86 @@ pub fn z_nodes(res: usize) -> Vec<f64> {
     (0..res).map(|k| smooth(smooth(k as f64 / (res - 1) as f64))).collect()
 }
 
-/// The table: for each largest channel l, node z (the largest component), y and x (the next two channels over the
-/// largest, in (res − 1) steps), the three coefficients; f32, index ((((l·res + z)·res + y)·res + x)·3 + c).
-pub fn build_table(fit: &Fit, res: usize) -> Vec<f32> {
+/// One column of the table: the coefficients at every node z for largest channel l and the next two channels over
+/// the largest at x / (res − 1) and y / (res − 1). The sweep starts a fifth of the way up, where a start at zero
+/// converges, and goes outwards, each node starting from its neighbour's answer (a start that leads nowhere, its
+/// neighbour sat on a step, gets a second try from zero).
+pub fn solve_column(fit: &Fit, res: usize, l: usize, x: usize, y: usize) -> Vec<[f64; 3]> {
     let zs = z_nodes(res);
+    let solve_at = |zi: usize, start: [f64; 3]| {
+        let z = zs[zi];
+        let mut rgb = [0.0; 3];
+        rgb[l] = z;
+        rgb[(l + 1) % 3] = x as f64 / (res - 1) as f64 * z;
+        rgb[(l + 2) % 3] = y as f64 / (res - 1) as f64 * z;
+        let (c, err) = fit.solve(rgb, start);
+        if err > 1e-6 {
+            let (c0, err0) = fit.solve(rgb, [0.0; 3]);
+            if err0 < err {
+                return c0;
+            }
+        }
+        c
+    };
+    let mut column = vec![[0.0; 3]; res];
+    let first = res / 5;
+    let mut c = [0.0; 3];
+    for (zi, node) in column.iter_mut().enumerate().skip(first) {
+        c = solve_at(zi, c);
+        *node = c;
+    }
+    c = column[first];
+    for (zi, node) in column.iter_mut().enumerate().take(first).rev() {
+        c = solve_at(zi, c);
+        *node = c;
+    }
+    column
+}
+
+/// The table: for each largest channel l, node z (the largest component), y and x (the next two channels over the
+/// largest, in (res − 1) steps), the three coefficients; f32, index ((((l·res + z)·res + y)·res + x)·3 + c). It is
+/// made once (`cargo run --release --example rgb2spec`, about 7 s on two cores) and kept in data/; tests/spectrum.rs
+/// checks columns of the kept table against solve_column.
+pub fn build_table(fit: &Fit, res: usize) -> Vec<f32> {
     let columns = 3 * res * res;
     let mut table = vec![0.0f32; columns * res * 3];
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    // A column (l, y, x) sweeps z from a fifth of the way up, where the start at zero converges, outwards, each
-    // node starting from its neighbour's answer.
-    let solved: Vec<Vec<(usize, [f64; 3])>> = std::thread::scope(|scope| {
+    let solved: Vec<Vec<(usize, Vec<[f64; 3]>)>> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..threads)
             .map(|t| {
-                let zs = &zs;
                 scope.spawn(move || {
-                    let mut out = Vec::new();
-                    for col in (t..columns).step_by(threads) {
-                        let (l, y, x) = (col / (res * res), (col / res) % res, col % res);
-                        let solve_at = |zi: usize, start: [f64; 3]| {
-                            let z = zs[zi];
-                            let mut rgb = [0.0; 3];
-                            rgb[l] = z;
-                            rgb[(l + 1) % 3] = x as f64 / (res - 1) as f64 * z;
-                            rgb[(l + 2) % 3] = y as f64 / (res - 1) as f64 * z;
-                            // A start that leads nowhere (the neighbour sat on a step) gets a second try from 0.
-                            let (c, err) = fit.solve(rgb, start);
-                            if err > 1e-6 {
-                                let (c0, err0) = fit.solve(rgb, [0.0; 3]);
-                                if err0 < err {
-                                    return c0;
-                                }
-                            }
-                            c
-                        };
-                        let start = res / 5;
-                        let mut c = [0.0; 3];
-                        for zi in start..res {
-                            c = solve_at(zi, c);
-                            out.push((((l * res + zi) * res + y) * res + x, c));
-                        }
-                        c = out[out.len() - (res - start)].1;
-                        for zi in (0..start).rev() {
-                            c = solve_at(zi, c);
-                            out.push((((l * res + zi) * res + y) * res + x, c));
-                        }
-                    }
-                    out
+                    (t..columns)
+                        .step_by(threads)
+                        .map(|col| {
+                            (
+                                col,
+                                solve_column(fit, res, col / (res * res), col % res, (col / res) % res),
+                            )
+                        })
+                        .collect()
                 })
             })
             .collect();
         handles.into_iter().map(|h| h.join().expect("a table thread")).collect()
     });
-    for (i, c) in solved.into_iter().flatten() {
-        for k in 0..3 {
-            table[i * 3 + k] = c[k] as f32;
+    for (col, column) in solved.into_iter().flatten() {
+        let (l, y, x) = (col / (res * res), (col / res) % res, col % res);
+        for (z, c) in column.iter().enumerate() {
+            let i = (((l * res + z) * res + y) * res + x) * 3;
+            for k in 0..3 {
+                table[i + k] = c[k] as f32;
+            }
         }
     }
-    // The grey node of each slice (x = y = res − 1) is never read alone: an exact grey takes the constant spectrum
-    // (spectrum::Tables::coefficients). It only steers the interpolation of colours next to it, and its own fit, the
-    // constant, sits at the clamp far from its neighbours' bumps (0.031 off at (1, 0.97, 1)). Continued from the
-    // diagonal instead, the worst round trip falls to 0.019.
+    continue_grey_nodes(&mut table, res);
+    table
+}
+
+/// The grey node of each slice (x = y = res − 1) is never read alone: an exact grey takes the constant spectrum
+/// (spectrum::Tables::coefficients). It only steers the interpolation of colours next to it, and its own fit, the
+/// constant, sits at the clamp far from its neighbours' bumps (0.031 off at (1, 0.97, 1)). Continued from the
+/// diagonal instead, the worst round trip falls to 0.019.
+pub fn continue_grey_nodes(table: &mut [f32], res: usize) {
     for l in 0..3 {
         for z in 0..res {
             let node = |d: usize| (((l * res + z) * res + d) * res + d) * 3;
@@ -283,5 +303,4 @@ pub fn build_table(fit: &Fit, res: usize) -> Vec<f32> {
             }
         }
     }
-    table
 }

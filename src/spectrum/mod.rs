@@ -7,8 +7,8 @@ use crate::constants::{CIE_ROWS, LAMBDA_MAX, LAMBDA_MIN, RGB2SPEC_RES, SPECTRUM_
 use std::sync::OnceLock;
 
 const CIE_TEXT: &str = include_str!("../../data/cie1931_d65.tsv");
-/// build.rs's fit (fit::build_table), f32 little-endian.
-static RGB2SPEC: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/rgb2spec.bin"));
+/// fit::build_table's output for RGB2SPEC_RES, f32 little-endian (examples/rgb2spec.rs writes it).
+static RGB2SPEC: &[u8] = include_bytes!("../../data/rgb2spec_srgb_32.bin");
 
 /// Wavelength sampling's density is ∝ sech²(A (λ − C)) over the visible range: close to the sum of the observer's
 /// curves, so the film's XYZ weights vary little and no wavelength the eye sees goes unsampled (the shape pbrt-v4
@@ -79,6 +79,11 @@ impl Tables {
         out.extend_from_slice(&self.coefficients);
         assert_eq!(out.len(), SPECTRUM_FLOATS as usize);
         out
+    }
+
+    /// The RGB-to-spectrum table as kept (fit::build_table's layout).
+    pub fn coefficient_table(&self) -> &[f32] {
+        &self.coefficients
     }
 
     /// The table's rows around nm and the weight of the upper one; None outside the range.
