@@ -428,3 +428,48 @@ fn bench_reports_every_case() {
         assert!(stages(3).contains(&s.to_string()), "{:?}", stages(3));
     }
 }
+
+#[test]
+fn dispersion_renders_spectrally_unless_rgb_is_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let prism = common::scenes_dir().join("prism.gltf").display().to_string();
+    let out = |name: &str| dir.path().join(name).display().to_string();
+    let run = |extra: &[&str], name: &str| {
+        let o = out(name);
+        let mut args = vec![
+            "render",
+            prism.as_str(),
+            "--size",
+            "24x16",
+            "--spp",
+            "2",
+            "-o",
+            o.as_str(),
+        ];
+        args.extend_from_slice(extra);
+        let r = pathwave(&args);
+        assert!(r.status.success(), "{args:?}: {}", stderr(&r));
+        (stderr(&r), std::fs::read(&o).unwrap())
+    };
+    let (said, spectral) = run(&[], "default.png");
+    assert!(
+        said.contains("rendering spectrally"),
+        "a dispersive scene should say it renders spectrally: {said}"
+    );
+    let (said, rgb) = run(&["--rgb"], "rgb.png");
+    assert!(
+        said.contains("warning") && said.contains("dispersion"),
+        "--rgb should warn: {said}"
+    );
+    let (_, forced) = run(&["--spectral"], "spectral.png");
+    assert_eq!(spectral, forced, "--spectral on a dispersive scene is its default");
+    assert_ne!(spectral, rgb, "--rgb changed nothing");
+    let (said, _) = run(&["--spectral"], "quiet.png");
+    assert!(!said.contains("warning"), "--spectral needs no warning: {said}");
+    let o = out("both.png");
+    assert_refused(
+        &["render", prism.as_str(), "--spectral", "--rgb", "-o", o.as_str()],
+        Path::new(&o),
+        "cannot be used with",
+    );
+}
