@@ -392,6 +392,7 @@ fn bench_reports_every_case() {
             "cornell-storage",
             "cornell-fused",
             "cornell-wavefront",
+            "cornell-spectral",
             "glass",
             "terrain-32k",
             "terrain-storage",
@@ -412,7 +413,7 @@ fn bench_reports_every_case() {
         }
         assert!(table.contains(c["name"].as_str().unwrap()), "{table}");
     }
-    assert!(cases[5]["triangles"].as_u64().unwrap() > 30_000);
+    assert!(cases[6]["triangles"].as_u64().unwrap() > 30_000);
     let stages = |k: usize| {
         cases[k]["stage_ms"]
             .as_object()
