@@ -330,11 +330,11 @@ fn non_finite_samples_are_dropped_counted_and_the_schedules_agree() {
     let o = run(&["export-shaders", exported.to_str().unwrap()], &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let path_glsl = std::fs::read_to_string(exported.join("include/path.glsl")).unwrap();
-    let anchor = "    shadow.radiance = vec3(0.0);\n";
+    let anchor = "    shadow.radiance = Spectrum(0.0);\n";
     assert!(path_glsl.contains(anchor), "path.glsl changed; update this test's edit");
     let poisoned = path_glsl.replacen(
         anchor,
-        &format!("{anchor}    if ((pixel & 1u) == 0u) {{ v.radiance = vec3(uintBitsToFloat(0x7f800000u)); return false; }}\n"),
+        &format!("{anchor}    if ((pixel & 1u) == 0u) {{ v.radiance = Spectrum(uintBitsToFloat(0x7f800000u)); return false; }}\n"),
         1,
     );
     let mut images = Vec::new();

@@ -160,8 +160,8 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     bool front = sf.front;
     vec3 n_in = sf.n_in;
     vec3 ns = sf.ns;
-    // To look at any quantity while editing (README), e.g. the shading normals: `v.radiance = ns * 0.5 + 0.5;
-    // return false;` here.
+    // To look at any quantity while editing (README), e.g. the shading normals in an RGB render:
+    // `v.radiance = Spectrum(ns * 0.5 + 0.5, 0.0); return false;` here.
 
     // Emission seen by this ray, weighted against the chance NEE would have found the same point.
     bool emits = (front || m.emission.w > 0.5) && any(greaterThan(m.emission.rgb, vec3(0.0)));
