@@ -153,14 +153,7 @@ fn environment_sampling_follows_its_pdf() {
 /// Returns the mean and its standard error over the pixels that see the sphere (those with variance), and their count;
 /// a deterministic material (a mirror) has none, and then every pixel must be exactly 1.
 fn white_furnace(material: Material, spp: u32, smooth: bool) -> (f64, f64, usize) {
-    let mut b = common::gltf_builder::GltfBuilder::new();
-    let m = b.material("placeholder", [1.0; 3], [0.0; 3], false);
-    b.uv_sphere("sphere", [0.0; 3], 1.0, m, smooth);
-    b.camera([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 30.0);
-    let (_dir, path) = common::write_temp(&b, "sphere.gltf");
-    let mut scene = pathwave::scene::load(&path, None).unwrap();
-    scene.materials[0] = material;
-    scene.environment = Some(Environment::constant([1.0; 3]));
+    let scene = common::sphere_in_environment(material, [1.0; 3], smooth);
     let mut r = Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     let film = common::render(&mut r, &common::settings(16, 16, spp, 21));
     let (mean, var) = (film.mean(), film.sample_variance());

@@ -3,20 +3,12 @@
 //! spectral mode. Each compares per-channel means against their standard errors (fixed seeds).
 mod common;
 
-use pathwave::scene::{Environment, Material, Scene};
+use pathwave::scene::{Material, Scene};
 use pathwave::{Film, RenderSettings, Renderer};
 
 /// A faceted sphere filling the view in a uniform environment (the white-furnace scene of tests/environment.rs).
 fn sphere(material: Material, env: [f32; 3]) -> Scene {
-    let mut b = common::gltf_builder::GltfBuilder::new();
-    let m = b.material("placeholder", [1.0; 3], [0.0; 3], false);
-    b.uv_sphere("sphere", [0.0; 3], 1.0, m, false);
-    b.camera([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 30.0);
-    let (_dir, path) = common::write_temp(&b, "sphere.gltf");
-    let mut scene = pathwave::scene::load(&path, None).unwrap();
-    scene.materials[0] = material;
-    scene.environment = Some(Environment::constant(env));
-    scene
+    common::sphere_in_environment(material, env, false)
 }
 
 fn spectral(width: u32, height: u32, spp: u32, seed: u32) -> RenderSettings {

@@ -34,6 +34,24 @@ pub fn scene_renderer(scene: &pathwave::scene::Scene) -> pathwave::Renderer {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A faceted (or smooth) unit sphere of `material` filling a 30° view from distance 3, in a uniform environment of
+/// `env`: the white furnace's scene (tests/environment.rs, tests/spectral.rs).
+pub fn sphere_in_environment(
+    material: pathwave::scene::Material,
+    env: [f32; 3],
+    smooth: bool,
+) -> pathwave::scene::Scene {
+    let mut b = gltf_builder::GltfBuilder::new();
+    let m = b.material("placeholder", [1.0; 3], [0.0; 3], false);
+    b.uv_sphere("sphere", [0.0; 3], 1.0, m, smooth);
+    b.camera([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 30.0);
+    let (_dir, path) = write_temp(&b, "sphere.gltf");
+    let mut scene = pathwave::scene::load(&path, None).unwrap();
+    scene.materials[0] = material;
+    scene.environment = Some(pathwave::scene::Environment::constant(env));
+    scene
+}
+
 pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> pathwave::RenderSettings {
     pathwave::RenderSettings {
         width,
