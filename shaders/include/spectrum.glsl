@@ -148,10 +148,6 @@ Spectrum spectrum_illuminant(vec3 rgb) {
     return spectrum_unbounded_at(rgb, path_lambda) * path_d65;
 }
 
-Spectrum spectrum_constant(float x) {
-    return vec4(x);
-}
-
 // The largest and the mean of a colour's components (a throughput's, for Russian roulette and lobe choice).
 float spectrum_max(Spectrum c) {
     return spectral() ? max(max(c.x, c.y), max(c.z, c.w)) : max(c.x, max(c.y, c.z));

@@ -87,6 +87,9 @@ pub struct Fit {
     pub to_xyz: M3,
     /// D65's XYZ, Y = 1.
     pub white: [f64; 3],
+    /// ∫ ȳ dλ (the film divides XYZ by it), and the factor that gives D65 a Y of 1 against it.
+    pub y_integral: f64,
+    pub d65_scale: f64,
 }
 
 impl Fit {
@@ -95,6 +98,7 @@ impl Fit {
         let span = cie.last_nm() - cie.first_nm;
         let trapezoid = |i: usize| if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
         let norm: f64 = (0..n).map(|i| trapezoid(i) * cie.d65[i] * cie.xyz[i][1]).sum();
+        let y_integral: f64 = (0..n).map(|i| trapezoid(i) * cie.xyz[i][1]).sum();
         let weights = (0..n)
             .map(|i| cie.xyz[i].map(|c| trapezoid(i) * cie.d65[i] * c / norm))
             .collect::<Vec<_>>();
@@ -109,6 +113,8 @@ impl Fit {
             to_srgb: invert(&to_xyz),
             to_xyz,
             white,
+            y_integral,
+            d65_scale: y_integral / norm,
         }
     }
 

@@ -32,10 +32,6 @@ pub fn tables() -> &'static Tables {
     static TABLES: OnceLock<Tables> = OnceLock::new();
     TABLES.get_or_init(|| {
         let cie = fit::Cie::parse(CIE_TEXT);
-        let n = cie.xyz.len();
-        let trapezoid = |i: usize| if i == 0 || i == n - 1 { 0.5 } else { 1.0 };
-        let y_integral: f64 = (0..n).map(|i| trapezoid(i) * cie.xyz[i][1]).sum();
-        let d65_y: f64 = (0..n).map(|i| trapezoid(i) * cie.xyz[i][1] * cie.d65[i]).sum();
         let coefficients: Vec<f32> = RGB2SPEC
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
@@ -44,13 +40,14 @@ pub fn tables() -> &'static Tables {
         assert_eq!(
             coefficients.len(),
             3 * res * res * res * 3,
-            "rgb2spec.bin holds the table build.rs made"
+            "data/rgb2spec_srgb_32.bin holds RGB2SPEC_RES's table"
         );
+        let fit = fit::Fit::new(&cie);
         Tables {
-            fit: fit::Fit::new(&cie),
+            y_integral: fit.y_integral,
+            d65_scale: fit.d65_scale,
+            fit,
             cie,
-            y_integral,
-            d65_scale: y_integral / d65_y,
             coefficients,
             z_nodes: fit::z_nodes(res).into_iter().map(|z| z as f32).collect(),
         }
