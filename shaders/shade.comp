@@ -35,6 +35,8 @@ void main() {
     ShadowRay shadow;
     uint dir_bits = floatBitsToUint(dir.w);
     v.hero_only = spectral() && (dir_bits & PATH_HERO_ONLY) != 0u;
+    // The light BVH's normal at the ray's origin waits in the shadow direction's w, which connect does not read.
+    v.light_normal = light_tree_on() ? path_get(PATH_SHADOW_DIR, path).w : 0.0;
     uint inst = scene_has(FEATURE_INSTANCES) ? (spectral() ? dir_bits & ~PATH_HERO_ONLY : dir_bits) : NO_INSTANCE;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
@@ -42,9 +44,10 @@ void main() {
     if (shadow.wanted) {
         queue_push(QUEUE_SHADOW, path);
         path_set(PATH_SHADOW_ORIGIN, path, shadow.origin);
-        path_set(PATH_SHADOW_DIR, path, vec4(shadow.dir, 0.0));
+        path_set(PATH_SHADOW_DIR, path, vec4(shadow.dir, v.light_normal));
         path_set(PATH_SHADOW_RADIANCE, path, spectrum_store(shadow.radiance));
     }
+    if (alive && !shadow.wanted && light_tree_on()) path_set(PATH_SHADOW_DIR, path, vec4(0.0, 0.0, 0.0, v.light_normal));
     if (alive) {
         path_set(PATH_ORIGIN, path, v.origin);
         path_set(PATH_DIR, path, vec4(v.dir, v.hero_only ? uintBitsToFloat(PATH_HERO_ONLY) : 0.0));

@@ -59,8 +59,8 @@ void main() {
             ids = uvec2(instance, floatBitsToUint(sf.tv.v0.w));
             debug.geometric.xyz = sf.n_in;
             debug.shading.xyz = sf.ns;
-            // An emitter's pdf per unit area times its area: its share of the light table.
-            debug.shading.w = sf.ts.n0.w * sf.ts.n1.w;
+            // An emitter's share of the power table.
+            debug.shading.w = emitter_power_share(sf.ts, h.inst);
 #ifdef TEXTURED
             TriTexcoords tc = load_tri_texcoords(h.tri);
             debug.uv.xy = ((1.0 - h.uv.x - h.uv.y) * tc.t0 + h.uv.x * tc.t1 + h.uv.y * tc.t2).xy;

@@ -40,31 +40,34 @@ pub const BINDING_BUDGET: u32 = 22;
 /// The debug views' running sums (`DebugSums`, one per pixel) survey adds when a render asks for one; a stand-in
 /// otherwise.
 pub const BINDING_DEBUG_AOVS: u32 = 23;
+/// The light BVH (`GpuLightNode` records: the header, a leaf per entry of light selection's table, the interior
+/// nodes), read when light selection is `bvh`.
+pub const BINDING_LIGHT_TREE: u32 = 24;
 /// The BVH nodes and the per-triangle buffers again, as uniform texel buffers (RGBA32UI): the TEXEL_READS stage
 /// variants read them there, which lavapipe serves much faster than storage-buffer loads in a loop, and which
 /// reaches past the device's storage-buffer range (maxTexelBufferElements texels of 16 bytes each). Every binding
 /// before BINDING_FIRST_TEXEL is a storage buffer.
-pub const BINDING_FIRST_TEXEL: u32 = 24;
-pub const BINDING_NODE_TEXELS: u32 = 24;
-pub const BINDING_TRI_TEXELS: u32 = 25;
-pub const BINDING_TRI_SHADING_TEXELS: u32 = 26;
-pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 27;
-pub const BINDING_TRI_TANGENT_TEXELS: u32 = 28;
-pub const BINDING_TRI_COLOR_TEXELS: u32 = 29;
+pub const BINDING_FIRST_TEXEL: u32 = 25;
+pub const BINDING_NODE_TEXELS: u32 = 25;
+pub const BINDING_TRI_TEXELS: u32 = 26;
+pub const BINDING_TRI_SHADING_TEXELS: u32 = 27;
+pub const BINDING_TRI_TEXCOORD_TEXELS: u32 = 28;
+pub const BINDING_TRI_TANGENT_TEXELS: u32 = 29;
+pub const BINDING_TRI_COLOR_TEXELS: u32 = 30;
 /// The textures' RGBA8 texels (one u32 each) as an R32UI view.
-pub const BINDING_IMAGE_TEXELS: u32 = 30;
+pub const BINDING_IMAGE_TEXELS: u32 = 31;
 /// The path state (BINDING_PATHS) as a uniform texel buffer (RGBA32F) the TEXEL_READS stages read it through:
 /// lavapipe loads a texel per lane at once, where a storage-buffer vec4 is four bounds-checked scalar loads per lane.
 /// Writes stay storage-buffer stores (a storage texel buffer's imageStore made shade 60 % slower).
-pub const BINDING_PATH_TEXELS: u32 = 31;
+pub const BINDING_PATH_TEXELS: u32 = 32;
 /// The materials (BINDING_MATERIALS) as RGBA32UI texels, MATERIAL_TEXELS per material, for the TEXEL_READS stages.
-pub const BINDING_MATERIAL_TEXELS: u32 = 32;
+pub const BINDING_MATERIAL_TEXELS: u32 = 33;
 /// The light table (BINDING_LIGHTS) as RGBA32UI texels, one per light, for the TEXEL_READS stages.
-pub const BINDING_LIGHT_TEXELS: u32 = 33;
+pub const BINDING_LIGHT_TEXELS: u32 = 34;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
-pub const BINDING_MOTION_TEXELS: u32 = 34;
-pub const BINDING_COUNT: u32 = 35;
+pub const BINDING_MOTION_TEXELS: u32 = 35;
+pub const BINDING_COUNT: u32 = 36;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -194,6 +197,10 @@ pub const FLAG_PIXEL_ORDER: u32 = 4096;
 /// The render is spectral (FEATURE_SPECTRAL): the host reads this flag to specialise the render stages, and it keeps
 /// spectral and RGB film files from merging.
 pub const FLAG_SPECTRAL: u32 = 8192;
+/// Light selection picks uniformly among the table's entries (--light-sampler uniform).
+pub const FLAG_LIGHT_UNIFORM: u32 = 16384;
+/// Light selection descends the light BVH (--light-sampler bvh, FEATURE_LIGHT_TREE); neither bit: by power.
+pub const FLAG_LIGHT_TREE: u32 = 32768;
 
 /// SCENE_FEATURES bits, a specialisation constant (id SPEC_SCENE_FEATURES) the host sets per scene for the render
 /// stages: code for what no material or light uses is folded away when the pipeline is built. lavapipe executes both
@@ -250,6 +257,9 @@ pub const FEATURE_ADAPTIVE: u32 = 65536;
 /// colours are upsampled to spectra at them and the film turns them into linear sRGB (spectrum.glsl). A render
 /// setting; RGB renders keep their bytes and speed.
 pub const FEATURE_SPECTRAL: u32 = 131072;
+/// Light selection descends the light BVH (light_tree.glsl): a render setting (FLAG_LIGHT_TREE) for scenes with a
+/// tree; renders by power or uniform keep their bytes and speed.
+pub const FEATURE_LIGHT_TREE: u32 = 262144;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;
@@ -275,6 +285,20 @@ pub const PUNCTUAL_POINT: u32 = 0;
 pub const PUNCTUAL_SPOT: u32 = 1;
 pub const PUNCTUAL_DIRECTIONAL: u32 = 2;
 pub const LIGHT_INDEX_MASK: u32 = 0x3FFFFFFF;
+/// GpuLightNode.link[0] of a leaf (an interior node's is its first child).
+pub const LIGHT_NODE_LEAF: u32 = 0xFFFFFFFF;
+/// probe_light_select's answer when light selection finds nothing that can light the point.
+pub const LIGHT_NONE: u32 = 0xFFFFFFFF;
+/// Set in GpuLightNode.link[1] (beside an interior node's second child) when the node's cone holds for both faces.
+pub const LIGHT_NODE_TWO_SIDED: u32 = 0x80000000;
+/// The deepest leaf of the light BVH: a trail of 64 bits (GpuLightNode.link[2..4]) says which way to turn.
+pub const LIGHT_TREE_MAX_DEPTH: u32 = 64;
+/// Below this probability of the choices one number made, the light BVH's descent takes its second number: the first
+/// has too few of its 24 bits left to choose by.
+pub const LIGHT_FRESH_NUMBER_BELOW: f32 = 0.000244140625;
+/// Emitters light selection's table may hold: an emissive triangle's TriShading.n0.w holds its entry + 1 as a float,
+/// exact up to 2^24.
+pub const LIGHT_ENTRIES_MAX: u32 = 16777215;
 
 /// Estimator selection: bits ESTIMATOR_SHIFT.. of Frame.flags.
 pub const ESTIMATOR_MIS: u32 = 0;
@@ -342,6 +366,8 @@ pub const DIM_TIME: u32 = 10;
 pub const PATH_HERO_ONLY: u32 = 0x80000000;
 /// The path's hero wavelength (x), drawn once per camera sample (spectrum.glsl).
 pub const DIM_WAVELENGTH: u32 = 11;
+/// The light BVH's descent (x, then y once x has too few bits left); the point on the light keeps DIM_LIGHT.
+pub const DIM_LIGHT_PICK: u32 = 12;
 
 /// Segments the shutter is cut into for motion: transforms (and skinned or morphed vertices) are evaluated at
 /// MOTION_SEGMENTS + 1 evenly spaced times, vertices move linearly between them. Four keep a quarter turn within the

@@ -235,6 +235,36 @@ pub struct GpuLight {
     pub area: f32,
 }
 
+/// 64 bytes: a node of the light BVH (`bvh::lights`; `LightNode` in layout.glsl). `lo`: the bounds' minimum and
+/// the power (W) below the node; `hi`: the maximum and cos of the normal cone's half angle; `axis`: the cone's axis
+/// and cos of how far emission reaches past it; `link`: (first child, second child | LIGHT_NODE_TWO_SIDED, 0, 0) for
+/// an interior node, (LIGHT_NODE_LEAF, LIGHT_NODE_TWO_SIDED or 0, the trail's low and high 32 bits) for a leaf.
+/// Record 0 is the header: `lo.x` the probability light selection descends the tree, `link` = (the root, the
+/// infinite lights' table's first entry in the light buffer, its length, the emitters in the tree); the leaf of
+/// table entry j is record 1 + j. 64 bytes a node, about 128 per emitter.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLightNode {
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+    pub axis: [f32; 4],
+    pub link: [u32; 4],
+}
+
+/// 48 bytes: probe_light_select's query and answer (see `LightSelectRecord` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct LightSelectRecord {
+    pub p: [f32; 3],
+    pub entry: u32,
+    pub n: [f32; 3],
+    pub u: f32,
+    pub v: f32,
+    pub picked: u32,
+    pub prob: f32,
+    pub pmf: f32,
+}
+
 /// 48 bytes: a KHR_lights_punctual light (see `PunctualLight` in layout.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -312,6 +342,8 @@ const _: () = assert!(std::mem::size_of::<TriVerts>() == 48);
 const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuLightNode>() == 64);
+const _: () = assert!(std::mem::size_of::<LightSelectRecord>() == 48);
 
 /// 64 bytes: a pixel's AOV sums (survey.comp): albedo rgb and the samples added; the normal and the samples whose
 /// camera ray hit; the first hit's position and its distance along the camera ray (summed over hits); the instance

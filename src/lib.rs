@@ -18,6 +18,7 @@ pub mod vk;
 
 pub use error::Error;
 pub use render::{
-    Adaptive, BvhReads, Estimator, Film, RenderSettings, RenderStats, Renderer, RendererOptions, Schedule, Session,
+    Adaptive, BvhReads, Estimator, Film, LightSampler, RenderSettings, RenderStats, Renderer, RendererOptions,
+    Schedule, Session,
 };
 pub use scene::Scene;

@@ -4,7 +4,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use pathwave::output::Aov;
 use pathwave::vk::DeviceChoice;
-use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
+use pathwave::{output, scene, Estimator, LightSampler, RenderSettings, Renderer};
 use std::path::PathBuf;
 
 mod cli_values;
@@ -184,6 +184,10 @@ struct SceneArgs {
     /// RGB transport even for a scene with dispersion, which is then ignored (with a warning).
     #[arg(long)]
     rgb: bool,
+    /// How next-event estimation picks a light: bvh (by importance at the shading point, from a light BVH over the
+    /// emitters), power (in proportion to power, the same everywhere) or uniform. README, "Light selection".
+    #[arg(long, value_enum, default_value = "bvh")]
+    light_sampler: LightSampler,
     #[command(flatten)]
     env: EnvArgs,
     #[command(flatten)]
@@ -262,6 +266,7 @@ impl SceneArgs {
             hide_environment: self.env.hide_env,
             aperture: self.aperture,
             focus_distance: self.focus_distance,
+            light_sampler: self.light_sampler,
             ..Default::default()
         }
     }
@@ -445,6 +450,7 @@ impl RenderArgs {
             ("size", format!("{}x{}", self.size.0, self.size.1)),
             ("max-depth", opt(c.max_depth.map(|d| d.to_string()))),
             ("estimator", format!("{:?}", self.estimator).to_lowercase()),
+            ("light-sampler", c.light_sampler.name().to_string()),
             ("energy-compensation", (!self.no_energy_compensation).to_string()),
             ("camera", opt(c.camera.map(|n| n.to_string()))),
             ("aperture", c.aperture.to_string()),
@@ -1061,6 +1067,20 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
             n => format!(" (instanced meshes' counted once) and {n} emissive instances"),
         },
         packed.total_light_power + 0.0
+    );
+    let tree = &packed.light_tree;
+    println!(
+        "light tree  {} emitters, {} interior nodes, depth {}, {} bytes, built in {:.1} ms{}",
+        tree.stats.emitters,
+        tree.stats.interior,
+        tree.stats.depth,
+        tree.bytes(),
+        tree.stats.build.as_secs_f64() * 1e3,
+        match tree.share() {
+            s if s < 1.0 && tree.stats.emitters > 0 =>
+                format!("; infinite lights take {:.1} % of the picks", 100.0 * (1.0 - s)),
+            _ => String::new(),
+        }
     );
     println!(
         "textures    {} ({} images, {:.2} MiB of texels)",

@@ -1,8 +1,8 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
-    AovSums, BsdfRecord, BvhNode, Counters, DebugSums, EnvRecord, Frame, GpuInstance, GpuLight, GpuMaterial,
-    GpuPunctual, GpuTexture, MotionKey, TextureSlot, ToneMap, TraceRecord, TriColors, TriShading, TriTangents,
-    TriTexcoords, TriVerts,
+    AovSums, BsdfRecord, BvhNode, Counters, DebugSums, EnvRecord, Frame, GpuInstance, GpuLight, GpuLightNode,
+    GpuMaterial, GpuPunctual, GpuTexture, LightSelectRecord, MotionKey, TextureSlot, ToneMap, TraceRecord, TriColors,
+    TriShading, TriTangents, TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
@@ -58,6 +58,8 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriColors => "TriColors", [c0, c1, c2]),
         mirror!(MotionKey => "MotionKey", [v0, e1, e2, n0, n1, n2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
+        mirror!(GpuLightNode => "LightNode", [lo, hi, axis, link]),
+        mirror!(LightSelectRecord => "LightSelectRecord", [p, entry, n, u, v, picked, prob, pmf]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, budget_max, pad1, pad2]),
         mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, pad1, pad2, t, tri, uv]),

@@ -60,6 +60,7 @@ struct PathVertex {
     Spectrum beta;     // throughput up to the ray's origin
     Spectrum radiance; // gathered so far
     bool hero_only;    // a dispersive surface left the path its hero wavelength alone (spectral transport)
+    float light_normal; // the normal the light BVH picked with at the ray's origin (pack_light_normal)
 };
 
 // Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
@@ -73,6 +74,7 @@ PathVertex start_path(uvec2 xy, uint pixel, uint s) {
     v.beta = Spectrum(1.0);
     v.radiance = Spectrum(0.0);
     v.hero_only = false;
+    v.light_normal = 0.0;
     return v;
 }
 

@@ -29,8 +29,8 @@ struct TriVerts {
     vec4 e2;
 };
 
-// 48 bytes: vertex normals. n0.w = pdf (per unit area) of next-event estimation choosing a point
-// on this triangle, 0 if it does not emit; n1.w = triangle area; n2.w = the index of the scene instance that placed
+// 48 bytes: vertex normals. n0.w = 1 + the triangle's entry in the light buffer (light selection's table, or its
+// mesh's table when instanced) as a float, 0 if light selection never picks it; n1.w = triangle area; n2.w = the index of the scene instance that placed
 // it (uint bits; the instance-id AOV).
 struct TriShading {
     vec4 n0;
@@ -131,6 +131,15 @@ struct Light {
     float area;
 };
 
+// 64 bytes: a node of the light BVH (GpuLightNode in src/layout.rs says what each word holds). Record 0 is the
+// header; the leaf of light-table entry j is record 1 + j.
+struct LightNode {
+    vec4 lo;
+    vec4 hi;
+    vec4 axis;
+    uvec4 link;
+};
+
 // 48 bytes, a KHR_lights_punctual light in world space. position.w: PUNCTUAL_* type (uint bits);
 // direction: where it points (spot, directional), w: cos(outer cone); intensity: rgb radiant intensity (W/sr) for point
 // and spot lights, irradiance (W/m^2) for directional ones, w: cos(inner cone).
@@ -199,6 +208,7 @@ layout(std430, set = 0, binding = BINDING_TRI_VERTS) readonly buffer TriVertsBuf
 layout(std430, set = 0, binding = BINDING_TRI_SHADING) readonly buffer TriShadingBuf { TriShading tri_shading[]; };
 layout(std430, set = 0, binding = BINDING_MATERIALS) readonly buffer Materials { Material materials[]; };
 layout(std430, set = 0, binding = BINDING_LIGHTS) readonly buffer Lights { Light lights[]; };
+layout(std430, set = 0, binding = BINDING_LIGHT_TREE) readonly buffer LightTree { LightNode light_nodes[]; };
 layout(std430, set = 0, binding = BINDING_PATHS) buffer Paths { vec4 paths[]; };
 layout(std430, set = 0, binding = BINDING_QUEUES) buffer Queues { uint queues[]; };
 layout(std430, set = 0, binding = BINDING_COUNTERS) buffer CountersBuf { Counters counters; };
@@ -268,6 +278,19 @@ struct EnvRecord {
     float pdf_dir;
     vec3 radiance;
     uint pad0;
+};
+
+// 48 bytes: probe_light_select's point, receiver normal and uniforms, the table entry whose pdf it asks for, and what
+// light selection answered: the entry picked (LIGHT_NONE: nothing can light p), its probability, the entry's pmf.
+struct LightSelectRecord {
+    vec3 p;
+    uint entry;
+    vec3 n;
+    float u;
+    float v;
+    uint picked;
+    float prob;
+    float pmf;
 };
 
 // What Frame.bounce means to a probe kernel: PROBE_SAMPLE or PROBE_EVALUATE (PROBE_ANY_HIT for probe_trace).
@@ -451,8 +474,7 @@ TriVerts load_tri_verts(uint i) {
 }
 
 // Triangle i's shading data at motion_time, given its vertices then (tv, from load_tri_verts): normals between its
-// keys, its area, and the light-sampling density per unit area for that area (n0.w holds it for the mean area n1.w
-// that light selection used).
+// keys and its area then (which light sampling's density per unit area divides by).
 TriShading load_tri_shading(uint i, TriVerts tv) {
     TriShading ts = fetch_tri_shading(i);
     if (scene_has(FEATURE_MOTION) && tri_moves(i)) {
@@ -465,7 +487,7 @@ TriShading load_tri_shading(uint i, TriVerts tv) {
             n2 = a.n2.xyz;
         }
         float area = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
-        ts.n0 = vec4(toward(n0, b.n0.xyz, f), area > 0.0 ? ts.n0.w * ts.n1.w / area : 0.0);
+        ts.n0.xyz = toward(n0, b.n0.xyz, f);
         ts.n1 = vec4(toward(n1, b.n1.xyz, f), area);
         ts.n2.xyz = toward(n2, b.n2.xyz, f);
     }

@@ -1,10 +1,12 @@
-// Next-event estimation's lights: one table over emissive triangles and the environment, picked in proportion to power.
+// Next-event estimation's lights: light selection (by the light BVH's importance at the point, by power, or uniformly,
+// over one table of emissive triangles, emissive instances, punctual lights and the environment) and sampling.
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
 
 #include "environment.glsl"
 #include "surface.glsl"
 #include "spectrum.glsl"
+#include "light_tree.glsl"
 
 // Smallest index of the table of `count` lights from `first` whose inclusive cdf exceeds u; the host makes each
 // table's last cdf exactly 1.
@@ -27,6 +29,73 @@ float rescale_pick(uint first, uint j, Light l, float u) {
     return min((u - cdf_lo) / max(l.cdf - cdf_lo, 1e-30), 0.99999994);
 }
 
+// Which light selection runs (--light-sampler): the tree, uniform, or (neither flag) by power.
+bool light_tree_on() { return scene_has(FEATURE_LIGHT_TREE) && (frame.flags & FLAG_LIGHT_TREE) != 0u; }
+bool light_uniform() { return (frame.flags & FLAG_LIGHT_UNIFORM) != 0u; }
+
+// Light selection: an entry of the light buffer (of the table, or of the tree's infinite lights) and the probability
+// it was picked with, from the point p with normal n. By power and uniformly, u_point.x picks and is rescaled to the
+// pick's share, so one stratified 2D sample spreads over the lights together (on the Cornell box's two light
+// triangles that lowered relMSE at equal samples by 2.4 % against a separate dimension). The tree takes u_pick: its
+// descent would leave u_point.x too few bits. The tree's share of the picks is the header's; the rest goes to the
+// infinite lights (environment, directional lights) by their power, as in the power table.
+bool select_light(vec3 p, vec3 n, vec2 u_pick, inout vec2 u_point, out uint j, out float prob) {
+    if (light_tree_on()) {
+        float share = light_nodes[0].lo.x;
+        if (u_pick.x < share) {
+            bool ok = tree_pick(p, n, vec2(u_pick.x / share, u_pick.y), j, prob);
+            prob *= share;
+            return ok;
+        }
+        uvec4 h = light_nodes[0].link;
+        j = pick_light_in(h.y, max(h.z, 1u), min((u_pick.x - share) / (1.0 - share), 0.99999994));
+        prob = h.z > 0u ? load_light(j).prob : 0.0;
+        return h.z > 0u;
+    }
+    if (light_uniform()) {
+        float count = float(frame.light_count);
+        j = min(uint(u_point.x * count), frame.light_count - 1u);
+        prob = 1.0 / count;
+        u_point.x = min(u_point.x * count - float(j), 0.99999994);
+        return true;
+    }
+    j = pick_light(u_point.x);
+    Light l = load_light(j);
+    prob = l.prob;
+    u_point.x = rescale_pick(0u, j, l, u_point.x);
+    return true;
+}
+
+// The probability light selection picks table entry j from (p, n) (a triangle or an instance: never infinite).
+float light_pick_prob(uint j, vec3 p, vec3 n) {
+    if (light_tree_on()) return light_nodes[0].lo.x * tree_pmf(j, p, n);
+    if (light_uniform()) return 1.0 / float(frame.light_count);
+    return load_light(j).prob;
+}
+
+// The table entry of emissive triangle ts (its light-buffer entry + 1 in n0.w, 0 when light selection never picks
+// it), hit through instance inst: its probability of being picked from (p, n), over its area now (n1.w), which is
+// light sampling's density per unit area there; MIS weighs a BSDF sample's hit by it.
+float emitter_pdf_area(TriShading ts, uint inst, vec3 p, vec3 n) {
+    if (!(ts.n0.w > 0.0) || !(ts.n1.w > 0.0)) return 0.0;
+    uint e = uint(ts.n0.w) - 1u;
+    float prob;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
+        prob = light_pick_prob(instances[inst].light.z, p, n) * load_light(e).prob;
+    } else {
+        prob = light_pick_prob(e, p, n);
+    }
+    return prob / ts.n1.w;
+}
+
+// The emitter's share of the power table (the light-pick debug view).
+float emitter_power_share(TriShading ts, uint inst) {
+    if (!(ts.n0.w > 0.0)) return 0.0;
+    float prob = load_light(uint(ts.n0.w) - 1u).prob;
+    if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) prob *= load_light(instances[inst].light.z).prob;
+    return prob;
+}
+
 struct LightSample {
     vec3 wi;        // towards the light
     float dist;     // to the light's point; effectively infinite for the environment
@@ -35,24 +104,25 @@ struct LightSample {
     bool delta;     // a punctual light: pdf is only the selection probability, and no BSDF sample can find it
 };
 
-// Picks a light with u.x and a point or direction on it with u, as seen from p. u.x is rescaled to the picked light's
-// share of [0, 1), so one stratified 2D sample spreads over the lights together: on the Cornell box's two light
-// triangles that lowered relMSE at equal samples by 2.4 % against a separate dimension for the pick.
-LightSample sample_light(vec3 p, vec2 u) {
+// Picks a light as seen from p on a surface with normal n (select_light, with u and u_pick) and a point or direction
+// on it with u.
+LightSample sample_light(vec3 p, vec3 n, vec2 u, vec2 u_pick) {
     LightSample ls;
     ls.pdf = 0.0;
     ls.radiance = Spectrum(0.0);
     ls.wi = vec3(0.0, 0.0, 1.0);
     ls.dist = 0.0;
     ls.delta = false;
-    uint picked = pick_light(u.x);
+    uint picked;
+    float prob;
+    vec2 u_point = u;
+    if (!select_light(p, n, u_pick, u_point, picked, prob)) return ls;
     Light l = load_light(picked);
-    vec2 u_point = vec2(rescale_pick(0u, picked, l, u.x), u.y);
     if (scene_has(FEATURE_PUNCTUAL) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
         PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
         uint kind = floatBitsToUint(pl.position.w);
         ls.delta = true;
-        ls.pdf = l.prob;
+        ls.pdf = prob;
         if (kind == PUNCTUAL_DIRECTIONAL) {
             ls.wi = -pl.direction.xyz;
             ls.dist = 1e30;
@@ -84,11 +154,10 @@ LightSample sample_light(vec3 p, vec2 u) {
         ls.wi = env_sample(u_point, pdf_dir);
         ls.dist = 1e30;
         ls.radiance = spectrum_illuminant(env_radiance(ls.wi));
-        ls.pdf = l.prob * pdf_dir;
+        ls.pdf = prob * pdf_dir;
         return ls;
     }
     uint tri = l.id & LIGHT_INDEX_MASK;
-    float prob = l.prob;
     uint inst = NO_INSTANCE;
     if (scene_has(FEATURE_INSTANCES) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_INSTANCE) {
         // An instance of an emissive mesh: one of its triangles from the mesh's own table, u_point.x rescaled again

@@ -72,11 +72,8 @@ Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
         ts.n1.xyz = instance_normal(I, ts.n1.xyz);
         ts.n2.xyz = instance_normal(I, ts.n2.xyz);
         mirrored = I.info.y != 0u;
-        // An emitter's light-sampling density per unit area, as sample_light has it: the instance's pick, the
-        // triangle's pick within its mesh (n0.w), over its area in the world now.
-        float area = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
-        ts.n0.w = ts.n0.w > 0.0 && area > 0.0 ? uintBitsToFloat(I.light.z) * ts.n0.w / area : 0.0;
-        ts.n1.w = area;
+        // Its area in the world now, which light sampling's density per unit area divides by (emitter_pdf_area).
+        ts.n1.w = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
     }
     sf.m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
     sf.p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
@@ -171,8 +168,12 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
             if (frame_estimator() == ESTIMATOR_LIGHT) {
                 w = 0.0;
             } else if (frame_estimator() == ESTIMATOR_MIS) {
+                // Light selection's probability from the vertex the ray left (its origin and normal, as NEE there
+                // picked with them).
                 float cos_l = abs(dot(ng, ray_d));
-                float pdf_light = cos_l > 0.0 ? ts.n0.w * hit.x * hit.x / cos_l : 0.0;
+                vec3 n_from = light_tree_on() ? unpack_light_normal(v.light_normal) : vec3(0.0);
+                float pdf_area = emitter_pdf_area(ts, inst, ray_o.xyz, n_from);
+                float pdf_light = cos_l > 0.0 ? pdf_area * hit.x * hit.x / cos_l : 0.0;
                 w = power_heuristic(ray_o.w, pdf_light);
             }
         }
@@ -210,9 +211,26 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     shading_frame(sf, tri, uv, inst, bsdf, tx, ty);
     vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
 
+    vec2 u_dir = rand2(pixel, s, bounce, DIM_BSDF);
+    BsdfSample bs;
+    bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
+    vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
+    // The light BVH's receiver normal at this vertex (the geometric one: its side does not matter to importance).
+    if (light_tree_on()) v.light_normal = pack_light_normal(ng);
+
     // BSDF-only sampling still takes punctual lights by next-event estimation: no BSDF sample can find a delta light.
     if (frame.light_count > 0u) {
-        LightSample ls = sample_light(p, rand2(pixel, s, bounce, DIM_LIGHT));
+        // The light BVH picks from where the continuation starts and by the surface's normal (packed, as the path
+        // state keeps it), so the pdf twin at the emitter the continuation may hit sees the same point and normal.
+        vec3 n_pick = vec3(0.0);
+        vec2 u_pick = vec2(0.0);
+        if (light_tree_on()) {
+            n_pick = unpack_light_normal(v.light_normal);
+            u_pick = rand2(pixel, s, bounce, DIM_LIGHT_PICK);
+        }
+        vec3 p_pick = p;
+        if (light_tree_on()) p_pick = bs.wi.z > 0.0 ? p_off : p_back;
+        LightSample ls = sample_light(p_pick, n_pick, rand2(pixel, s, bounce, DIM_LIGHT), u_pick);
         vec3 wi_local = vec3(dot(ls.wi, tx), dot(ls.wi, ty), dot(ls.wi, ns));
         // The shading and true normals must agree on which side the light is (reflection or transmission).
         float side = dot(n_in, ls.wi);
@@ -230,10 +248,6 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         }
     }
 
-    vec2 u_dir = rand2(pixel, s, bounce, DIM_BSDF);
-    BsdfSample bs;
-    bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
-    vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
     // A direction the shading normal puts on one side and the true surface on the other carries no light.
     alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
     beta *= bs.weight;

@@ -259,6 +259,8 @@ pub struct RenderStats {
     pub(super) first_pass_stage_ms: Vec<(&'static str, f64)>,
     /// The render stopped (`render_until`'s flag) before the samples it meant to take.
     pub interrupted: bool,
+    /// Which light selection ran (bvh, power, uniform); None without lights.
+    pub light_sampler: Option<&'static str>,
 }
 
 impl RenderStats {
@@ -309,6 +311,6 @@ impl RenderStats {
                 stages.join(", ")
             },
             dropped
-        )
+        ) + &self.light_sampler.map(|l| format!(", lights by {l}")).unwrap_or_default()
     }
 }

@@ -111,7 +111,8 @@ impl Renderer {
         let exact = flag(FLAG_EXACT_FILM, FEATURE_EXACT_FILM);
         let adaptive = flag(FLAG_ADAPTIVE, FEATURE_ADAPTIVE);
         let spectral = flag(FLAG_SPECTRAL, FEATURE_SPECTRAL);
-        self.scene.features | lens | exact | adaptive | spectral
+        let tree = flag(FLAG_LIGHT_TREE, FEATURE_LIGHT_TREE);
+        self.scene.features | lens | exact | adaptive | spectral | tree
     }
 
     /// Adaptive sampling's budgets from the film, which holds exactly `pilot` samples of every pixel: each pixel's

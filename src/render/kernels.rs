@@ -29,11 +29,12 @@ pub enum Stage {
     ProbeEnv,
     ProbeRand,
     ProbeLightPick,
+    ProbeLightSelect,
     ProbeConstants,
 }
 
 impl Stage {
-    pub const ALL: [Stage; 19] = [
+    pub const ALL: [Stage; 20] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -52,6 +53,7 @@ impl Stage {
         Stage::ProbeEnv,
         Stage::ProbeRand,
         Stage::ProbeLightPick,
+        Stage::ProbeLightSelect,
         Stage::ProbeConstants,
     ];
 
@@ -76,6 +78,7 @@ impl Stage {
             Stage::ProbeEnv => "probe_env",
             Stage::ProbeRand => "probe_rand",
             Stage::ProbeLightPick => "probe_light_pick",
+            Stage::ProbeLightSelect => "probe_light_select",
             Stage::ProbeConstants => "probe_constants",
         }
     }
@@ -120,6 +123,7 @@ impl Stage {
                 | Stage::ProbeEnv
                 | Stage::ProbeRand
                 | Stage::ProbeLightPick
+                | Stage::ProbeLightSelect
                 | Stage::ProbeConstants
                 | Stage::SheenTable
                 | Stage::AnisoTable

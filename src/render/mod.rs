@@ -18,7 +18,7 @@ pub use gpu_scene::BvhReads;
 pub use probes::{BsdfProbe, BsdfQuery};
 pub use schedule::Schedule;
 pub use session::Session;
-pub use settings::{Adaptive, Estimator, RenderSettings, RendererOptions, DEPTH_SAFETY_CAP};
+pub use settings::{Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, DEPTH_SAFETY_CAP};
 
 use crate::constants::*;
 use crate::error::Error;
@@ -281,11 +281,24 @@ impl Renderer {
         self.kernels.pipelines.bind_texel_views(&self.ctx, views);
     }
 
-    /// `frame` with the scene's light table and environment.
+    /// `frame` with the scene's light table and environment, and the light selection its flags ask for: the light
+    /// BVH only where the scene has one of two emitters or more (with one it picks as the power table does).
     fn lit(&self, frame: Frame) -> Frame {
+        let mut flags = frame.flags;
+        if self.scene.light_tree.emitters < 2 {
+            flags &= !FLAG_LIGHT_TREE;
+        }
+        let env_prob = if flags & FLAG_LIGHT_TREE != 0 {
+            self.scene.env_prob_tree
+        } else if flags & FLAG_LIGHT_UNIFORM != 0 && self.scene.env_prob > 0.0 {
+            1.0 / self.scene.light_count as f32
+        } else {
+            self.scene.env_prob
+        };
         Frame {
+            flags,
             light_count: self.scene.light_count,
-            env_prob: self.scene.env_prob,
+            env_prob,
             env_rotation: self.env_rotation,
             env_width: self.env_size.0,
             env_height: self.env_size.1,

@@ -1,11 +1,11 @@
 //! The probe kernels: device functions (traversal, the BSDF, environment and light sampling, the sampler) run on
 //! records from Rust, the tests' window onto the GLSL; and `run_kernel`, which runs any kernel outside a pass.
 use super::kernels::{Kernel, SceneVariant, Stage};
-use super::{BvhReads, Renderer};
+use super::{BvhReads, LightSampler, Renderer};
 use crate::bvh::{Ray, TraceHit};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{BsdfRecord, EnvRecord, Frame, TraceRecord};
+use crate::layout::{BsdfRecord, EnvRecord, Frame, LightSelectRecord, TraceRecord};
 use crate::vk::Buffer;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -107,6 +107,21 @@ impl Renderer {
             ..Frame::probe(n, PROBE_SAMPLE)
         };
         let (out, _) = self.run_probe(Kernel::of(Stage::ProbeLightPick), &vec![0u32; n as usize], frame, 1)?;
+        Ok(out)
+    }
+
+    /// Light selection on the device at each record's point, normal and uniforms, and the pmf of its `entry`, with the
+    /// light sampler `sampler` (records in, answered records out).
+    pub fn probe_light_select(
+        &mut self,
+        records: &[LightSelectRecord],
+        sampler: LightSampler,
+    ) -> Result<Vec<LightSelectRecord>, Error> {
+        let frame = Frame {
+            flags: sampler.flags(),
+            ..Frame::probe(records.len() as u32, PROBE_SAMPLE)
+        };
+        let (out, _) = self.run_probe(Kernel::of(Stage::ProbeLightSelect), records, frame, 1)?;
         Ok(out)
     }
 

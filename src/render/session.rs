@@ -132,6 +132,7 @@ impl Renderer {
         }
         stats.interrupted = session.done < session.target();
         stats.wall = session.started.elapsed();
+        stats.light_sampler = self.light_sampler_run(settings);
         if stats.passes == 1 {
             stats.stage_ms = std::mem::take(&mut stats.first_pass_stage_ms);
         }
@@ -461,6 +462,24 @@ impl Renderer {
     }
 
     /// The push constants of a render with `s` from the renderer's camera and scene.
+    /// The light selection a render with these settings runs: the tree falls back to power where the scene has
+    /// fewer than two emitters for it (where both pick alike); None without lights.
+    pub fn light_sampler_run(&self, s: &RenderSettings) -> Option<&'static str> {
+        let flags = self
+            .lit(Frame {
+                flags: s.light_sampler.flags(),
+                ..Frame::default()
+            })
+            .flags;
+        (self.scene.light_count > 0).then_some(if flags & FLAG_LIGHT_TREE != 0 {
+            "bvh"
+        } else if flags & FLAG_LIGHT_UNIFORM != 0 {
+            "uniform"
+        } else {
+            "power"
+        })
+    }
+
     fn frame(&self, s: &RenderSettings) -> Frame {
         let (right, up, forward) = self.camera.basis();
         let camera = FrameCamera {
@@ -474,7 +493,7 @@ impl Renderer {
             focus_distance: s.focus_distance.unwrap_or(self.default_focus),
         };
         let flag = |on: bool, bit: u32| if on { bit } else { 0 };
-        Frame {
+        self.lit(Frame {
             width: s.width,
             height: s.height,
             seed: s.seed,
@@ -493,9 +512,10 @@ impl Renderer {
                 | flag(s.aovs || s.debug_aovs, FLAG_AOVS)
                 | flag(s.debug_aovs, FLAG_DEBUG_AOVS)
                 | flag(s.adaptive.is_some(), FLAG_ADAPTIVE)
-                | flag(s.spectral, FLAG_SPECTRAL),
-            ..self.lit(Frame::default())
-        }
+                | flag(s.spectral, FLAG_SPECTRAL)
+                | s.light_sampler.flags(),
+            ..Frame::default()
+        })
         .with_camera(&camera)
     }
 }

@@ -26,6 +26,37 @@ impl Estimator {
     }
 }
 
+/// How next-event estimation picks a light (--light-sampler); the three converge to the same image
+/// (tests/light_tree.rs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum LightSampler {
+    /// By importance at the shading point: a descent of the light BVH (bounds, power and normal cone per node).
+    #[default]
+    Bvh,
+    /// In proportion to each light's estimated power, the same table at every point.
+    Power,
+    /// Every light (triangle, emissive instance, punctual light, environment) with the same probability.
+    Uniform,
+}
+
+impl LightSampler {
+    /// The Frame.flags bits that ask for it (none: by power).
+    pub fn flags(self) -> u32 {
+        match self {
+            LightSampler::Bvh => FLAG_LIGHT_TREE,
+            LightSampler::Power => 0,
+            LightSampler::Uniform => FLAG_LIGHT_UNIFORM,
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampler::Bvh => "bvh",
+            LightSampler::Power => "power",
+            LightSampler::Uniform => "uniform",
+        }
+    }
+}
+
 /// Bounces recorded when no `max_depth` is given: Russian roulette ends paths long before this.
 pub const DEPTH_SAFETY_CAP: u32 = 64;
 
@@ -38,6 +69,8 @@ pub struct RenderSettings {
     pub max_depth: Option<u32>,
     pub seed: u32,
     pub estimator: Estimator,
+    /// How next-event estimation picks lights.
+    pub light_sampler: LightSampler,
     /// Return the energy rough metals lose to single scattering (Kulla-Conty); on by default.
     pub energy_compensation: bool,
     /// Keep the environment out of camera rays (it still lights the scene).
@@ -83,6 +116,7 @@ impl Default for RenderSettings {
             max_depth: None,
             seed: 0,
             estimator: Estimator::Mis,
+            light_sampler: LightSampler::Bvh,
             energy_compensation: true,
             hide_environment: false,
             aperture: 0.0,

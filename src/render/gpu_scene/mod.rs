@@ -37,7 +37,7 @@ enum Reads {
 struct SceneBinding(&'static str, u32, Option<u32>, Reads);
 
 /// Every scene buffer, in upload order: the one list binding, upload, views and limits come from.
-const SCENE_BINDINGS: [SceneBinding; 14] = [
+const SCENE_BINDINGS: [SceneBinding; 15] = [
     SceneBinding("bvh nodes", BINDING_NODES, Some(BINDING_NODE_TEXELS), Reads::Viewed),
     SceneBinding(
         "triangle vertices",
@@ -76,6 +76,7 @@ const SCENE_BINDINGS: [SceneBinding; 14] = [
         Reads::Both,
     ),
     SceneBinding("lights", BINDING_LIGHTS, Some(BINDING_LIGHT_TEXELS), Reads::Both),
+    SceneBinding("light tree", BINDING_LIGHT_TREE, None, Reads::Storage),
     SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
     SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
     SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
@@ -107,6 +108,7 @@ impl PackedScene {
             BINDING_TRI_COLORS => bytes(&self.tri_colors),
             BINDING_MATERIALS => bytes(&self.materials),
             BINDING_LIGHTS => bytes(&self.lights),
+            BINDING_LIGHT_TREE => bytes(&self.light_tree.nodes),
             BINDING_ENV => bytes(&self.env_data),
             BINDING_PUNCTUAL => bytes(&self.punctual),
             BINDING_TEXTURES => bytes(&self.textures),
@@ -130,6 +132,7 @@ impl PackedScene {
             hasher.update(bytes);
         }
         hasher.update(&self.env_prob.to_le_bytes());
+        hasher.update(&self.env_prob_tree.to_le_bytes());
         hasher.finalize().to_hex().to_string()
     }
 }
@@ -173,6 +176,11 @@ pub struct GpuScene {
     pub storage_ok: bool,
     pub light_count: u32,
     pub env_prob: f32,
+    /// The environment's probability when light selection descends the light BVH.
+    pub env_prob_tree: f32,
+    /// What the light BVH holds (emitters, nodes, depth, build time) and its device bytes.
+    pub light_tree: crate::bvh::lights::LightTreeStats,
+    pub light_tree_bytes: usize,
     /// The FEATURE_* bits of what the scene's materials and lights use.
     pub features: u32,
     /// Some triangle's material is alpha-tested: traversal runs the *_alpha variants.
@@ -265,6 +273,9 @@ impl GpuScene {
             storage_ok,
             light_count: packed.light_count,
             env_prob: packed.env_prob,
+            env_prob_tree: packed.env_prob_tree,
+            light_tree: packed.light_tree.stats.clone(),
+            light_tree_bytes: packed.light_tree.bytes(),
             features: packed.features(),
             alpha_tested,
             textured: alpha_tested || !packed.tri_texcoords.is_empty() || !packed.tri_colors.is_empty(),

@@ -1,4 +1,5 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
+use crate::bvh::lights::{LightBounds, LightTree};
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
 use crate::error::Error;
@@ -29,6 +30,11 @@ pub struct PackedScene {
     pub total_light_power: f64,
     /// Probability that light selection picks the environment (0 without one).
     pub env_prob: f32,
+    /// The light BVH over the table's finite emitters (BINDING_LIGHT_TREE); its infinite lights' table is the last
+    /// part of `lights`.
+    pub light_tree: LightTree,
+    /// Probability that light selection through the tree picks the environment.
+    pub env_prob_tree: f32,
     /// The environment's device buffer (see layout.glsl), empty without one.
     pub env_data: Vec<f32>,
     pub punctual: Vec<GpuPunctual>,
@@ -238,8 +244,17 @@ fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
     (textures, texels)
 }
 
-/// A light's entry before the table is made: (light id, power in W, area for a triangle).
-type Emitter = (u32, f64, f32);
+/// A light's entry before the table is made.
+struct Emitter {
+    /// LIGHT_KIND_* and index, as `GpuLight::id`.
+    id: u32,
+    /// Estimated power (W).
+    power: f64,
+    /// A triangle's area (its mean over the shutter when it moves).
+    area: f32,
+    /// What the light BVH needs of it; None for an infinite light (the environment, a directional light).
+    bounds: Option<LightBounds>,
+}
 
 /// The BVH build's peak host memory per triangle: boxes, centroids and order (40), the binary nodes (up to two of 32
 /// per triangle), the wide nodes and the final order.
@@ -318,16 +333,35 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
     if let Some(env) = &scene.environment {
         let p = env.power(radius);
         if p > 0.0 {
-            emitters.push((LIGHT_KIND_ENV << LIGHT_KIND_SHIFT, p, 0.0));
+            emitters.push(Emitter {
+                id: LIGHT_KIND_ENV << LIGHT_KIND_SHIFT,
+                power: p,
+                area: 0.0,
+                bounds: None,
+            });
         }
     }
-    let (mut lights, env_prob, total_light_power) = light_table(&emitters, &mut t.tri_shading, &mut instances);
+    let entries = emitters.len() + mesh_lights.len() + emitters.iter().filter(|e| e.bounds.is_none()).count();
+    if entries > LIGHT_ENTRIES_MAX as usize {
+        return Err(Error::Scene {
+            path: scene.path.clone(),
+            message: format!("{entries} light entries (emitters and instanced emitters' triangles), more than the {LIGHT_ENTRIES_MAX} light selection can index"),
+        });
+    }
+    let (mut lights, env_prob, total_light_power) = light_table(&emitters, &mut instances);
     let light_count = lights.len() as u32;
     // The instanced meshes' tables follow the one light selection picks from.
     for record in instances.iter_mut().skip(1).filter(|r| r.light[1] > 0) {
         record.light[0] += light_count;
     }
     lights.extend(mesh_lights);
+    // Every emissive triangle knows its entry (for MIS): in the table, or in its mesh's.
+    for (j, l) in lights.iter().enumerate() {
+        if l.id >> LIGHT_KIND_SHIFT == LIGHT_KIND_TRIANGLE {
+            t.tri_shading[(l.id & LIGHT_INDEX_MASK) as usize].n0[3] = (j + 1) as f32;
+        }
+    }
+    let (light_tree, env_prob_tree) = light_tree(&emitters, &mut lights, light_count);
     let (textures, texels) = pack_textures(scene);
     Ok(PackedScene {
         bounds,
@@ -340,6 +374,8 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         light_count,
         total_light_power,
         env_prob,
+        light_tree,
+        env_prob_tree,
         env_data: scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default(),
         punctual,
         textures,
@@ -443,11 +479,13 @@ fn pack_instances(
     for (_, blas, packed, _) in &mut parts {
         let root = bvh.nodes.len() as u32;
         let tri_base = t.tri_verts.len() as u32;
-        let power: f64 = packed.emitters.iter().map(|e| e.1).sum();
-        part_lights.push((mesh_lights.len() as u32, packed.emitters.len() as u32, power));
+        let power: f64 = packed.emitters.iter().map(|e| e.power).sum();
+        let cone = (packed.emitters.iter().filter_map(|e| e.bounds)).reduce(|a, b| a.union(&b));
+        part_lights.push((mesh_lights.len() as u32, packed.emitters.len() as u32, power, cone));
         let (mut acc, mut previous_cdf) = (0.0f64, 0.0f32);
-        for (i, &(slot, p, area)) in packed.emitters.iter().enumerate() {
-            acc += p;
+        for (i, e) in packed.emitters.iter().enumerate() {
+            let (slot, area) = (e.id, e.area);
+            acc += e.power;
             let cdf = if i + 1 == packed.emitters.len() {
                 1.0
             } else {
@@ -455,7 +493,6 @@ fn pack_instances(
             };
             let prob = cdf - previous_cdf;
             previous_cdf = cdf;
-            packed.tri_shading[slot as usize].n0[3] = prob;
             mesh_lights.try_reserve(1).ok()?;
             mesh_lights.push(GpuLight {
                 id: LIGHT_KIND_TRIANGLE << LIGHT_KIND_SHIFT | (tri_base + slot),
@@ -505,16 +542,17 @@ fn pack_instances(
         let first_key = if keys.len() > 1 { later_keys } else { 0 };
         later_keys += keys.len() as u32 - 1;
         let info = [roots[*p], mirrored as u32, *k, first_key];
-        let (first_light, light_count, power) = part_lights[*p];
+        let (first_light, light_count, power, cone) = part_lights[*p];
         let light = [first_light, light_count, 0, 0];
         if light_count > 0 {
             let stretch = glam::Mat3::from_mat4(keys[0]).determinant().abs().powf(2.0 / 3.0) as f64;
             t.emitters.try_reserve(1).ok()?;
-            t.emitters.push((
-                LIGHT_KIND_INSTANCE << LIGHT_KIND_SHIFT | records.len() as u32,
-                power * stretch,
-                0.0,
-            ));
+            t.emitters.push(Emitter {
+                id: LIGHT_KIND_INSTANCE << LIGHT_KIND_SHIFT | records.len() as u32,
+                power: power * stretch,
+                area: 0.0,
+                bounds: cone.map(|c| c.transformed(keys, (power * stretch) as f32)),
+            });
         }
         records.push(instance_record(&keys[0], info, light));
         // Only a key record's transforms are read (instance_at keeps the instance's own info and light).
@@ -665,7 +703,15 @@ fn pack_triangles(
             n2: v4(nc, f32::from_bits(instance)),
         });
         if p > 0.0 {
-            t.emitters.push((slot as u32, p, area));
+            let mut places = vec![[a, b, c]];
+            places.extend(keys.iter().flat_map(|k| k.iter()).map(|k| k[orig].positions));
+            let two_sided = scene.materials[material as usize].double_sided;
+            t.emitters.push(Emitter {
+                id: slot as u32,
+                power: p,
+                area,
+                bounds: LightBounds::triangle(&places, p as f32, two_sided),
+            });
         }
     }
     Some(t)
@@ -692,26 +738,35 @@ fn pack_punctual(scene: &Scene, radius: f32, emitters: &mut Vec<Emitter>) -> Vec
             intensity: v4(l.intensity, cos_inner),
         });
         if p > 0.0 {
-            emitters.push((LIGHT_KIND_PUNCTUAL << LIGHT_KIND_SHIFT | i as u32, p, 0.0));
+            let bounds = match l.kind {
+                PunctualKind::Point => Some(LightBounds::point(l.position, p as f32)),
+                PunctualKind::Spot { inner, outer } => {
+                    Some(LightBounds::spot(l.position, l.direction, inner, outer, p as f32))
+                }
+                PunctualKind::Directional => None,
+            };
+            emitters.push(Emitter {
+                id: LIGHT_KIND_PUNCTUAL << LIGHT_KIND_SHIFT | i as u32,
+                power: p,
+                area: 0.0,
+                bounds,
+            });
         }
     }
     punctual
 }
 
 /// The light table light selection picks from in proportion to power, the environment's probability in it, and
-/// the total power; each emissive triangle's NEE pdf per unit area goes into its shading record (for MIS).
-fn light_table(
-    emitters: &[Emitter],
-    tri_shading: &mut [TriShading],
-    instances: &mut [GpuInstance],
-) -> (Vec<GpuLight>, f32, f64) {
-    let total: f64 = emitters.iter().map(|p| p.1).sum();
+/// the total power; each emissive instance's record learns its entry.
+fn light_table(emitters: &[Emitter], instances: &mut [GpuInstance]) -> (Vec<GpuLight>, f32, f64) {
+    let total: f64 = emitters.iter().map(|e| e.power).sum();
     let mut lights = Vec::with_capacity(emitters.len());
     let mut acc = 0.0f64;
     let mut env_prob = 0.0;
     let mut previous_cdf = 0.0f32;
-    for (i, &(id, p, area)) in emitters.iter().enumerate() {
-        acc += p;
+    for (i, e) in emitters.iter().enumerate() {
+        let (id, area) = (e.id, e.area);
+        acc += e.power;
         // The last cdf is exactly 1 so every u in [0, 1) finds a light.
         let cdf = if i + 1 == emitters.len() {
             1.0
@@ -725,14 +780,52 @@ fn light_table(
         lights.push(GpuLight { id, cdf, prob, area });
         match id >> LIGHT_KIND_SHIFT {
             LIGHT_KIND_ENV => env_prob = prob,
-            LIGHT_KIND_TRIANGLE => tri_shading[id as usize].n0[3] = if prob > 0.0 { prob / area } else { 0.0 },
-            // Its triangles' density per unit area is this times their own probability over their world area, which
-            // the device finds at the hit (the instance may stretch or move).
-            LIGHT_KIND_INSTANCE => instances[(id & LIGHT_INDEX_MASK) as usize].light[2] = prob.to_bits(),
-            _ => {} // punctual lights are never hit, so MIS never asks for their probability
+            // Its triangles' density per unit area is its probability times their own within the mesh over their
+            // world area, which the device finds at the hit (the instance may stretch or move).
+            LIGHT_KIND_INSTANCE => instances[(id & LIGHT_INDEX_MASK) as usize].light[2] = i as u32,
+            _ => {}
         }
     }
     (lights, env_prob, total)
+}
+
+/// The light BVH over the finite emitters of the table's first `light_count` entries of `lights`, and the infinite
+/// lights' own table, appended to `lights`. The infinite lights keep the share the power table gives them (their
+/// estimated power, the environment's through the scene's bounding sphere, over the total) and split it by power;
+/// the tree gets the rest. Returns the tree and the environment's probability under it.
+fn light_tree(emitters: &[Emitter], lights: &mut Vec<GpuLight>, light_count: u32) -> (LightTree, f32) {
+    let infinite: Vec<usize> = (0..emitters.len()).filter(|&j| emitters[j].bounds.is_none()).collect();
+    let inf_total: f32 = infinite.iter().map(|&j| lights[j].prob).sum();
+    let finite: Vec<(u32, LightBounds)> = (emitters.iter().enumerate())
+        .filter_map(|(j, e)| e.bounds.map(|b| (j as u32, b)))
+        .collect();
+    let share = match (finite.is_empty(), infinite.is_empty()) {
+        (true, _) => 0.0,
+        (false, true) => 1.0,
+        (false, false) => (1.0 - inf_total).clamp(0.0, 1.0),
+    };
+    let first = lights.len() as u32;
+    let mut env_prob = 0.0;
+    let mut acc = 0.0f32;
+    let mut previous_cdf = 0.0f32;
+    for (k, &j) in infinite.iter().enumerate() {
+        acc += lights[j].prob;
+        let cdf = if k + 1 == infinite.len() { 1.0 } else { acc / inf_total };
+        // What the device picks with: the tree's complement times the gap between the stored cdfs.
+        let prob = (1.0 - share) * (cdf - previous_cdf);
+        previous_cdf = cdf;
+        if lights[j].id >> LIGHT_KIND_SHIFT == LIGHT_KIND_ENV {
+            env_prob = prob;
+        }
+        lights.push(GpuLight {
+            id: lights[j].id,
+            cdf,
+            prob,
+            area: 0.0,
+        });
+    }
+    let tree = bvh::lights::build(finite, light_count, share, (first, infinite.len() as u32));
+    (tree, env_prob)
 }
 
 #[cfg(test)]

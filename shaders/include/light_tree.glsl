@@ -1,0 +1,121 @@
+// The light BVH on the device (FEATURE_LIGHT_TREE): a node's importance at a point, the descent that picks an emitter
+// and its pdf twin. src/bvh/lights.rs is the CPU twin and does the same arithmetic in the same order.
+#ifndef LIGHT_TREE_GLSL
+#define LIGHT_TREE_GLSL
+
+// cos(max(0, a - b)) and sin(max(0, a - b)) from the sines and cosines of a and b.
+float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 1.0 : cos_a * cos_b + sin_a * sin_b;
+}
+float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
+}
+
+// A bound on what the node's emitters can send to p on a surface with normal n (zero: no receiver term): power over
+// squared distance times the cosines left at the emitter (after the normal cone and the bounds' angular size) and at
+// the receiver. Zero only where no emitter below the node can light p (tested in src/bvh/lights.rs).
+float light_importance(LightNode node, vec3 p, vec3 n) {
+    vec3 pc = 0.5 * (node.lo.xyz + node.hi.xyz);
+    vec3 to_p = p - pc;
+    float d2_true = dot(to_p, to_p);
+    vec3 half_size = 0.5 * (node.hi.xyz - node.lo.xyz);
+    float r2 = dot(half_size, half_size);
+    // Inside the bounds' sphere the distance says nothing: the sphere's radius stands for it.
+    float d2 = max(max(d2_true, r2), 1e-20);
+    vec3 wi = d2_true > 0.0 ? to_p / sqrt(d2_true) : vec3(0.0);
+    float cos_w = dot(node.axis.xyz, wi);
+    if ((node.link.y & LIGHT_NODE_TWO_SIDED) != 0u) cos_w = abs(cos_w);
+    float sin_w = sqrt(max(0.0, 1.0 - cos_w * cos_w));
+    // The half angle the bounds' sphere spans from p: all directions from inside it.
+    float cos_b = d2_true <= r2 ? -1.0 : sqrt(max(0.0, 1.0 - r2 / d2_true));
+    float sin_b = sqrt(max(0.0, 1.0 - cos_b * cos_b));
+    float cos_o = node.hi.w;
+    float sin_o = sqrt(max(0.0, 1.0 - cos_o * cos_o));
+    float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    if (cos_p <= node.axis.w) return 0.0;
+    float imp = node.lo.w * cos_p / d2;
+    if (n != vec3(0.0)) {
+        float cos_i = abs(dot(wi, n));
+        float sin_i = sqrt(max(0.0, 1.0 - cos_i * cos_i));
+        imp *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+    }
+    return clamp(imp, 0.0, 1e30);
+}
+
+// The probability of an interior node's first child at (p, n); -1 when neither child can light p.
+float light_first_child(uvec4 link, vec3 p, vec3 n) {
+    float i0 = light_importance(light_nodes[link.x], p, n);
+    float i1 = light_importance(light_nodes[link.y & ~LIGHT_NODE_TWO_SIDED], p, n);
+    return i0 + i1 > 0.0 ? i0 / (i0 + i1) : -1.0;
+}
+
+// Descends from the root by importance at (p, n): u.x chooses, rescaled at each node, until the choices it made are
+// less likely than LIGHT_FRESH_NUMBER_BELOW, where u.y (an independent number with all its bits) takes over; 24 bits
+// then keep each pick within about 2^-12 of its pmf. The table entry picked and its probability within the tree;
+// false when nothing in the tree can light p.
+bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
+    uint node = light_nodes[0].link.x;
+    entry = 0u;
+    prob = 0.0;
+    if (node == 0u) return false;
+    float pr = 1.0, part = 1.0, x = u.x;
+    bool fresh = false;
+    uvec4 link = light_nodes[node].link;
+    for (uint d = 0u; d < LIGHT_TREE_MAX_DEPTH && link.x != LIGHT_NODE_LEAF; d++) {
+        float p0 = light_first_child(link, p, n);
+        if (p0 < 0.0) return false;
+        bool first = x < p0;
+        node = first ? link.x : link.y & ~LIGHT_NODE_TWO_SIDED;
+        float q = first ? p0 : 1.0 - p0;
+        pr *= q;
+        part *= q;
+        x = min(first ? x / p0 : (x - p0) / (1.0 - p0), 0.99999994);
+        if (!fresh && part < LIGHT_FRESH_NUMBER_BELOW) {
+            x = u.y;
+            fresh = true;
+        }
+        link = light_nodes[node].link;
+    }
+    if (link.x != LIGHT_NODE_LEAF) return false;
+    entry = node - 1u;
+    prob = pr;
+    return true;
+}
+
+// The probability tree_pick returns table entry `entry` from (p, n): the same products along the leaf's trail.
+float tree_pmf(uint entry, vec3 p, vec3 n) {
+    uint node = light_nodes[0].link.x;
+    uvec4 leaf = light_nodes[entry + 1u].link;
+    if (node == 0u || leaf.x != LIGHT_NODE_LEAF) return 0.0;
+    float pr = 1.0;
+    uvec4 link = light_nodes[node].link;
+    for (uint d = 0u; d < LIGHT_TREE_MAX_DEPTH && link.x != LIGHT_NODE_LEAF; d++) {
+        float p0 = light_first_child(link, p, n);
+        if (p0 < 0.0) return 0.0;
+        bool second = (((d < 32u ? leaf.z >> d : leaf.w >> (d - 32u))) & 1u) != 0u;
+        node = second ? link.y & ~LIGHT_NODE_TWO_SIDED : link.x;
+        pr *= second ? 1.0 - p0 : p0;
+        link = light_nodes[node].link;
+    }
+    return node == entry + 1u ? pr : 0.0;
+}
+
+// A receiver's normal in one float for the path state: octahedral, 12 bits a coordinate, as an integer below 2^24
+// so the float is exact through any load or texel fetch. Light selection and its pdf twin both use the decoded one.
+float pack_light_normal(vec3 n) {
+    n /= max(abs(n.x) + abs(n.y) + abs(n.z), 1e-30);
+    vec2 o = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    uvec2 q = uvec2(clamp(round((o * 0.5 + 0.5) * 4095.0), 0.0, 4095.0));
+    return float(q.x | (q.y << 12u));
+}
+vec3 unpack_light_normal(float f) {
+    uint b = uint(f);
+    vec2 o = vec2(b & 4095u, b >> 12u) * (2.0 / 4095.0) - 1.0;
+    vec3 n = vec3(o, 1.0 - abs(o.x) - abs(o.y));
+    if (n.z < 0.0) n.xy = (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
+    return normalize(n);
+}
+
+#endif

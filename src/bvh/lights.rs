@@ -1,0 +1,716 @@
+//! The light BVH: a binary tree over the finite emitters (bounds, power and normal cone per node), its GPU layout
+//! (`GpuLightNode`) and the CPU twin of the device's descent and pmf (`shaders/include/light_tree.glsl`).
+//!
+//! Light selection descends from the root, choosing a child in proportion to its importance at the shading point:
+//! power over squared distance, times the cosines left once the node's normal cone and its bounds' solid angle are
+//! allowed for, at the emitter and at the receiver (the bound of pbrt-v4's `LightBounds::Importance`, after Conty
+//! Estevez and Kulla 2018). The importance is a bound, so a node it calls zero cannot light the point; where it
+//! misjudges, MIS with BSDF sampling still gives the right mean, since the pdf twin returns exactly the probability
+//! the descent picks with.
+use crate::constants::{LIGHT_FRESH_NUMBER_BELOW, LIGHT_NODE_LEAF, LIGHT_NODE_TWO_SIDED, LIGHT_TREE_MAX_DEPTH};
+use crate::layout::GpuLightNode;
+use glam::{Mat3, Vec3};
+use std::f32::consts::PI;
+
+/// What importance needs to know of an emitter or a group of them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightBounds {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    /// Power (W), the same estimate the power table uses.
+    pub phi: f32,
+    /// Every emitting normal is within acos(cos_o) of `axis`.
+    pub axis: Vec3,
+    pub cos_o: f32,
+    /// Emission reaches at most acos(cos_e) beyond the normal (pi/2 for a surface).
+    pub cos_e: f32,
+    /// Emits from both faces: the cone holds for -axis too.
+    pub two_sided: bool,
+}
+
+/// Angles a float error can move a cone by; the union widens by it so it stays a bound.
+const CONE_SLACK: f32 = 1e-4;
+
+impl LightBounds {
+    /// A triangle (at one or more places over the shutter) emitting from its counter-clockwise face, or both.
+    pub fn triangle(keys: &[[Vec3; 3]], phi: f32, two_sided: bool) -> Option<LightBounds> {
+        let mut b: Option<LightBounds> = None;
+        for &[a, v1, v2] in keys {
+            let n = (v1 - a).cross(v2 - a);
+            let n = if n.length_squared() > 0.0 {
+                n.normalize()
+            } else {
+                Vec3::Z
+            };
+            let cone = LightBounds {
+                lo: a.min(v1).min(v2),
+                hi: a.max(v1).max(v2),
+                phi,
+                axis: n,
+                cos_o: 1.0,
+                cos_e: 0.0,
+                two_sided,
+            };
+            b = Some(match b {
+                None => cone,
+                Some(prev) => LightBounds {
+                    phi,
+                    ..prev.union(&cone)
+                },
+            });
+        }
+        b
+    }
+
+    /// A point light: all directions.
+    pub fn point(p: Vec3, phi: f32) -> LightBounds {
+        LightBounds {
+            lo: p,
+            hi: p,
+            phi,
+            axis: Vec3::Z,
+            cos_o: -1.0,
+            cos_e: 0.0,
+            two_sided: false,
+        }
+    }
+
+    /// A spot light: full intensity within `inner` of `dir`, none beyond `outer`.
+    pub fn spot(p: Vec3, dir: Vec3, inner: f32, outer: f32, phi: f32) -> LightBounds {
+        let inner = inner.clamp(0.0, outer.max(0.0));
+        LightBounds {
+            lo: p,
+            hi: p,
+            phi,
+            axis: dir.normalize_or(Vec3::Z),
+            cos_o: inner.cos(),
+            cos_e: (outer - inner).min(PI).cos(),
+            two_sided: false,
+        }
+    }
+
+    /// These bounds under an affine map (an instance's transform at each of its keys): the box's corners mapped,
+    /// the cone's axis mapped as a normal. A map that is not a similarity does not keep angles, so the cone then
+    /// opens to the sphere.
+    pub fn transformed(&self, keys: &[glam::Mat4], phi: f32) -> LightBounds {
+        let mut out: Option<LightBounds> = None;
+        for w in keys {
+            let mut lo = Vec3::splat(f32::INFINITY);
+            let mut hi = Vec3::splat(f32::NEG_INFINITY);
+            for c in crate::scene::box_corners(self.lo, self.hi) {
+                let q = w.transform_point3(c);
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            let m = Mat3::from_mat4(*w);
+            let normal = m.inverse().transpose() * self.axis;
+            let cos_o = if is_similarity(&m) && normal.length_squared() > 0.0 {
+                self.cos_o
+            } else {
+                -1.0
+            };
+            let b = LightBounds {
+                lo,
+                hi,
+                phi,
+                axis: normal.normalize_or(Vec3::Z),
+                cos_o,
+                cos_e: self.cos_e,
+                two_sided: self.two_sided,
+            };
+            out = Some(match out {
+                None => b,
+                Some(prev) => LightBounds { phi, ..prev.union(&b) },
+            });
+        }
+        out.unwrap_or(*self)
+    }
+
+    /// Both groups: the box around both, the powers added, a cone holding both cones.
+    pub fn union(&self, b: &LightBounds) -> LightBounds {
+        let (axis, cos_o) = cone_union(self.axis, self.cos_o, b.axis, b.cos_o);
+        LightBounds {
+            lo: self.lo.min(b.lo),
+            hi: self.hi.max(b.hi),
+            phi: self.phi + b.phi,
+            axis,
+            cos_o,
+            cos_e: self.cos_e.min(b.cos_e),
+            two_sided: self.two_sided || b.two_sided,
+        }
+    }
+
+    fn centroid(&self) -> Vec3 {
+        0.5 * (self.lo + self.hi)
+    }
+
+    /// The build's measure of how much space and how many directions the group lights (pbrt-v4's M_Omega times the
+    /// box's area), so that splits keep emitters of one place and one facing together.
+    fn cost(&self) -> f32 {
+        let theta_o = self.cos_o.clamp(-1.0, 1.0).acos();
+        let theta_e = self.cos_e.clamp(-1.0, 1.0).acos();
+        let theta_w = (theta_o + theta_e).min(PI);
+        let (sin_o, cos_o) = theta_o.sin_cos();
+        let m_omega = 2.0 * PI * (1.0 - cos_o)
+            + PI / 2.0 * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o + cos_o);
+        let d = (self.hi - self.lo).max(Vec3::ZERO);
+        // A flat or point-like group still has some extent, so groups of point lights are still told apart.
+        let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x) + 1e-12 * (d.x + d.y + d.z);
+        self.phi * m_omega * area
+    }
+}
+
+/// Whether m keeps angles: its columns orthogonal and of one length.
+fn is_similarity(m: &Mat3) -> bool {
+    let g = m.transpose() * *m;
+    let s = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
+    if !(s > 0.0) || !s.is_finite() {
+        return false;
+    }
+    let off = (g - Mat3::from_diagonal(Vec3::splat(s))).to_cols_array();
+    off.iter().all(|v| v.abs() <= 1e-4 * s)
+}
+
+/// The smallest cone (axis, cos of its half angle) that holds cones a and b, widened by CONE_SLACK.
+fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
+    let theta_a = cos_a.clamp(-1.0, 1.0).acos();
+    let theta_b = cos_b.clamp(-1.0, 1.0).acos();
+    let theta_d = a.dot(b).clamp(-1.0, 1.0).acos();
+    if (theta_d + theta_b).min(PI) <= theta_a {
+        return (a, cos_a);
+    }
+    if (theta_d + theta_a).min(PI) <= theta_b {
+        return (b, cos_b);
+    }
+    let theta_o = 0.5 * (theta_a + theta_d + theta_b) + CONE_SLACK;
+    if theta_o >= PI {
+        return (a, -1.0);
+    }
+    // Turn a towards b by the angle that puts both edges inside.
+    let theta_r = theta_o - theta_a;
+    let w = a.cross(b);
+    if w.length_squared() < 1e-12 {
+        return (a, -1.0);
+    }
+    let axis = glam::Quat::from_axis_angle(w.normalize(), theta_r) * a;
+    (axis.normalize(), theta_o.cos())
+}
+
+/// The tree on the host: the device's records and what `pathwave info` reports.
+#[derive(Clone, Debug, Default)]
+pub struct LightTree {
+    /// Record 0 is the header, then a leaf per entry of light selection's table (1 + entry; a record of zeros for
+    /// an entry outside the tree), then the interior nodes. See `GpuLightNode`.
+    pub nodes: Vec<GpuLightNode>,
+    pub stats: LightTreeStats,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct LightTreeStats {
+    /// Emitters in the tree (triangles, emissive instances, point and spot lights).
+    pub emitters: usize,
+    /// Interior nodes.
+    pub interior: usize,
+    /// Longest path from the root to a leaf, in edges.
+    pub depth: u32,
+    pub build: std::time::Duration,
+}
+
+impl LightTree {
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of_val(&self.nodes[..])
+    }
+    pub fn root(&self) -> u32 {
+        self.nodes[0].link[0]
+    }
+    /// The probability light selection descends the tree rather than picking an infinite light.
+    pub fn share(&self) -> f32 {
+        self.nodes[0].lo[0]
+    }
+}
+
+struct Item {
+    entry: u32,
+    b: LightBounds,
+    c: Vec3,
+}
+
+const BUCKETS: usize = 12;
+/// Below this depth the orientation-and-area heuristic splits; past it the median does, so no leaf is deeper than
+/// LIGHT_TREE_MAX_DEPTH for up to 2^(LIGHT_TREE_MAX_DEPTH - SAOH_DEPTH_LIMIT) emitters.
+const SAOH_DEPTH_LIMIT: u32 = LIGHT_TREE_MAX_DEPTH - 24;
+
+/// The tree over `emitters` (entry of light selection's table, its bounds), for a table of `entries` entries.
+/// `share` is the probability of descending the tree, `infinite` the infinite lights' table (first entry in the
+/// light buffer, count), both stored in the header. Emitters must number below 2^24 (the caller's limit).
+pub fn build(emitters: Vec<(u32, LightBounds)>, entries: u32, share: f32, infinite: (u32, u32)) -> LightTree {
+    let start = std::time::Instant::now();
+    let mut nodes = vec![GpuLightNode::default(); 1 + entries as usize];
+    let count = emitters.len();
+    let mut items: Vec<Item> = (emitters.into_iter())
+        .map(|(entry, b)| Item {
+            entry,
+            c: b.centroid(),
+            b,
+        })
+        .collect();
+    let mut depth = 0;
+    let root = if items.is_empty() {
+        0
+    } else {
+        build_range(&mut items, 0, &mut nodes, &mut depth).0
+    };
+    nodes[0] = GpuLightNode {
+        lo: [share, 0.0, 0.0, 0.0],
+        link: [root, infinite.0, infinite.1, count as u32],
+        ..Default::default()
+    };
+    if root != 0 {
+        set_trails(&mut nodes, root);
+    }
+    LightTree {
+        stats: LightTreeStats {
+            emitters: count,
+            interior: nodes.len() - 1 - entries as usize,
+            depth,
+            build: start.elapsed(),
+        },
+        nodes,
+    }
+}
+
+fn record(b: &LightBounds, link: [u32; 4]) -> GpuLightNode {
+    GpuLightNode {
+        lo: [b.lo.x, b.lo.y, b.lo.z, b.phi],
+        hi: [b.hi.x, b.hi.y, b.hi.z, b.cos_o],
+        axis: [b.axis.x, b.axis.y, b.axis.z, b.cos_e],
+        link,
+    }
+}
+
+/// Builds the subtree over `items`, returning its node and bounds.
+fn build_range(
+    items: &mut [Item],
+    depth: u32,
+    nodes: &mut Vec<GpuLightNode>,
+    max_depth: &mut u32,
+) -> (u32, LightBounds) {
+    *max_depth = (*max_depth).max(depth);
+    if items.len() == 1 {
+        let it = &items[0];
+        let node = 1 + it.entry;
+        let sided = if it.b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
+        nodes[node as usize] = record(&it.b, [LIGHT_NODE_LEAF, sided, 0, 0]);
+        return (node, it.b);
+    }
+    let mid = split(items, depth);
+    let node = nodes.len() as u32;
+    nodes.push(GpuLightNode::default());
+    let (left, lb) = build_range(&mut items[..mid], depth + 1, nodes, max_depth);
+    let (right, rb) = build_range(&mut items[mid..], depth + 1, nodes, max_depth);
+    let b = lb.union(&rb);
+    let sided = if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
+    nodes[node as usize] = record(&b, [left, right | sided, 0, 0]);
+    (node, b)
+}
+
+/// Reorders `items` into two non-empty groups and returns where the second starts: the bucket boundary of least
+/// cost over three axes, or the median of the widest axis when that is no help or the tree is deep.
+fn split(items: &mut [Item], depth: u32) -> usize {
+    let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for it in items.iter() {
+        clo = clo.min(it.c);
+        chi = chi.max(it.c);
+    }
+    let extent = chi - clo;
+    let widest = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, buckets below the split)
+    if depth < SAOH_DEPTH_LIMIT {
+        for axis in 0..3 {
+            if !(extent[axis] > 0.0) {
+                continue;
+            }
+            let bucket = |c: Vec3| (((c[axis] - clo[axis]) / extent[axis] * BUCKETS as f32) as usize).min(BUCKETS - 1);
+            let mut bins: [Option<LightBounds>; BUCKETS] = [None; BUCKETS];
+            for it in items.iter() {
+                let k = bucket(it.c);
+                bins[k] = Some(bins[k].map_or(it.b, |b| b.union(&it.b)));
+            }
+            // Long thin groups split across their length first (pbrt's regularisation).
+            let kr = extent.max_element() / extent[axis];
+            for cut in 1..BUCKETS {
+                let side = |r: &[Option<LightBounds>]| {
+                    r.iter()
+                        .flatten()
+                        .fold(None, |acc: Option<LightBounds>, b| Some(acc.map_or(*b, |a| a.union(b))))
+                };
+                let (Some(l), Some(r)) = (side(&bins[..cut]), side(&bins[cut..])) else {
+                    continue;
+                };
+                let cost = kr * (l.cost() + r.cost());
+                if cost.is_finite() && best.is_none_or(|b| cost < b.0) {
+                    best = Some((cost, axis, cut));
+                }
+            }
+        }
+    }
+    if let Some((_, axis, cut)) = best {
+        let (lo, ext) = (clo[axis], extent[axis]);
+        let mut i = 0;
+        for j in 0..items.len() {
+            let k = (((items[j].c[axis] - lo) / ext * BUCKETS as f32) as usize).min(BUCKETS - 1);
+            if k < cut {
+                items.swap(i, j);
+                i += 1;
+            }
+        }
+        if i > 0 && i < items.len() {
+            return i;
+        }
+    }
+    let mid = items.len() / 2;
+    items.select_nth_unstable_by(mid, |a, b| {
+        a.c[widest].total_cmp(&b.c[widest]).then(a.entry.cmp(&b.entry))
+    });
+    mid
+}
+
+/// Each leaf's trail: bit d set when the path from the root turns to the second child at depth d.
+fn set_trails(nodes: &mut [GpuLightNode], root: u32) {
+    let mut stack = vec![(root, 0u64, 0u32)];
+    while let Some((n, trail, d)) = stack.pop() {
+        let link = nodes[n as usize].link;
+        if link[0] == LIGHT_NODE_LEAF {
+            nodes[n as usize].link[2] = trail as u32;
+            nodes[n as usize].link[3] = (trail >> 32) as u32;
+            continue;
+        }
+        stack.push((link[0], trail, d + 1));
+        stack.push((link[1] & !LIGHT_NODE_TWO_SIDED, trail | 1u64 << d, d + 1));
+    }
+}
+
+// --- The CPU twin of light_tree.glsl: the same f32 arithmetic in the same order. ---
+
+/// cos(max(0, a - b)) from the sines and cosines of a and b.
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        1.0
+    } else {
+        cos_a * cos_b + sin_a * sin_b
+    }
+}
+
+/// sin(max(0, a - b)).
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        0.0
+    } else {
+        sin_a * cos_b - cos_a * sin_b
+    }
+}
+
+fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// Largest importance, so sums of two stay finite.
+const IMPORTANCE_MAX: f32 = 1e30;
+
+/// The node's importance at p for a receiver with normal n (zero: no receiver term), as light_tree.glsl has it.
+pub fn importance(node: &GpuLightNode, p: Vec3, n: Vec3) -> f32 {
+    let lo = Vec3::from_slice(&node.lo[..3]);
+    let hi = Vec3::from_slice(&node.hi[..3]);
+    let axis = Vec3::from_slice(&node.axis[..3]);
+    let (phi, cos_o, cos_e) = (node.lo[3], node.hi[3], node.axis[3]);
+    let pc = 0.5 * (lo + hi);
+    let to_p = p - pc;
+    let d2_true = to_p.dot(to_p);
+    let half = 0.5 * (hi - lo);
+    let r2 = half.dot(half);
+    let d2 = d2_true.max(r2).max(1e-20);
+    let wi = if d2_true > 0.0 {
+        to_p / d2_true.sqrt()
+    } else {
+        Vec3::ZERO
+    };
+    let mut cos_w = axis.dot(wi);
+    if node.link[1] & LIGHT_NODE_TWO_SIDED != 0 {
+        cos_w = cos_w.abs();
+    }
+    let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+    // The angle the bounds' sphere spans from p: all of it from inside.
+    let cos_b = if d2_true <= r2 {
+        -1.0
+    } else {
+        safe_sqrt(1.0 - r2 / d2_true)
+    };
+    let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+    let sin_o = safe_sqrt(1.0 - cos_o * cos_o);
+    let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    if cos_p <= cos_e {
+        return 0.0;
+    }
+    let mut imp = phi * cos_p / d2;
+    if n != Vec3::ZERO {
+        let cos_i = wi.dot(n).abs();
+        let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+        imp *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+    }
+    imp.clamp(0.0, IMPORTANCE_MAX)
+}
+
+impl LightTree {
+    fn children(&self, node: u32) -> Option<(u32, u32)> {
+        let link = self.nodes[node as usize].link;
+        (link[0] != LIGHT_NODE_LEAF).then_some((link[0], link[1] & !LIGHT_NODE_TWO_SIDED))
+    }
+
+    /// The probability of the first child at an interior node (0 and 0 importance: None).
+    fn first_child_prob(&self, c0: u32, c1: u32, p: Vec3, n: Vec3) -> Option<f32> {
+        let i0 = importance(&self.nodes[c0 as usize], p, n);
+        let i1 = importance(&self.nodes[c1 as usize], p, n);
+        (i0 + i1 > 0.0).then(|| i0 / (i0 + i1))
+    }
+
+    /// The descent from the root with uniforms u (and v, once u is used up): the entry picked and the probability
+    /// of picking it, among the tree's emitters. None when nothing in the tree can light p.
+    pub fn pick(&self, p: Vec3, n: Vec3, mut u: f32, v: f32) -> Option<(u32, f32)> {
+        let mut node = self.root();
+        if node == 0 {
+            return None;
+        }
+        let (mut prob, mut part, mut fresh) = (1.0f32, 1.0f32, false);
+        while let Some((c0, c1)) = self.children(node) {
+            let p0 = self.first_child_prob(c0, c1, p, n)?;
+            if u < p0 {
+                node = c0;
+                prob *= p0;
+                part *= p0;
+                u = (u / p0).min(ONE_MINUS_EPSILON);
+            } else {
+                node = c1;
+                prob *= 1.0 - p0;
+                part *= 1.0 - p0;
+                u = ((u - p0) / (1.0 - p0)).min(ONE_MINUS_EPSILON);
+            }
+            if !fresh && part < LIGHT_FRESH_NUMBER_BELOW {
+                u = v;
+                fresh = true;
+            }
+        }
+        Some((node - 1, prob))
+    }
+
+    /// The probability `pick` returns `entry` from (p, n): the same products along the leaf's trail.
+    pub fn pmf(&self, p: Vec3, n: Vec3, entry: u32) -> f32 {
+        let leaf = &self.nodes[1 + entry as usize];
+        let trail = leaf.link[2] as u64 | (leaf.link[3] as u64) << 32;
+        let mut node = self.root();
+        let mut prob = 1.0f32;
+        let mut d = 0;
+        while let Some((c0, c1)) = self.children(node) {
+            let Some(p0) = self.first_child_prob(c0, c1, p, n) else {
+                return 0.0;
+            };
+            if trail >> d & 1 == 0 {
+                node = c0;
+                prob *= p0;
+            } else {
+                node = c1;
+                prob *= 1.0 - p0;
+            }
+            d += 1;
+        }
+        if node == 1 + entry {
+            prob
+        } else {
+            0.0
+        }
+    }
+}
+
+const ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(state: &mut u64) -> f32 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A field of small triangles facing every way, and point and spot lights, of widely varying power.
+    fn field(n: usize, seed: u64) -> Vec<(u32, LightBounds)> {
+        let mut s = seed;
+        (0..n)
+            .map(|i| {
+                let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 10.0;
+                let phi = 10f32.powf(3.0 * lcg(&mut s));
+                let b = match i % 5 {
+                    3 => LightBounds::point(c, phi),
+                    4 => LightBounds::spot(c, Vec3::new(0.0, -1.0, 0.2), 0.3, 0.6, phi),
+                    _ => {
+                        let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 0.4;
+                        let e = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5) * 0.4;
+                        LightBounds::triangle(&[[c, c + d, c + e]], phi, i % 7 == 0).unwrap()
+                    }
+                };
+                (i as u32 * 2 + 1, b) // entries with gaps, as when the table holds infinite lights too
+            })
+            .collect()
+    }
+
+    fn receivers(seed: u64) -> Vec<(Vec3, Vec3)> {
+        let mut s = seed;
+        (0..12)
+            .map(|k| {
+                let p = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 12.0 - 1.0;
+                let n = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
+                (p, if k % 4 == 0 { Vec3::ZERO } else { n })
+            })
+            .collect()
+    }
+
+    // A pdf twin that walked a different path than the descent, or a trail set wrong, breaks the sum.
+    #[test]
+    fn pmf_sums_to_one_where_anything_can_light() {
+        let lights = field(300, 7);
+        let entries: Vec<u32> = lights.iter().map(|l| l.0).collect();
+        let tree = build(lights, 700, 1.0, (0, 0));
+        assert!(tree.stats.depth <= LIGHT_TREE_MAX_DEPTH);
+        for (p, n) in receivers(3) {
+            let sum: f64 = entries.iter().map(|&e| tree.pmf(p, n, e) as f64).sum();
+            assert!((sum - 1.0).abs() < 1e-4 || sum == 0.0, "sum {sum} at {p}");
+        }
+    }
+
+    // Frequencies of the descent against the pmf twin (chi-square, bins with expected count 5 and more pooled);
+    // catches a rescaling or fresh-number slip the sum test cannot see.
+    #[test]
+    fn picks_follow_the_pmf() {
+        let lights = field(200, 11);
+        let entries: Vec<u32> = lights.iter().map(|l| l.0).collect();
+        let tree = build(lights, 500, 1.0, (0, 0));
+        let mut s = 99;
+        for (p, n) in receivers(5).into_iter().take(6) {
+            let draws = 200_000;
+            let mut counts = std::collections::HashMap::new();
+            for _ in 0..draws {
+                let (u, v) = (lcg(&mut s), lcg(&mut s));
+                if let Some((e, prob)) = tree.pick(p, n, u, v) {
+                    let twin = tree.pmf(p, n, e);
+                    assert!((prob - twin).abs() <= 1e-5 * twin, "pick says {prob}, pmf {twin}");
+                    *counts.entry(e).or_insert(0u32) += 1;
+                }
+            }
+            let (mut chi2, mut dof, mut pooled_obs, mut pooled_exp) = (0.0f64, 0i32, 0.0f64, 0.0f64);
+            for &e in &entries {
+                let expected = tree.pmf(p, n, e) as f64 * draws as f64;
+                let observed = *counts.get(&e).unwrap_or(&0) as f64;
+                if expected == 0.0 {
+                    assert_eq!(observed, 0.0, "entry {e} picked with pmf 0");
+                } else if expected < 5.0 {
+                    pooled_obs += observed;
+                    pooled_exp += expected;
+                } else {
+                    chi2 += (observed - expected).powi(2) / expected;
+                    dof += 1;
+                }
+            }
+            if pooled_exp > 0.0 {
+                chi2 += (pooled_obs - pooled_exp).powi(2) / pooled_exp.max(1.0);
+                dof += 1;
+            }
+            // chi-square's mean is dof with sd sqrt(2 dof); 6 sd is far past a 1e-6 tail here.
+            let bound = dof as f64 + 6.0 * (2.0 * dof as f64).sqrt();
+            assert!(chi2 < bound, "chi2 {chi2} over {dof} bins at {p}");
+        }
+    }
+
+    // A triangle that faces p and lies above p's horizon must keep a chance: zero importance there is bias for the
+    // light-only estimator and lost light for punctual lights. Checked by brute force over random configurations.
+    #[test]
+    fn importance_is_zero_only_where_nothing_arrives() {
+        let mut s = 5;
+        let mut lit = 0;
+        for _ in 0..20_000 {
+            let c = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0 - 2.0;
+            let d = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5);
+            let e = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5);
+            let tri = [c, c + d, c + e];
+            let b = LightBounds::triangle(&[tri], 1.0, false).unwrap();
+            let node = record(&b, [LIGHT_NODE_LEAF, 0, 0, 0]);
+            let p = Vec3::new(lcg(&mut s), lcg(&mut s), lcg(&mut s)) * 4.0 - 2.0;
+            let n = Vec3::new(lcg(&mut s) - 0.5, lcg(&mut s) - 0.5, lcg(&mut s) - 0.5).normalize();
+            let ng = d.cross(e).normalize();
+            // Does any of a grid of points on the triangle face p from the front and sit off p's tangent plane?
+            let arrives = (0..64).any(|k| {
+                let (a, bb) = ((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 8.0 + 0.06);
+                if a + bb > 1.0 {
+                    return false;
+                }
+                let q = tri[0] + a * d + bb * e;
+                let w = (p - q).normalize();
+                ng.dot(w) > 1e-3 && w.dot(n).abs() > 1e-3
+            });
+            if arrives {
+                lit += 1;
+                assert!(importance(&node, p, n) > 0.0, "lit point {p} given zero importance");
+            }
+        }
+        assert!(lit > 2000);
+    }
+
+    // Every cone of a union holds its parts' normals, under rotations, mirrors and motion.
+    #[test]
+    fn unions_and_transforms_hold_their_parts() {
+        let lights = field(64, 13);
+        let mut all = lights[0].1;
+        for (_, b) in &lights[1..] {
+            all = all.union(b);
+        }
+        for (_, b) in &lights {
+            assert!(all.lo.cmple(b.lo).all() && all.hi.cmpge(b.hi).all());
+            if b.cos_o >= 1.0 {
+                assert!(all.axis.dot(b.axis) >= all.cos_o - 1e-5);
+            }
+        }
+        let keys = [
+            glam::Mat4::from_rotation_y(0.3),
+            glam::Mat4::from_scale_rotation_translation(
+                Vec3::new(-2.0, 2.0, 2.0),
+                glam::Quat::from_rotation_x(1.0),
+                Vec3::X,
+            ),
+        ];
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let t = LightBounds::triangle(&[tri], 1.0, false)
+            .unwrap()
+            .transformed(&keys, 1.0);
+        for w in keys {
+            let [a, b, c] = tri.map(|v| w.transform_point3(v));
+            // The device's front of a mirrored instance is the mesh's: the mapped normal, not the mapped winding.
+            let n = (glam::Mat3::from_mat4(w).inverse().transpose() * Vec3::Z).normalize();
+            assert!(t.axis.dot(n) >= t.cos_o - 1e-5, "{n} outside");
+            for q in [a, b, c] {
+                assert!(t.lo.cmple(q + 1e-5).all() && t.hi.cmpge(q - 1e-5).all());
+            }
+        }
+        let stretched = LightBounds::triangle(&[tri], 1.0, false)
+            .unwrap()
+            .transformed(&[glam::Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0))], 1.0);
+        assert_eq!(stretched.cos_o, -1.0);
+    }
+}
