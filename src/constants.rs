@@ -67,7 +67,9 @@ pub const BINDING_LIGHT_TEXELS: u32 = 34;
 /// The motion keys (BINDING_MOTION) as RGBA32UI texels, six per MotionKey, for the TEXEL_READS stages: traversal
 /// reads them in its loop, where storage-buffer loads cost the most.
 pub const BINDING_MOTION_TEXELS: u32 = 35;
-pub const BINDING_COUNT: u32 = 36;
+/// The light BVH (BINDING_LIGHT_TREE) as RGBA32UI texels, four per node, for the TEXEL_READS stages.
+pub const BINDING_LIGHT_TREE_TEXELS: u32 = 36;
+pub const BINDING_COUNT: u32 = 37;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;

@@ -235,19 +235,20 @@ pub struct GpuLight {
     pub area: f32,
 }
 
-/// 64 bytes: a node of the light BVH (`bvh::lights`; `LightNode` in layout.glsl). `lo`: the bounds' minimum and
-/// the power (W) below the node; `hi`: the maximum and cos of the normal cone's half angle; `axis`: the cone's axis
-/// and cos of how far emission reaches past it; `link`: (first child, second child | LIGHT_NODE_TWO_SIDED, 0, 0) for
-/// an interior node, (LIGHT_NODE_LEAF, LIGHT_NODE_TWO_SIDED or 0, the trail's low and high 32 bits) for a leaf.
-/// Record 0 is the header: `lo.x` the probability light selection descends the tree, `link` = (the root, the
-/// infinite lights' table's first entry in the light buffer, its length, the emitters in the tree); the leaf of
-/// table entry j is record 1 + j. 64 bytes a node, about 128 per emitter.
+/// 64 bytes: a node of the light BVH (`bvh::lights`; `LightNode` in layout.glsl), what importance reads of it.
+/// `sphere`: the centre and radius of the sphere around the bounds; `cone`: the normal cone's axis and the power (W)
+/// below the node; `angles`: cos and sin of the cone's half angle, cos of how far emission reaches past it, 0;
+/// `link`: (first child, second child | LIGHT_NODE_TWO_SIDED, 0, 0) for an interior node, (LIGHT_NODE_LEAF,
+/// LIGHT_NODE_TWO_SIDED or 0, the trail's low and high 32 bits) for a leaf. Record 0 is the header: `sphere.x` the
+/// probability light selection descends the tree, `link` = (the root, the infinite lights' table's first entry in
+/// the light buffer, its length, the emitters in the tree); the leaf of table entry j is record 1 + j. About 128
+/// bytes per emitter.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuLightNode {
-    pub lo: [f32; 4],
-    pub hi: [f32; 4],
-    pub axis: [f32; 4],
+    pub sphere: [f32; 4],
+    pub cone: [f32; 4],
+    pub angles: [f32; 4],
     pub link: [u32; 4],
 }
 

@@ -58,7 +58,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(TriColors => "TriColors", [c0, c1, c2]),
         mirror!(MotionKey => "MotionKey", [v0, e1, e2, n0, n1, n2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
-        mirror!(GpuLightNode => "LightNode", [lo, hi, axis, link]),
+        mirror!(GpuLightNode => "LightNode", [sphere, cone, angles, link]),
         mirror!(LightSelectRecord => "LightSelectRecord", [p, entry, n, u, v, picked, prob, pmf]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, budget_max, pad1, pad2]),

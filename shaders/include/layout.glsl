@@ -134,9 +134,9 @@ struct Light {
 // 64 bytes: a node of the light BVH (GpuLightNode in src/layout.rs says what each word holds). Record 0 is the
 // header; the leaf of light-table entry j is record 1 + j.
 struct LightNode {
-    vec4 lo;
-    vec4 hi;
-    vec4 axis;
+    vec4 sphere;
+    vec4 cone;
+    vec4 angles;
     uvec4 link;
 };
 
@@ -367,6 +367,7 @@ layout(set = 0, binding = BINDING_TRI_COLOR_TEXELS) uniform usamplerBuffer tri_c
 layout(set = 0, binding = BINDING_IMAGE_TEXELS) uniform usamplerBuffer image_texels;
 layout(set = 0, binding = BINDING_MATERIAL_TEXELS) uniform usamplerBuffer material_texels;
 layout(set = 0, binding = BINDING_LIGHT_TEXELS) uniform usamplerBuffer light_texels;
+layout(set = 0, binding = BINDING_LIGHT_TREE_TEXELS) uniform usamplerBuffer light_tree_texels;
 layout(set = 0, binding = BINDING_MOTION_TEXELS) uniform usamplerBuffer motion_texels;
 #define FETCH(view, k) uintBitsToFloat(texelFetch(view, int(k)))
 #define FETCH3(view, i) FETCH(view, 3u * (i)), FETCH(view, 3u * (i) + 1u), FETCH(view, 3u * (i) + 2u)
@@ -409,7 +410,15 @@ TriTexcoords load_tri_texcoords(uint i) { return TriTexcoords(FETCH3(tri_texcoor
 TriTangents load_tri_tangents(uint i) { return TriTangents(FETCH3(tri_tangent_texels, i)); }
 TriColors load_tri_colors(uint i) { return TriColors(FETCH3(tri_color_texels, i)); }
 uint load_image_texel(uint i) { return texelFetch(image_texels, int(i)).x; }
+vec4 light_node_sphere(uint i) { return FETCH(light_tree_texels, 4u * i); }
+vec4 light_node_cone(uint i) { return FETCH(light_tree_texels, 4u * i + 1u); }
+vec4 light_node_angles(uint i) { return FETCH(light_tree_texels, 4u * i + 2u); }
+uvec4 light_node_link(uint i) { return texelFetch(light_tree_texels, int(4u * i + 3u)); }
 #else
+vec4 light_node_sphere(uint i) { return light_nodes[i].sphere; }
+vec4 light_node_cone(uint i) { return light_nodes[i].cone; }
+vec4 light_node_angles(uint i) { return light_nodes[i].angles; }
+uvec4 light_node_link(uint i) { return light_nodes[i].link; }
 Light load_light(uint i) { return lights[i]; }
 Material load_material(uint i) { return materials[i]; }
 BvhNode load_node(uint i) { return nodes[i]; }

@@ -14,28 +14,29 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
 // A bound on what the node's emitters can send to p on a surface with normal n (zero: no receiver term): power over
 // squared distance times the cosines left at the emitter (after the normal cone and the bounds' angular size) and at
 // the receiver. Zero only where no emitter below the node can light p (tested in src/bvh/lights.rs).
-float light_importance(LightNode node, vec3 p, vec3 n) {
-    vec3 pc = 0.5 * (node.lo.xyz + node.hi.xyz);
-    vec3 to_p = p - pc;
+float light_importance(uint node, bool two_sided, vec3 p, vec3 n) {
+    vec4 sphere = light_node_sphere(node);
+    vec4 cone = light_node_cone(node);
+    vec4 angles = light_node_angles(node);
+    vec3 to_p = p - sphere.xyz;
     float d2_true = dot(to_p, to_p);
-    vec3 half_size = 0.5 * (node.hi.xyz - node.lo.xyz);
-    float r2 = dot(half_size, half_size);
-    // Inside the bounds' sphere the distance says nothing: the sphere's radius stands for it.
+    float r2 = sphere.w * sphere.w;
+    // Inside the sphere the distance says nothing: its radius stands for it.
     float d2 = max(max(d2_true, r2), 1e-20);
-    vec3 wi = d2_true > 0.0 ? to_p / sqrt(d2_true) : vec3(0.0);
-    float cos_w = dot(node.axis.xyz, wi);
-    if ((node.link.y & LIGHT_NODE_TWO_SIDED) != 0u) cos_w = abs(cos_w);
+    float inv_d = inversesqrt(max(d2_true, 1e-30));
+    vec3 wi = to_p * inv_d;
+    float cos_w = dot(cone.xyz, wi);
+    if (two_sided) cos_w = abs(cos_w);
     float sin_w = sqrt(max(0.0, 1.0 - cos_w * cos_w));
-    // The half angle the bounds' sphere spans from p: all directions from inside it.
-    float cos_b = d2_true <= r2 ? -1.0 : sqrt(max(0.0, 1.0 - r2 / d2_true));
-    float sin_b = sqrt(max(0.0, 1.0 - cos_b * cos_b));
-    float cos_o = node.hi.w;
-    float sin_o = sqrt(max(0.0, 1.0 - cos_o * cos_o));
-    float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
-    float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    // The half angle the sphere spans from p: all directions from inside it.
+    bool inside = d2_true <= r2;
+    float sin_b = inside ? 0.0 : sphere.w * inv_d;
+    float cos_b = inside ? -1.0 : sqrt(max(0.0, 1.0 - sin_b * sin_b));
+    float cos_x = cos_sub_clamped(sin_w, cos_w, angles.y, angles.x);
+    float sin_x = sin_sub_clamped(sin_w, cos_w, angles.y, angles.x);
     float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-    if (cos_p <= node.axis.w) return 0.0;
-    float imp = node.lo.w * cos_p / d2;
+    if (cos_p <= angles.z) return 0.0;
+    float imp = cone.w * cos_p / d2;
     if (n != vec3(0.0)) {
         float cos_i = abs(dot(wi, n));
         float sin_i = sqrt(max(0.0, 1.0 - cos_i * cos_i));
@@ -46,8 +47,9 @@ float light_importance(LightNode node, vec3 p, vec3 n) {
 
 // The probability of an interior node's first child at (p, n); -1 when neither child can light p.
 float light_first_child(uvec4 link, vec3 p, vec3 n) {
-    float i0 = light_importance(light_nodes[link.x], p, n);
-    float i1 = light_importance(light_nodes[link.y & ~LIGHT_NODE_TWO_SIDED], p, n);
+    // A child's two-sidedness rides in its parent's link, so importance reads three of a node's four texels.
+    float i0 = light_importance(link.x, (link.z & 1u) != 0u, p, n);
+    float i1 = light_importance(link.y & ~LIGHT_NODE_TWO_SIDED, (link.y & LIGHT_NODE_TWO_SIDED) != 0u, p, n);
     return i0 + i1 > 0.0 ? i0 / (i0 + i1) : -1.0;
 }
 
@@ -56,13 +58,13 @@ float light_first_child(uvec4 link, vec3 p, vec3 n) {
 // then keep each pick within about 2^-12 of its pmf. The table entry picked and its probability within the tree;
 // false when nothing in the tree can light p.
 bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
-    uint node = light_nodes[0].link.x;
+    uint node = light_node_link(0u).x;
     entry = 0u;
     prob = 0.0;
     if (node == 0u) return false;
     float pr = 1.0, part = 1.0, x = u.x;
     bool fresh = false;
-    uvec4 link = light_nodes[node].link;
+    uvec4 link = light_node_link(node);
     for (uint d = 0u; d < LIGHT_TREE_MAX_DEPTH && link.x != LIGHT_NODE_LEAF; d++) {
         float p0 = light_first_child(link, p, n);
         if (p0 < 0.0) return false;
@@ -76,7 +78,7 @@ bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
             x = u.y;
             fresh = true;
         }
-        link = light_nodes[node].link;
+        link = light_node_link(node);
     }
     if (link.x != LIGHT_NODE_LEAF) return false;
     entry = node - 1u;
@@ -86,18 +88,18 @@ bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
 
 // The probability tree_pick returns table entry `entry` from (p, n): the same products along the leaf's trail.
 float tree_pmf(uint entry, vec3 p, vec3 n) {
-    uint node = light_nodes[0].link.x;
-    uvec4 leaf = light_nodes[entry + 1u].link;
+    uint node = light_node_link(0u).x;
+    uvec4 leaf = light_node_link(entry + 1u);
     if (node == 0u || leaf.x != LIGHT_NODE_LEAF) return 0.0;
     float pr = 1.0;
-    uvec4 link = light_nodes[node].link;
+    uvec4 link = light_node_link(node);
     for (uint d = 0u; d < LIGHT_TREE_MAX_DEPTH && link.x != LIGHT_NODE_LEAF; d++) {
         float p0 = light_first_child(link, p, n);
         if (p0 < 0.0) return 0.0;
         bool second = (((d < 32u ? leaf.z >> d : leaf.w >> (d - 32u))) & 1u) != 0u;
         node = second ? link.y & ~LIGHT_NODE_TWO_SIDED : link.x;
         pr *= second ? 1.0 - p0 : p0;
-        link = light_nodes[node].link;
+        link = light_node_link(node);
     }
     return node == entry + 1u ? pr : 0.0;
 }

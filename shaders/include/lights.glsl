@@ -41,13 +41,13 @@ bool light_uniform() { return (frame.flags & FLAG_LIGHT_UNIFORM) != 0u; }
 // infinite lights (environment, directional lights) by their power, as in the power table.
 bool select_light(vec3 p, vec3 n, vec2 u_pick, inout vec2 u_point, out uint j, out float prob) {
     if (light_tree_on()) {
-        float share = light_nodes[0].lo.x;
+        float share = light_node_sphere(0u).x;
         if (u_pick.x < share) {
             bool ok = tree_pick(p, n, vec2(u_pick.x / share, u_pick.y), j, prob);
             prob *= share;
             return ok;
         }
-        uvec4 h = light_nodes[0].link;
+        uvec4 h = light_node_link(0u);
         j = pick_light_in(h.y, max(h.z, 1u), min((u_pick.x - share) / (1.0 - share), 0.99999994));
         prob = h.z > 0u ? load_light(j).prob : 0.0;
         return h.z > 0u;
@@ -68,7 +68,7 @@ bool select_light(vec3 p, vec3 n, vec2 u_pick, inout vec2 u_point, out uint j, o
 
 // The probability light selection picks table entry j from (p, n) (a triangle or an instance: never infinite).
 float light_pick_prob(uint j, vec3 p, vec3 n) {
-    if (light_tree_on()) return light_nodes[0].lo.x * tree_pmf(j, p, n);
+    if (light_tree_on()) return light_node_sphere(0u).x * tree_pmf(j, p, n);
     if (light_uniform()) return 1.0 / float(frame.light_count);
     return load_light(j).prob;
 }

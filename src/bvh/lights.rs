@@ -225,7 +225,7 @@ impl LightTree {
     }
     /// The probability light selection descends the tree rather than picking an infinite light.
     pub fn share(&self) -> f32 {
-        self.nodes[0].lo[0]
+        self.nodes[0].sphere[0]
     }
 }
 
@@ -261,7 +261,7 @@ pub fn build(emitters: Vec<(u32, LightBounds)>, entries: u32, share: f32, infini
         build_range(&mut items, 0, &mut nodes, &mut depth).0
     };
     nodes[0] = GpuLightNode {
-        lo: [share, 0.0, 0.0, 0.0],
+        sphere: [share, 0.0, 0.0, 0.0],
         link: [root, infinite.0, infinite.1, count as u32],
         ..Default::default()
     };
@@ -280,10 +280,12 @@ pub fn build(emitters: Vec<(u32, LightBounds)>, entries: u32, share: f32, infini
 }
 
 fn record(b: &LightBounds, link: [u32; 4]) -> GpuLightNode {
+    let c = b.centroid();
+    let cos_o = b.cos_o.clamp(-1.0, 1.0);
     GpuLightNode {
-        lo: [b.lo.x, b.lo.y, b.lo.z, b.phi],
-        hi: [b.hi.x, b.hi.y, b.hi.z, b.cos_o],
-        axis: [b.axis.x, b.axis.y, b.axis.z, b.cos_e],
+        sphere: [c.x, c.y, c.z, (0.5 * (b.hi - b.lo)).length()],
+        cone: [b.axis.x, b.axis.y, b.axis.z, b.phi],
+        angles: [cos_o, (1.0 - cos_o * cos_o).max(0.0).sqrt(), b.cos_e, 0.0],
         link,
     }
 }
@@ -309,8 +311,9 @@ fn build_range(
     let (left, lb) = build_range(&mut items[..mid], depth + 1, nodes, max_depth);
     let (right, rb) = build_range(&mut items[mid..], depth + 1, nodes, max_depth);
     let b = lb.union(&rb);
-    let sided = if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
-    nodes[node as usize] = record(&b, [left, right | sided, 0, 0]);
+    // Each child's two-sidedness rides in this link (the second's beside its index, the first's in bit 0 of z).
+    let sided = if rb.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
+    nodes[node as usize] = record(&b, [left, right | sided, lb.two_sided as u32, 0]);
     (node, b)
 }
 
@@ -424,35 +427,25 @@ fn safe_sqrt(x: f32) -> f32 {
 const IMPORTANCE_MAX: f32 = 1e30;
 
 /// The node's importance at p for a receiver with normal n (zero: no receiver term), as light_tree.glsl has it.
-pub fn importance(node: &GpuLightNode, p: Vec3, n: Vec3) -> f32 {
-    let lo = Vec3::from_slice(&node.lo[..3]);
-    let hi = Vec3::from_slice(&node.hi[..3]);
-    let axis = Vec3::from_slice(&node.axis[..3]);
-    let (phi, cos_o, cos_e) = (node.lo[3], node.hi[3], node.axis[3]);
-    let pc = 0.5 * (lo + hi);
-    let to_p = p - pc;
+pub fn importance(node: &GpuLightNode, two_sided: bool, p: Vec3, n: Vec3) -> f32 {
+    let [cx, cy, cz, radius] = node.sphere;
+    let [ax, ay, az, phi] = node.cone;
+    let [cos_o, sin_o, cos_e, _] = node.angles;
+    let to_p = p - Vec3::new(cx, cy, cz);
     let d2_true = to_p.dot(to_p);
-    let half = 0.5 * (hi - lo);
-    let r2 = half.dot(half);
+    let r2 = radius * radius;
     let d2 = d2_true.max(r2).max(1e-20);
-    let wi = if d2_true > 0.0 {
-        to_p / d2_true.sqrt()
-    } else {
-        Vec3::ZERO
-    };
-    let mut cos_w = axis.dot(wi);
-    if node.link[1] & LIGHT_NODE_TWO_SIDED != 0 {
+    let inv_d = 1.0 / d2_true.max(1e-30).sqrt();
+    let wi = to_p * inv_d;
+    let mut cos_w = Vec3::new(ax, ay, az).dot(wi);
+    if two_sided {
         cos_w = cos_w.abs();
     }
     let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-    // The angle the bounds' sphere spans from p: all of it from inside.
-    let cos_b = if d2_true <= r2 {
-        -1.0
-    } else {
-        safe_sqrt(1.0 - r2 / d2_true)
-    };
-    let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
-    let sin_o = safe_sqrt(1.0 - cos_o * cos_o);
+    // The half angle the bounds' sphere spans from p: all directions from inside it.
+    let inside = d2_true <= r2;
+    let sin_b = if inside { 0.0 } else { radius * inv_d };
+    let cos_b = if inside { -1.0 } else { safe_sqrt(1.0 - sin_b * sin_b) };
     let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
     let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
     let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
@@ -475,9 +468,11 @@ impl LightTree {
     }
 
     /// The probability of the first child at an interior node (0 and 0 importance: None).
-    fn first_child_prob(&self, c0: u32, c1: u32, p: Vec3, n: Vec3) -> Option<f32> {
-        let i0 = importance(&self.nodes[c0 as usize], p, n);
-        let i1 = importance(&self.nodes[c1 as usize], p, n);
+    fn first_child_prob(&self, node: u32, p: Vec3, n: Vec3) -> Option<f32> {
+        let link = self.nodes[node as usize].link;
+        let (c0, c1) = (link[0], link[1] & !LIGHT_NODE_TWO_SIDED);
+        let i0 = importance(&self.nodes[c0 as usize], link[2] & 1 != 0, p, n);
+        let i1 = importance(&self.nodes[c1 as usize], link[1] & LIGHT_NODE_TWO_SIDED != 0, p, n);
         (i0 + i1 > 0.0).then(|| i0 / (i0 + i1))
     }
 
@@ -490,7 +485,7 @@ impl LightTree {
         }
         let (mut prob, mut part, mut fresh) = (1.0f32, 1.0f32, false);
         while let Some((c0, c1)) = self.children(node) {
-            let p0 = self.first_child_prob(c0, c1, p, n)?;
+            let p0 = self.first_child_prob(node, p, n)?;
             if u < p0 {
                 node = c0;
                 prob *= p0;
@@ -518,7 +513,7 @@ impl LightTree {
         let mut prob = 1.0f32;
         let mut d = 0;
         while let Some((c0, c1)) = self.children(node) {
-            let Some(p0) = self.first_child_prob(c0, c1, p, n) else {
+            let Some(p0) = self.first_child_prob(node, p, n) else {
                 return 0.0;
             };
             if trail >> d & 1 == 0 {
@@ -667,7 +662,7 @@ mod tests {
             });
             if arrives {
                 lit += 1;
-                assert!(importance(&node, p, n) > 0.0, "lit point {p} given zero importance");
+                assert!(importance(&node, false, p, n) > 0.0, "lit point {p} given zero importance");
             }
         }
         assert!(lit > 2000);

@@ -76,7 +76,12 @@ const SCENE_BINDINGS: [SceneBinding; 15] = [
         Reads::Both,
     ),
     SceneBinding("lights", BINDING_LIGHTS, Some(BINDING_LIGHT_TEXELS), Reads::Both),
-    SceneBinding("light tree", BINDING_LIGHT_TREE, None, Reads::Storage),
+    SceneBinding(
+        "light tree",
+        BINDING_LIGHT_TREE,
+        Some(BINDING_LIGHT_TREE_TEXELS),
+        Reads::Both,
+    ),
     SceneBinding("environment", BINDING_ENV, None, Reads::Storage),
     SceneBinding("punctual lights", BINDING_PUNCTUAL, None, Reads::Storage),
     SceneBinding("textures", BINDING_TEXTURES, None, Reads::Storage),
