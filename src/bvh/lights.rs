@@ -662,7 +662,10 @@ mod tests {
             });
             if arrives {
                 lit += 1;
-                assert!(importance(&node, false, p, n) > 0.0, "lit point {p} given zero importance");
+                assert!(
+                    importance(&node, false, p, n) > 0.0,
+                    "lit point {p} given zero importance"
+                );
             }
         }
         assert!(lit > 2000);
