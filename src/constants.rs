@@ -293,6 +293,12 @@ pub const LIGHT_NODE_LEAF: u32 = 0xFFFFFFFF;
 pub const LIGHT_NONE: u32 = 0xFFFFFFFF;
 /// Set in GpuLightNode.link[1] (beside an interior node's second child) when the node's cone holds for both faces.
 pub const LIGHT_NODE_TWO_SIDED: u32 = 0x80000000;
+/// Light selection descends the light BVH (--light-sampler bvh) only for scenes with at least this many emitters in
+/// it; below, it picks by power. A descent evaluates two nodes' importance per level for every light sample and
+/// again for every emitter a BSDF sample hits, which on the Cornell box (one quad light, two triangles, whose
+/// importances stay in the ratio of their powers from almost everywhere) cost 15-30 % of the samples per second for
+/// no less noise.
+pub const LIGHT_TREE_MIN_EMITTERS: u32 = 8;
 /// The deepest leaf of the light BVH: a trail of 64 bits (GpuLightNode.link[2..4]) says which way to turn.
 pub const LIGHT_TREE_MAX_DEPTH: u32 = 64;
 /// Below this probability of the choices one number made, the light BVH's descent takes its second number: the first

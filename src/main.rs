@@ -917,6 +917,10 @@ struct BenchArgs {
     /// Run only the comparisons, not the fixed cases.
     #[arg(long, requires = "compare")]
     only_compare: bool,
+    /// Light selection for the fixed cases and the Cornell box comparisons (the lamp grid's comparison runs all
+    /// three): bvh (default), power or uniform.
+    #[arg(long, value_enum, default_value = "bvh")]
+    light_sampler: LightSampler,
 }
 
 fn bench(a: BenchArgs) -> Result<()> {
@@ -941,6 +945,7 @@ fn bench(a: BenchArgs) -> Result<()> {
             .collect(),
         python: a.python,
         only_compare: a.only_compare,
+        light_sampler: a.light_sampler,
     };
     let report = pathwave::bench::run(&options, &mut |case| eprintln!("bench: {case}"))?;
     print!("{}", report.table());

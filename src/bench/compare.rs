@@ -2,7 +2,7 @@
 use super::terrain;
 use crate::bvh::Ray;
 use crate::error::Error;
-use crate::render::{RenderSettings, Renderer};
+use crate::render::{LightSampler, RenderSettings, Renderer};
 use crate::scene::{self, Projection, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use glam::Vec3;
@@ -231,6 +231,10 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
 #[derive(Clone, Debug, Default)]
 pub struct MitsubaComparison {
     pub device: String,
+    /// The scene's file stem (cornell-box, lamp-grid).
+    pub scene: String,
+    /// pathwave's light selection (--light-sampler).
+    pub light_sampler: String,
     pub version: String,
     /// Mitsuba's variant, llvm_ad_rgb or (with pathwave spectral) llvm_ad_spectral.
     pub variant: String,
@@ -262,9 +266,10 @@ impl MitsubaComparison {
     pub fn summary(&self) -> String {
         let mut s = String::new();
         s += &format!(
-            "equal time vs Mitsuba {} {} (Cornell box {}x{}; pathwave {}; reference: Mitsuba at {} spp{}):\n",
+            "equal time vs Mitsuba {} {} ({} {}x{}; pathwave {}, lights by {}; reference: Mitsuba at {} spp{}):\n",
             self.version,
             self.variant,
+            self.scene,
             self.width,
             self.height,
             if self.variant.ends_with("spectral") {
@@ -272,6 +277,7 @@ impl MitsubaComparison {
             } else {
                 "RGB"
             },
+            self.light_sampler,
             self.reference_spp,
             if self.reference_cached { ", cached" } else { "" }
         );
@@ -304,7 +310,9 @@ impl MitsubaComparison {
 
     pub fn json(&self) -> serde_json::Value {
         serde_json::json!({
-        "variant": self.variant,
+            "scene": self.scene,
+            "light_sampler": self.light_sampler,
+            "variant": self.variant,
             "version": self.version,
             "width": self.width,
             "height": self.height,
@@ -495,19 +503,31 @@ fn mitsuba_reference(
 
 /// Mitsuba 3 against pathwave at equal time on the Cornell box. One function past 80 lines: warm-up, calibration
 /// and the interleaved rounds share both renderers and the reference, and read best as the one procedure they are.
+/// What a Mitsuba comparison renders: a scene file (lit by emissive Lambertian triangles only), spectral or RGB,
+/// and pathwave's light selection.
+pub struct MitsubaCase<'a> {
+    pub scene: &'a Path,
+    pub spectral: bool,
+    pub light_sampler: LightSampler,
+}
+
 pub fn compare_mitsuba(
     python: &Path,
     device: &DeviceChoice,
-    cornell: &Path,
+    case: MitsubaCase,
     quick: bool,
-    spectral: bool,
     progress: &mut dyn FnMut(&str),
 ) -> Result<MitsubaComparison, Error> {
+    let MitsubaCase {
+        scene: path,
+        spectral,
+        light_sampler,
+    } = case;
     let variant = if spectral { "llvm_ad_spectral" } else { "llvm_ad_rgb" };
     let size = if quick { (64, 64) } else { (256, 256) };
     let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (8192, 8.0, 3) };
     let mut h = Helper::start(python)?;
-    let scene = scene::load(cornell, None)?;
+    let scene = scene::load(path, None)?;
     let dir = h.dir.path().to_path_buf();
     let (desc_path, desc) = write_mitsuba_scene(&scene, size, &dir)?;
     let loaded = h
@@ -529,6 +549,11 @@ pub fn compare_mitsuba(
     let ctx = Context::new(device, Validation::Off)?;
     let device = ctx.device_name();
     let mut r = Renderer::with_context(&scene, ctx)?;
+    let sampler_name = (r.light_sampler_run(&RenderSettings {
+        light_sampler,
+        ..Default::default()
+    }))
+    .unwrap_or("none");
     let mut pathwave = |spp: u32, seed: u32| -> Result<(f64, Vec<f32>, Vec<f32>), Error> {
         let settings = RenderSettings {
             width: size.0,
@@ -536,6 +561,7 @@ pub fn compare_mitsuba(
             spp,
             seed,
             spectral,
+            light_sampler,
             ..Default::default()
         };
         let (film, stats) = r.render(&settings, &mut |_| {})?;
@@ -562,6 +588,11 @@ pub fn compare_mitsuba(
 
     let mut result = MitsubaComparison {
         device,
+        scene: path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        light_sampler: sampler_name.into(),
         version,
         variant: variant.into(),
         width: size.0,

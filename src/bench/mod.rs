@@ -3,7 +3,7 @@ pub mod adaptive;
 pub mod compare;
 
 use crate::error::Error;
-use crate::render::{BvhReads, RenderSettings, Renderer, Schedule};
+use crate::render::{BvhReads, LightSampler, RenderSettings, Renderer, Schedule};
 use crate::scene::{self, Camera, Environment, Material, Mesh, Primitive, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 pub use compare::{EmbreeComparison, MitsubaComparison};
@@ -55,6 +55,8 @@ pub struct BenchOptions {
     pub python: PathBuf,
     /// Skip the fixed cases and run only the comparisons.
     pub only_compare: bool,
+    /// Light selection for the fixed cases and the Cornell box comparisons.
+    pub light_sampler: LightSampler,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -160,6 +162,7 @@ fn measure(
     size: (u32, u32),
     spp: u32,
     device: &DeviceChoice,
+    light_sampler: LightSampler,
     variation: Variation,
 ) -> Result<CaseResult, Error> {
     let Variation {
@@ -183,6 +186,7 @@ fn measure(
         height: size.1,
         spp,
         spectral,
+        light_sampler,
         ..Default::default()
     };
     let (film, stats) = r.render(&settings, &mut |_| {})?;
@@ -268,6 +272,8 @@ pub struct BenchReport {
     pub mitsuba: Option<MitsubaComparison>,
     /// The same with spectral transport, against Mitsuba's llvm_ad_spectral.
     pub mitsuba_spectral: Option<MitsubaComparison>,
+    /// The lamp grid, once per light sampler.
+    pub mitsuba_lights: Vec<MitsubaComparison>,
     /// With the Mitsuba comparison: --adaptive against uniform sampling at equal time, per scene.
     pub adaptive: Vec<adaptive::AdaptiveComparison>,
     pub total: Duration,
@@ -292,6 +298,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         embree: None,
         mitsuba: None,
         mitsuba_spectral: None,
+        mitsuba_lights: Vec::new(),
         adaptive: Vec::new(),
         total: Duration::ZERO,
     };
@@ -307,13 +314,25 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     }
     if o.compare.contains(&Compare::Mitsuba) {
         progress("Mitsuba comparison");
-        report.mitsuba = Some(compare::compare_mitsuba(
-            &o.python, &o.device, &cornell, o.quick, false, progress,
-        )?);
+        let case = |scene, spectral, light_sampler| compare::MitsubaCase {
+            scene,
+            spectral,
+            light_sampler,
+        };
+        let mitsuba = |case, progress: &mut dyn FnMut(&str)| {
+            compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)
+        };
+        report.mitsuba = Some(mitsuba(case(&cornell, false, o.light_sampler), progress)?);
         progress("Mitsuba comparison, spectral");
-        report.mitsuba_spectral = Some(compare::compare_mitsuba(
-            &o.python, &o.device, &cornell, o.quick, true, progress,
-        )?);
+        report.mitsuba_spectral = Some(mitsuba(case(&cornell, true, o.light_sampler), progress)?);
+        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid.
+        let lamps = o.scenes.join("lamp-grid.gltf");
+        for sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
+            progress(&format!("Mitsuba comparison, lamp grid, lights by {}", sampler.name()));
+            report
+                .mitsuba_lights
+                .push(mitsuba(case(&lamps, false, sampler), progress)?);
+        }
         // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
         let halves = o.scenes.join("halves.gltf");
         for scene in [&cornell, &glass, &halves] {
@@ -343,7 +362,15 @@ fn run_cases(
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(name, &scene, (256, 256), spp, &o.device, Variation::default())?;
+        let mut c = measure(
+            name,
+            &scene,
+            (256, 256),
+            spp,
+            &o.device,
+            o.light_sampler,
+            Variation::default(),
+        )?;
         c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
         cases.push(c);
         if name == "cornell-box" {
@@ -353,7 +380,15 @@ fn run_cases(
                 reads: Some(BvhReads::Storage),
                 ..Default::default()
             };
-            cases.push(measure("cornell-storage", &scene, (256, 256), spp, &o.device, storage)?);
+            cases.push(measure(
+                "cornell-storage",
+                &scene,
+                (256, 256),
+                spp,
+                &o.device,
+                o.light_sampler,
+                storage,
+            )?);
             for (name, schedule) in [
                 ("cornell-fused", Schedule::Fused),
                 ("cornell-wavefront", Schedule::Wavefront),
@@ -362,7 +397,15 @@ fn run_cases(
                     schedule: Some(schedule),
                     ..Default::default()
                 };
-                cases.push(measure(name, &scene, (256, 256), spp, &o.device, fixed)?);
+                cases.push(measure(
+                    name,
+                    &scene,
+                    (256, 256),
+                    spp,
+                    &o.device,
+                    o.light_sampler,
+                    fixed,
+                )?);
             }
             // Spectral transport's cost (--spectral): four wavelengths per path and every colour upsampled.
             let spectral = Variation {
@@ -375,6 +418,7 @@ fn run_cases(
                 (256, 256),
                 spp,
                 &o.device,
+                o.light_sampler,
                 spectral,
             )?);
         }
@@ -388,6 +432,7 @@ fn run_cases(
         (256, 256),
         spp_mesh,
         &o.device,
+        o.light_sampler,
         Variation::default(),
     )?);
     let storage = Variation {
@@ -400,6 +445,7 @@ fn run_cases(
         (256, 256),
         spp_mesh,
         &o.device,
+        o.light_sampler,
         storage,
     )?);
     // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
@@ -413,6 +459,7 @@ fn run_cases(
         (256, 256),
         spp_mesh.min(8),
         &o.device,
+        o.light_sampler,
         Variation::default(),
     )?;
     c.process_s = Some(build.elapsed().as_secs_f64());
@@ -423,7 +470,15 @@ fn run_cases(
         progress("terrain past the storage range");
         let big = terrain(1300);
         let name = format!("terrain-{}k", big.triangle_count() / 1000);
-        cases.push(measure(&name, &big, (256, 256), 8, &o.device, Variation::default())?);
+        cases.push(measure(
+            &name,
+            &big,
+            (256, 256),
+            8,
+            &o.device,
+            o.light_sampler,
+            Variation::default(),
+        )?);
     }
     Ok(())
 }
@@ -461,7 +516,12 @@ impl BenchReport {
                 100.0 * e.agreement
             );
         }
-        for m in self.mitsuba.iter().chain(&self.mitsuba_spectral) {
+        for m in self
+            .mitsuba
+            .iter()
+            .chain(&self.mitsuba_spectral)
+            .chain(&self.mitsuba_lights)
+        {
             s += &m.summary();
         }
         if let (Some(rgb), Some(spectral)) = (&self.mitsuba, &self.mitsuba_spectral) {
@@ -567,6 +627,7 @@ impl BenchReport {
             })),
             "mitsuba": self.mitsuba.as_ref().map(|m| m.json()),
             "mitsuba_spectral": self.mitsuba_spectral.as_ref().map(|m| m.json()),
+            "mitsuba_lights": self.mitsuba_lights.iter().map(|m| m.json()).collect::<Vec<_>>(),
             "adaptive": self.adaptive.iter().map(|a| a.json()).collect::<Vec<_>>(),
             "total_s": self.total.as_secs_f64(),
             "cases": cases,

@@ -282,10 +282,10 @@ impl Renderer {
     }
 
     /// `frame` with the scene's light table and environment, and the light selection its flags ask for: the light
-    /// BVH only where the scene has one of two emitters or more (with one it picks as the power table does).
+    /// BVH only where the scene has LIGHT_TREE_MIN_EMITTERS emitters for it or more.
     fn lit(&self, frame: Frame) -> Frame {
         let mut flags = frame.flags;
-        if self.scene.light_tree.emitters < 2 {
+        if (self.scene.light_tree.emitters as u32) < LIGHT_TREE_MIN_EMITTERS {
             flags &= !FLAG_LIGHT_TREE;
         }
         let env_prob = if flags & FLAG_LIGHT_TREE != 0 {
