@@ -96,6 +96,27 @@ fn glass_punctual_textured_alpha_and_layered_scenes_are_the_same_bytes_either_wa
 }
 
 #[test]
+fn many_lights_through_the_light_tree_are_the_same_bytes_either_way() {
+    // The lamp grid by the light BVH: the wavefront keeps the normal the tree picked with at a path's last vertex in
+    // its path state (PATH_SHADOW_DIR.w) for the pdf twin at the next hit, the fused schedule in registers; and
+    // spectrally, where the hero-only flag shares the path state too.
+    let mut r = renderer(&scenes_dir().join("lamp-grid.gltf"));
+    let s = settings(24, 16, 8, 5);
+    assert_eq!(r.light_sampler_run(&s), Some("bvh"));
+    let tree = assert_schedules_agree("lamp grid, bvh", &mut r, &s);
+    let power = RenderSettings {
+        light_sampler: pathwave::LightSampler::Power,
+        ..s.clone()
+    };
+    assert!(
+        tree != assert_schedules_agree("lamp grid, power", &mut r, &power),
+        "the sampler changed nothing"
+    );
+    let spectral = RenderSettings { spectral: true, ..s };
+    assert_schedules_agree("lamp grid, bvh, spectral", &mut r, &spectral);
+}
+
+#[test]
 fn a_dispersive_scene_is_the_same_bytes_either_way() {
     // The prism, spectral: a path that crossed dispersive glass keeps its hero wavelength alone, which the wavefront
     // carries in its path state between stages (PATH_HERO_ONLY) and the fused schedule in registers.
