@@ -303,7 +303,7 @@ pub const LIGHT_TREE_MIN_EMITTERS: u32 = 8;
 pub const LIGHT_TREE_MAX_DEPTH: u32 = 64;
 /// Below this probability of the choices one number made, the light BVH's descent takes its second number: the first
 /// has too few of its 24 bits left to choose by.
-pub const LIGHT_FRESH_NUMBER_BELOW: f32 = 0.000244140625;
+pub const LIGHT_FRESH_NUMBER_BELOW: f32 = 0.00024414062;
 /// Emitters light selection's table may hold: an emissive triangle's TriShading.n0.w holds its entry + 1 as a float,
 /// exact up to 2^24.
 pub const LIGHT_ENTRIES_MAX: u32 = 16777215;

@@ -509,6 +509,9 @@ pub struct MitsubaCase<'a> {
     pub scene: &'a Path,
     pub spectral: bool,
     pub light_sampler: LightSampler,
+    /// Image size and the reference's samples per pixel (both smaller with --quick).
+    pub size: (u32, u32),
+    pub reference_spp: u32,
 }
 
 pub fn compare_mitsuba(
@@ -522,10 +525,12 @@ pub fn compare_mitsuba(
         scene: path,
         spectral,
         light_sampler,
+        size,
+        reference_spp,
     } = case;
     let variant = if spectral { "llvm_ad_spectral" } else { "llvm_ad_rgb" };
-    let size = if quick { (64, 64) } else { (256, 256) };
-    let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (8192, 8.0, 3) };
+    let size = if quick { (64, 64) } else { size };
+    let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (reference_spp, 8.0, 3) };
     let mut h = Helper::start(python)?;
     let scene = scene::load(path, None)?;
     let dir = h.dir.path().to_path_buf();

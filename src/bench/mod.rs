@@ -318,6 +318,8 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
             scene,
             spectral,
             light_sampler,
+            size: (256, 256),
+            reference_spp: 8192,
         };
         let mitsuba = |case, progress: &mut dyn FnMut(&str)| {
             compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)
@@ -329,9 +331,12 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         let lamps = o.scenes.join("lamp-grid.gltf");
         for sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
             progress(&format!("Mitsuba comparison, lamp grid, lights by {}", sampler.name()));
-            report
-                .mitsuba_lights
-                .push(mitsuba(case(&lamps, false, sampler), progress)?);
+            let lamp_case = compare::MitsubaCase {
+                size: (192, 128),
+                reference_spp: 4096,
+                ..case(&lamps, false, sampler)
+            };
+            report.mitsuba_lights.push(mitsuba(lamp_case, progress)?);
         }
         // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
         let halves = o.scenes.join("halves.gltf");
