@@ -892,6 +892,8 @@ fn view(args: ViewArgs) -> Result<()> {
 enum CompareWith {
     Mitsuba,
     Embree,
+    /// The lamp grid against Mitsuba 3, once per light sampler (bvh, power, uniform).
+    Lights,
 }
 
 #[derive(clap::Args)]
@@ -908,7 +910,8 @@ struct BenchArgs {
     #[arg(long)]
     device: Option<DeviceChoice>,
     /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
-    /// relMSE on the Cornell box) or `embree` (embreex, random-ray traversal on the terrain). Repeatable.
+    /// relMSE on the Cornell box), `embree` (embreex, random-ray traversal on the terrain) or `lights` (Mitsuba 3 on
+    /// the lamp grid, once per light sampler). Repeatable.
     #[arg(long, value_enum)]
     compare: Vec<CompareWith>,
     /// The Python interpreter that has `mitsuba` and `embreex` installed.
@@ -917,8 +920,8 @@ struct BenchArgs {
     /// Run only the comparisons, not the fixed cases.
     #[arg(long, requires = "compare")]
     only_compare: bool,
-    /// Light selection for the fixed cases and the Cornell box comparisons (the lamp grid's comparison runs all
-    /// three): bvh (default), power or uniform.
+    /// Light selection for the fixed cases and the Cornell box comparisons (`--compare lights` runs all three):
+    /// bvh (default), power or uniform.
     #[arg(long, value_enum, default_value = "bvh")]
     light_sampler: LightSampler,
 }
@@ -941,6 +944,7 @@ fn bench(a: BenchArgs) -> Result<()> {
             .map(|c| match c {
                 CompareWith::Mitsuba => pathwave::bench::Compare::Mitsuba,
                 CompareWith::Embree => pathwave::bench::Compare::Embree,
+                CompareWith::Lights => pathwave::bench::Compare::Lights,
             })
             .collect(),
         python: a.python,

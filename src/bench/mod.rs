@@ -65,6 +65,8 @@ pub enum Compare {
     Mitsuba,
     /// Embree (embreex) on the terrain mesh: random-ray traversal speed.
     Embree,
+    /// Mitsuba 3 on the lamp grid (many lights), once per light sampler: relMSE x time.
+    Lights,
 }
 
 /// `count` instances (a square grid, each turned about +y) of the `side` terrain's mesh, seen from above at an
@@ -327,23 +329,31 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         report.mitsuba = Some(mitsuba(case(&cornell, false, o.light_sampler), progress)?);
         progress("Mitsuba comparison, spectral");
         report.mitsuba_spectral = Some(mitsuba(case(&cornell, true, o.light_sampler), progress)?);
-        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid.
-        let lamps = o.scenes.join("lamp-grid.gltf");
-        for sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
-            progress(&format!("Mitsuba comparison, lamp grid, lights by {}", sampler.name()));
-            let lamp_case = compare::MitsubaCase {
-                size: (192, 128),
-                reference_spp: 4096,
-                ..case(&lamps, false, sampler)
-            };
-            report.mitsuba_lights.push(mitsuba(lamp_case, progress)?);
-        }
         // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
         let halves = o.scenes.join("halves.gltf");
         for scene in [&cornell, &glass, &halves] {
             report
                 .adaptive
                 .push(adaptive::compare_adaptive(&o.device, scene, o.quick, progress)?);
+        }
+    }
+    if o.compare.contains(&Compare::Lights) {
+        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid.
+        let lamps = o.scenes.join("lamp-grid.gltf");
+        for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
+            progress(&format!(
+                "Mitsuba comparison, lamp grid, lights by {}",
+                light_sampler.name()
+            ));
+            let case = compare::MitsubaCase {
+                scene: &lamps,
+                spectral: false,
+                light_sampler,
+                size: (192, 128),
+                reference_spp: 4096,
+            };
+            let m = compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)?;
+            report.mitsuba_lights.push(m);
         }
     }
     report.device = (report.cases.first().map(|c| c.device.clone()))
