@@ -36,9 +36,13 @@ def box(lo, hi, material):
     quad([(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)], material)  # -x
 
 
+# Lambertian throughout (KHR_materials_specular 0), so the scene translates to Mitsuba 3 for the bench.
+LAMBERT = {"KHR_materials_specular": {"specularFactor": 0.0}}
 materials = [
-    {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1], "metallicFactor": 0, "roughnessFactor": 1}},
-    {"name": "box", "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.45, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.8}},
+    {"name": "floor", "extensions": LAMBERT,
+     "pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1], "metallicFactor": 0, "roughnessFactor": 1}},
+    {"name": "box", "extensions": LAMBERT,
+     "pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.45, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 1}},
 ]
 quad([(-10, 0, -10), (-10, 0, 10), (10, 0, 10), (10, 0, -10)], 0)
 box((-2.5, 0, -1.0), (-1.5, 1.2, 0.0), 1)
@@ -57,7 +61,7 @@ for i in range(n):
         materials.append({
             "name": f"lamp {i} {j}",
             "emissiveFactor": hue,
-            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": round(strength, 3)}},
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": round(strength, 3)}, **LAMBERT},
             "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 1},
         })
         # Facing down (-y).
@@ -68,7 +72,7 @@ for i in range(n):
 materials.append({
     "name": "far panel",
     "emissiveFactor": [1, 1, 1],
-    "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 80}},
+    "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 80}, **LAMBERT},
     "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 1},
 })
 for angle in (0.4, 2.0, 3.6, 5.2):
@@ -124,7 +128,7 @@ nodes.append({"camera": 0, "translation": [0, 5.5, 9.5],
               "rotation": [-0.2588190451, 0, 0, 0.9659258263]})  # 30 degrees down
 doc = {
     "asset": {"version": "2.0", "generator": "pathwave ci/make-lamp-grid.py"},
-    "extensionsUsed": ["KHR_materials_emissive_strength"],
+    "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_materials_specular"],
     "scene": 0,
     "scenes": [{"nodes": list(range(len(nodes)))}],
     "nodes": nodes,

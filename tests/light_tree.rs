@@ -328,3 +328,148 @@ fn instanced_and_punctual_emitters_through_the_tree_light_as_placed_ones_do() {
         );
     }
 }
+
+/// A panel facing down over a floor, cut into 12 x 12 quads that share one emissive texture: black but for a bright
+/// disc (the logo on a dark screen).
+fn screen_with_a_logo() -> (common::gltf_builder::GltfBuilder, Vec<[u8; 4]>) {
+    use serde_json::json;
+    let n = 64usize;
+    let texels: Vec<[u8; 4]> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32 + 0.5, (i / n) as f32 + 0.5);
+            let lit = (x - 20.0).powi(2) + (y - 44.0).powi(2) < 25.0;
+            if lit {
+                [255, 230, 200, 255]
+            } else {
+                [0, 0, 0, 255]
+            }
+        })
+        .collect();
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    b.quad(
+        "floor",
+        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    let screen = b.material("screen", [0.0; 3], [1.0; 3], false);
+    let image = b.png_image(n as u32, n as u32, &texels);
+    let texture = b.texture(image, json!({"magFilter": 9729, "minFilter": 9729}));
+    b.material_json(screen)["emissiveTexture"] = json!({ "index": texture });
+    b.use_extension("KHR_materials_emissive_strength");
+    b.material_json(screen)["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}});
+    let k = 12;
+    for i in 0..k {
+        for j in 0..k {
+            let (u0, u1, v0, v1) = (
+                i as f32 / k as f32,
+                (i + 1) as f32 / k as f32,
+                j as f32 / k as f32,
+                (j + 1) as f32 / k as f32,
+            );
+            let (x0, x1, z0, z1) = (-1.0 + 2.0 * u0, -1.0 + 2.0 * u1, -1.0 + 2.0 * v0, -1.0 + 2.0 * v1);
+            // Counter-clockwise seen from below: the panel faces down.
+            b.textured_quad(
+                &format!("screen {i} {j}"),
+                [[x0, 1.5, z0], [x1, 1.5, z0], [x1, 1.5, z1], [x0, 1.5, z1]],
+                [[u0, v0], [u1, v0], [u1, v1], [u0, v1]],
+                screen,
+            );
+        }
+    }
+    b.camera([0.0, 2.5, 4.0], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 45.0);
+    (b, texels)
+}
+
+/// Catches an emissive triangle's power taken from the texture's average (every screen triangle would get the same
+/// power, and 95 % of light samples would land on black), from the wrong texels (a transposed or flipped lookup
+/// puts the power on dark triangles) or with a summed-area table that does not add up: each emitter's power must be
+/// its footprint's texels summed here by brute force. And the selection stays unbiased: power (which uses these
+/// figures) and uniform selection (which does not) give the same image, power with less noise.
+#[test]
+fn emissive_textures_are_sampled_where_they_glow() {
+    use pathwave::constants::{LIGHT_INDEX_MASK, LIGHT_KIND_SHIFT};
+    let (b, texels) = screen_with_a_logo();
+    let (_dir, path) = common::write_temp(&b, "screen.gltf");
+    let scene = pathwave::scene::load(&path, None).unwrap();
+    let packed = pack(&scene);
+    let table = &packed.lights[..packed.light_count as usize];
+    let srgb = |c: u8| {
+        let c = c as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    // Brute force: every emitter's footprint from its packed texture coordinates (texel centres at half-integers,
+    // one texel more each way for bilinear filtering, clamped at the edges, as the panel never wraps).
+    let mut lit_triangles = 0;
+    for t in 0..packed.tri_verts.len() {
+        let uv = packed.tri_texcoords[t];
+        let us = [uv.t0[0], uv.t1[0], uv.t2[0]];
+        let vs = [uv.t0[1], uv.t1[1], uv.t2[1]];
+        let range = |c: [f32; 3]| {
+            let lo = (c.iter().cloned().fold(f32::INFINITY, f32::min) as f64 * 64.0 - 0.5).floor() as i64;
+            let hi = (c.iter().cloned().fold(f32::NEG_INFINITY, f32::max) as f64 * 64.0 - 0.5).floor() as i64 + 1;
+            (lo.clamp(0, 63) as usize, hi.clamp(0, 63) as usize)
+        };
+        let ((x0, x1), (y0, y1)) = (range(us), range(vs));
+        let mut sum = 0.0;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let p = texels[y * 64 + x];
+                sum += (srgb(p[0]) + srgb(p[1]) + srgb(p[2])) / 3.0;
+            }
+        }
+        let mean = 8.0 * sum / ((x1 - x0 + 1) * (y1 - y0 + 1)) as f64;
+        let area = packed.tri_shading[t].n1[3] as f64;
+        let want = mean * area * std::f64::consts::PI;
+        let entry = table
+            .iter()
+            .find(|l| l.id >> LIGHT_KIND_SHIFT == 0 && (l.id & LIGHT_INDEX_MASK) as usize == t);
+        match entry {
+            None => assert!(
+                want == 0.0 || packed.tri_verts[t].v0[1] == 0.0,
+                "triangle {t} emits {want} W but is no light"
+            ),
+            Some(_) => lit_triangles += 1,
+        }
+        if let Some(l) = entry {
+            let got = l.prob as f64 * packed.total_light_power;
+            assert!(
+                (got - want).abs() <= 1e-3 * want,
+                "triangle {t}: {got} W against {want} W by brute force"
+            );
+        }
+    }
+    eprintln!("{lit_triangles} of 288 screen triangles can emit");
+    // By the texture's average every screen triangle would carry 1/288 of the screen's picks, 6 % of them on the
+    // triangles that glow; by footprint all of them are, at least 10x as many.
+    assert!(
+        lit_triangles > 0 && lit_triangles * 10 <= 288,
+        "{lit_triangles} lit triangles"
+    );
+    let mut r = common::scene_renderer(&scene);
+    let s = |light_sampler, seed| RenderSettings {
+        light_sampler,
+        ..common::settings(32, 24, 256, seed)
+    };
+    let power = common::render(&mut r, &s(LightSampler::Power, 3));
+    let uniform = common::render(&mut r, &s(LightSampler::Uniform, 4));
+    let bad = common::stats::beyond_noise(&power, &uniform, 1e-3);
+    let ((mp, sp), (mu, su)) = (image_mean_and_stderr(&power), image_mean_and_stderr(&uniform));
+    let z = (mp - mu) / (sp * sp + su * su).sqrt();
+    let (vp, vu) = (summed_variance(&power), summed_variance(&uniform));
+    eprintln!("power {mp:.5} +- {sp:.5}, uniform {mu:.5} +- {su:.5} (z {z:.2}), {bad} beyond noise; variance {vp:.3} against {vu:.3}");
+    assert!(
+        bad <= 3 && z.abs() < 4.0,
+        "power and uniform selection disagree: z {z:.2}, {bad} pixel channels"
+    );
+    // Among the glowing triangles, power still favours the logo's centre over its rim.
+    assert!(
+        vp < vu,
+        "per-sample variance {vp} by footprint power is not below uniform's {vu}"
+    );
+}

@@ -1,5 +1,4 @@
 //! glTF images, samplers and texture references: decoding to RGBA8 and reading KHR_texture_transform.
-use glam::Vec4;
 
 /// Largest side of an image pathwave decodes; bigger ones are refused rather than allocated blindly.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -63,25 +62,6 @@ pub fn srgb_to_linear(c: f32) -> f32 {
 }
 
 impl Image {
-    /// Mean of the texels with the colour channels decoded from sRGB (alpha stays linear).
-    pub fn average_linear(&self) -> Vec4 {
-        let lut: Vec<f64> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0) as f64).collect();
-        let mut sum = [0.0f64; 4];
-        for t in &self.texels {
-            for c in 0..3 {
-                sum[c] += lut[t[c] as usize];
-            }
-            sum[3] += t[3] as f64 / 255.0;
-        }
-        let n = self.texels.len().max(1) as f64;
-        Vec4::new(
-            (sum[0] / n) as f32,
-            (sum[1] / n) as f32,
-            (sum[2] / n) as f32,
-            (sum[3] / n) as f32,
-        )
-    }
-
     /// Whether any texel is less than fully opaque.
     pub fn has_alpha(&self) -> bool {
         self.texels.iter().any(|t| t[3] < 255)

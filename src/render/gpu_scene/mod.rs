@@ -1,7 +1,9 @@
 //! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
+mod emission;
 mod pack;
 
-pub use pack::{emitted_power, mean_emission, pack, try_pack, try_pack_with, PackedScene};
+pub use emission::Emission;
+pub use pack::{pack, try_pack, try_pack_with, PackedScene};
 
 use crate::constants::*;
 use crate::error::Error;

@@ -1,4 +1,5 @@
 //! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
+use super::emission::Emission;
 use crate::bvh::lights::{LightBounds, LightTree};
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
@@ -117,33 +118,6 @@ impl PackedScene {
 
 fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
-}
-
-/// Mean emitted radiance of a material: the factor times its emissive texture's average (decoded from sRGB).
-pub fn mean_emission(scene: &Scene, m: &Material) -> glam::Vec3 {
-    match m.emissive_texture {
-        Some(r) => {
-            m.emission
-                * scene.images[scene.textures[r.texture].image]
-                    .average_linear()
-                    .truncate()
-        }
-        None => m.emission,
-    }
-}
-
-/// Power a triangle emits: mean radiance over channels × area × pi (× 2 when both faces emit).
-pub fn emitted_power(scene: &Scene, soup: &TriangleSoup, tri: usize) -> f64 {
-    let [a, b, c] = soup.positions()[tri];
-    emitted_power_of_area(scene, soup, tri, 0.5 * (b - a).cross(c - a).length())
-}
-
-/// `emitted_power` of the triangle's material over `area`.
-fn emitted_power_of_area(scene: &Scene, soup: &TriangleSoup, tri: usize, area: f32) -> f64 {
-    let m = &scene.materials[soup.material()[tri] as usize];
-    let e = mean_emission(scene, m);
-    let sides = if m.double_sided { 2.0 } else { 1.0 };
-    (e.x + e.y + e.z) as f64 / 3.0 * area as f64 * std::f64::consts::PI * sides
 }
 
 fn slot(r: Option<TextureRef>) -> TextureSlot {
@@ -300,13 +274,15 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         }
     };
     let bvh_build = start.elapsed();
-    let mut t = pack_triangles(scene, &soup, keys.as_deref(), &bvh.order).ok_or_else(|| Error::Scene {
-        path: scene.path.clone(),
-        message: format!("out of host memory packing its {} triangles", soup.len()),
-    })?;
+    let mut emission = Emission::new(scene);
+    let mut t =
+        pack_triangles(scene, &soup, keys.as_deref(), &bvh.order, &mut emission).ok_or_else(|| Error::Scene {
+            path: scene.path.clone(),
+            message: format!("out of host memory packing its {} triangles", soup.len()),
+        })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
     let (mut instances, mesh_lights) = if instanced.contains(&true) {
-        pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds).ok_or_else(|| Error::Scene {
+        pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds, &mut emission).ok_or_else(|| Error::Scene {
             path: scene.path.clone(),
             message: "out of host memory packing its instanced meshes".into(),
         })?
@@ -406,6 +382,7 @@ fn pack_instances(
     bvh: &mut Bvh,
     t: &mut PackedTriangles,
     bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
+    emission: &mut Emission,
 ) -> Option<(Vec<GpuInstance>, Vec<GpuLight>)> {
     use glam::Vec3;
     // Each instanced mesh's BVH and packed triangles, and where they start.
@@ -416,7 +393,7 @@ fn pack_instances(
             continue;
         }
         let blas = bvh::build(soup.positions());
-        let packed = pack_triangles(scene, &soup, None, &blas.order)?;
+        let packed = pack_triangles(scene, &soup, None, &blas.order, emission)?;
         parts.push((m, blas, packed, soup.bounds()));
     }
     let part_of = |m: usize| parts.iter().position(|p| p.0 == m);
@@ -630,6 +607,7 @@ fn pack_triangles(
     soup: &TriangleSoup,
     keys: Option<&[Vec<KeyTriangle>]>,
     order: &[u32],
+    emission: &mut Emission,
 ) -> Option<PackedTriangles> {
     let n = soup.len();
     let textured = scene.materials.iter().any(Material::reads_texcoords);
@@ -668,7 +646,7 @@ fn pack_triangles(
             t.tri_colors.push(TriColors { c0, c1, c2 });
         }
         let mut area = 0.5 * (b - a).cross(c - a).length();
-        let mut p = emitted_power(scene, soup, orig);
+        let mut p = emission.power(soup, orig, area);
         if let Some(keys) = keys {
             // A moving emitter is picked by its mean area over the keys (any area it has at some time), and the
             // device divides by its area at the ray's time.
@@ -680,7 +658,7 @@ fn pack_triangles(
             if key0 > 0.0 {
                 p *= (area / key0) as f64;
             } else if p == 0.0 && area > 0.0 {
-                p = emitted_power_of_area(scene, soup, orig, area);
+                p = emission.power(soup, orig, area);
             }
             for k in keys {
                 let KeyTriangle {
