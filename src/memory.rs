@@ -14,6 +14,9 @@ pub const HOST_BYTES_PER_PIXEL_KEPT: u64 = 8;
 /// And per later key of the motion over the shutter: its placed vertices and normals (72 bytes) and its device
 /// record (96), rounded up.
 pub const HOST_BYTES_PER_MOTION_KEY: u64 = 176;
+/// And per emissive triangle, for the light BVH: its emitter record with bounds (72 bytes, 16 of which the light
+/// table had before), the build's copy of them (56 and 68) and two tree nodes (128), rounded up.
+pub const HOST_BYTES_PER_EMITTER: u64 = 320;
 
 /// The budget when none is given: half of MemAvailable, at most 8 GiB (8 GiB when /proc/meminfo cannot be read).
 pub fn default_max_memory() -> u64 {
@@ -126,6 +129,28 @@ impl Scene {
         placed.saturating_add(stored)
     }
 
+    /// Emissive triangles the light BVH could hold at most: those of primitives whose material emits, placed once
+    /// per instance, or stored once for an instanced mesh (which is one emitter per instance).
+    fn emissive_triangle_bound(&self, instanced: &[bool]) -> u64 {
+        let emissive = |m: &crate::scene::Mesh| -> u64 {
+            (m.primitives.iter())
+                .filter(|p| {
+                    (self.materials.get(p.material as usize)).is_some_and(|mat| mat.emission.max_element() > 0.0)
+                })
+                .map(|p| p.triangles.len() as u64)
+                .sum()
+        };
+        let per_mesh: Vec<u64> = self.meshes.iter().map(emissive).collect();
+        (self.instances.iter())
+            .map(|i| if instanced[i.mesh] { 1 } else { per_mesh[i.mesh] })
+            .fold(0, u64::saturating_add)
+            .saturating_add(
+                (per_mesh.iter().zip(instanced))
+                    .map(|(&n, &i)| if i { n } else { 0 })
+                    .sum::<u64>(),
+            )
+    }
+
     /// Refuses a scene whose flattening and packing would need more than `limit` bytes of host memory, before any
     /// of it is allocated, when the renderer instances meshes by `rule`.
     pub fn check_host_memory(&self, limit: u64, rule: crate::scene::Instancing) -> Result<(), Error> {
@@ -141,7 +166,11 @@ impl Scene {
         let per_triangle = HOST_BYTES_PER_TRIANGLE + keys * HOST_BYTES_PER_MOTION_KEY;
         let need = (triangles - stored)
             .saturating_mul(per_triangle)
-            .saturating_add(stored.saturating_mul(HOST_BYTES_PER_TRIANGLE));
+            .saturating_add(stored.saturating_mul(HOST_BYTES_PER_TRIANGLE))
+            .saturating_add(
+                self.emissive_triangle_bound(&instanced)
+                    .saturating_mul(HOST_BYTES_PER_EMITTER),
+            );
         if need <= limit {
             return Ok(());
         }

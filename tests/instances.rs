@@ -270,35 +270,6 @@ fn a_moving_instanced_scene_renders_like_its_triangles_moved_one_by_one() {
 
 /// A floor, a grey ball, and one glowing sphere mesh (single-sided: it emits outwards) placed four ways: rotated,
 /// stretched, mirrored and plain. Its instances are the only lights.
-fn lamps() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    let white = b.material("white", [0.7; 3], [0.0; 3], false);
-    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
-    let glow = b.material("glow", [0.2; 3], [4.0, 3.0, 2.0], false);
-    b.quad(
-        "floor",
-        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.uv_sphere("ball", [0.0, 0.5, 0.0], 0.5, grey, true);
-    b.uv_sphere("bulb", [0.0, 0.0, 0.0], 0.3, glow, true);
-    b.transform_last_node(
-        json!({ "translation": [-1.4, 1.2, 0.3], "rotation": Quat::from_rotation_z(0.7).to_array() }),
-    );
-    b.place_last_mesh(
-        "stretched",
-        json!({ "translation": [1.3, 1.0, -0.4], "scale": [1.8, 0.5, 1.0] }),
-    );
-    b.place_last_mesh(
-        "mirrored",
-        json!({ "translation": [0.2, 1.8, -1.2], "scale": [-1.6, 1.6, 1.6] }),
-    );
-    b.place_last_mesh("plain", json!({ "translation": [0.5, 0.5, 1.2] }));
-    b.camera([0.0, 2.0, 5.0], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 45.0);
-    b
-}
-
 /// Catches, for each estimator: instanced emitters picked with probabilities other than those the device divides by
 /// (light sampling: the instance's pick times its triangle's within the mesh, over the triangle's area in the world),
 /// emission hits weighted against another density than light sampling's (MIS weights would not add to 1), a
@@ -308,13 +279,13 @@ fn lamps() -> GltfBuilder {
 #[test]
 fn instanced_emitters_light_the_scene_as_placed_ones_do() {
     use pathwave::{Estimator, RenderSettings};
-    let (dir, path) = common::write_temp(&lamps(), "lamps.gltf");
+    let (dir, path) = common::write_temp(&common::scenes::lamps(), "lamps.gltf");
     let still = load(&path, None).unwrap();
     let bulb = still.meshes.iter().position(|m| m.name == "bulb").unwrap();
     assert!(still.instanced_meshes(Instancing::Always)[bulb]);
     let packed = try_pack_with(&still, Instancing::Always).unwrap();
     assert_eq!(packed.light_count, 4, "one light per instance");
-    let mut b = lamps();
+    let mut b = common::scenes::lamps();
     b.animate(
         "move",
         2,

@@ -178,40 +178,15 @@ fn samplers_and_estimators_agree_on_many_lights() {
     );
 }
 
-/// Six instances of one emissive bulb (turned, stretched, mirrored, plain), three of a one-sided panel, and two
-/// point and two spot lights over a floor: thirteen emitters for the tree, none a world triangle when instanced.
+/// The lamps of tests/instances.rs with two more bulbs, three instances of a one-sided panel, and two point and two
+/// spot lights: thirteen emitters for the tree, none a world triangle when instanced.
 fn bulbs_and_punctual_lights() -> common::gltf_builder::GltfBuilder {
     use glam::Quat;
     use serde_json::json;
-    let mut b = common::gltf_builder::GltfBuilder::new();
-    let white = b.material("white", [0.7; 3], [0.0; 3], false);
-    let glow = b.material("glow", [0.2; 3], [4.0, 3.0, 2.0], false);
-    b.quad(
-        "floor",
-        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.uv_sphere("ball", [0.0, 0.5, 0.0], 0.5, white, true);
-    b.uv_sphere("bulb", [0.0, 0.0, 0.0], 0.15, glow, true);
-    b.transform_last_node(
-        json!({ "translation": [-1.4, 1.2, 0.3], "rotation": Quat::from_rotation_z(0.7).to_array() }),
-    );
-    for (name, t) in [
-        (
-            "stretched",
-            json!({ "translation": [1.3, 1.0, -0.4], "scale": [1.8, 0.5, 1.0] }),
-        ),
-        (
-            "mirrored",
-            json!({ "translation": [0.2, 1.8, -1.2], "scale": [-1.6, 1.6, 1.6] }),
-        ),
-        ("plain 1", json!({ "translation": [0.5, 0.5, 1.2] })),
-        ("plain 2", json!({ "translation": [-2.0, 0.4, -2.0] })),
-        ("plain 3", json!({ "translation": [2.2, 2.5, 1.5] })),
-    ] {
-        b.place_last_mesh(name, t);
-    }
+    let mut b = common::scenes::lamps();
+    let glow = 2;
+    b.place_last_mesh("plain 2", json!({ "translation": [-2.0, 0.4, -2.0] }));
+    b.place_last_mesh("plain 3", json!({ "translation": [2.2, 2.5, 1.5] }));
     // A one-sided panel facing up in its mesh, turned over, mirrored and tilted to light the floor: its instances'
     // normal cones must follow their transforms, or the floor falls outside them.
     b.quad(
@@ -231,12 +206,7 @@ fn bulbs_and_punctual_lights() -> common::gltf_builder::GltfBuilder {
         "panel tilted",
         json!({ "translation": [1.8, 1.5, 1.0], "rotation": Quat::from_rotation_z(2.5).to_array() }),
     );
-    let down = [
-        -std::f32::consts::FRAC_1_SQRT_2,
-        0.0,
-        0.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ];
+    let down = common::scenes::POINTING_DOWN;
     b.punctual(
         json!({"type": "point"}),
         [1.0, 0.9, 0.8],
@@ -254,7 +224,6 @@ fn bulbs_and_punctual_lights() -> common::gltf_builder::GltfBuilder {
     let spot = json!({"type": "spot", "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}});
     b.punctual(spot.clone(), [1.0, 1.0, 1.0], 8.0, [-0.8, 2.5, -0.5], down);
     b.punctual(spot, [1.0, 0.5, 0.3], 6.0, [1.2, 2.0, 1.0], down);
-    b.camera([0.0, 2.0, 5.0], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 45.0);
     b
 }
 

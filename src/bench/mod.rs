@@ -163,8 +163,7 @@ fn measure(
     scene: &Scene,
     size: (u32, u32),
     spp: u32,
-    device: &DeviceChoice,
-    light_sampler: LightSampler,
+    o: &BenchOptions,
     variation: Variation,
 ) -> Result<CaseResult, Error> {
     let Variation {
@@ -172,7 +171,7 @@ fn measure(
         schedule,
         spectral,
     } = variation;
-    let ctx = Context::new(device, Validation::Off)?;
+    let ctx = Context::new(&o.device, Validation::Off)?;
     let device_name = ctx.device_name();
     let mut r = Renderer::with_context(scene, ctx)?;
     let bvh_build_s = r.bvh_build_time().as_secs_f64();
@@ -188,7 +187,7 @@ fn measure(
         height: size.1,
         spp,
         spectral,
-        light_sampler,
+        light_sampler: o.light_sampler,
         ..Default::default()
     };
     let (film, stats) = r.render(&settings, &mut |_| {})?;
@@ -276,6 +275,8 @@ pub struct BenchReport {
     pub mitsuba_spectral: Option<MitsubaComparison>,
     /// The lamp grid, once per light sampler.
     pub mitsuba_lights: Vec<MitsubaComparison>,
+    /// The light BVH's build over the terrain with every triangle emitting: (emitters, depth, seconds).
+    pub light_tree: Option<(usize, u32, f64)>,
     /// With the Mitsuba comparison: --adaptive against uniform sampling at equal time, per scene.
     pub adaptive: Vec<adaptive::AdaptiveComparison>,
     pub total: Duration,
@@ -301,6 +302,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         mitsuba: None,
         mitsuba_spectral: None,
         mitsuba_lights: Vec::new(),
+        light_tree: None,
         adaptive: Vec::new(),
         total: Duration::ZERO,
     };
@@ -309,6 +311,11 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         process_time(&o.exe, &cornell, (64, 64), 1)?;
         report.startup_s = Some(process_time(&o.exe, &cornell, (64, 64), 1)?);
         run_cases(o, &cornell, &glass, &mut report.cases, progress)?;
+        progress("light tree");
+        let mut glowing = terrain(if o.quick { 128 } else { 708 });
+        glowing.materials[0].emission = Vec3::ONE;
+        let tree = crate::render::gpu_scene::try_pack(&glowing)?.light_tree.stats;
+        report.light_tree = Some((tree.emitters, tree.depth, tree.build.as_secs_f64()));
     }
     if o.compare.contains(&Compare::Embree) {
         progress("Embree comparison");
@@ -377,15 +384,7 @@ fn run_cases(
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(
-            name,
-            &scene,
-            (256, 256),
-            spp,
-            &o.device,
-            o.light_sampler,
-            Variation::default(),
-        )?;
+        let mut c = measure(name, &scene, (256, 256), spp, o, Variation::default())?;
         c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
         cases.push(c);
         if name == "cornell-box" {
@@ -395,15 +394,7 @@ fn run_cases(
                 reads: Some(BvhReads::Storage),
                 ..Default::default()
             };
-            cases.push(measure(
-                "cornell-storage",
-                &scene,
-                (256, 256),
-                spp,
-                &o.device,
-                o.light_sampler,
-                storage,
-            )?);
+            cases.push(measure("cornell-storage", &scene, (256, 256), spp, o, storage)?);
             for (name, schedule) in [
                 ("cornell-fused", Schedule::Fused),
                 ("cornell-wavefront", Schedule::Wavefront),
@@ -412,57 +403,25 @@ fn run_cases(
                     schedule: Some(schedule),
                     ..Default::default()
                 };
-                cases.push(measure(
-                    name,
-                    &scene,
-                    (256, 256),
-                    spp,
-                    &o.device,
-                    o.light_sampler,
-                    fixed,
-                )?);
+                cases.push(measure(name, &scene, (256, 256), spp, o, fixed)?);
             }
             // Spectral transport's cost (--spectral): four wavelengths per path and every colour upsampled.
             let spectral = Variation {
                 spectral: true,
                 ..Default::default()
             };
-            cases.push(measure(
-                "cornell-spectral",
-                &scene,
-                (256, 256),
-                spp,
-                &o.device,
-                o.light_sampler,
-                spectral,
-            )?);
+            cases.push(measure("cornell-spectral", &scene, (256, 256), spp, o, spectral)?);
         }
     }
     progress("terrain");
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangle_count() / 1000);
-    cases.push(measure(
-        &name,
-        &t,
-        (256, 256),
-        spp_mesh,
-        &o.device,
-        o.light_sampler,
-        Variation::default(),
-    )?);
+    cases.push(measure(&name, &t, (256, 256), spp_mesh, o, Variation::default())?);
     let storage = Variation {
         reads: Some(BvhReads::Storage),
         ..Default::default()
     };
-    cases.push(measure(
-        "terrain-storage",
-        &t,
-        (256, 256),
-        spp_mesh,
-        &o.device,
-        o.light_sampler,
-        storage,
-    )?);
+    cases.push(measure("terrain-storage", &t, (256, 256), spp_mesh, o, storage)?);
     // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
     progress("instances");
     let (count, mesh_side) = if o.quick { (400, 40) } else { (10_000, 160) };
@@ -473,8 +432,7 @@ fn run_cases(
         &forest,
         (256, 256),
         spp_mesh.min(8),
-        &o.device,
-        o.light_sampler,
+        o,
         Variation::default(),
     )?;
     c.process_s = Some(build.elapsed().as_secs_f64());
@@ -485,15 +443,7 @@ fn run_cases(
         progress("terrain past the storage range");
         let big = terrain(1300);
         let name = format!("terrain-{}k", big.triangle_count() / 1000);
-        cases.push(measure(
-            &name,
-            &big,
-            (256, 256),
-            8,
-            &o.device,
-            o.light_sampler,
-            Variation::default(),
-        )?);
+        cases.push(measure(&name, &big, (256, 256), 8, o, Variation::default())?);
     }
     Ok(())
 }
@@ -510,6 +460,9 @@ impl BenchReport {
         }
         if !self.cases.is_empty() {
             s += &self.cases_table();
+        }
+        if let Some((emitters, depth, build)) = self.light_tree {
+            s += &format!("light tree over the terrain, every triangle emitting: {emitters} emitters, depth {depth}, built in {build:.3} s\n");
         }
         if let Some(e) = &self.embree {
             s += &format!(
@@ -643,6 +596,7 @@ impl BenchReport {
             "mitsuba": self.mitsuba.as_ref().map(|m| m.json()),
             "mitsuba_spectral": self.mitsuba_spectral.as_ref().map(|m| m.json()),
             "mitsuba_lights": self.mitsuba_lights.iter().map(|m| m.json()).collect::<Vec<_>>(),
+            "light_tree": self.light_tree.map(|(emitters, depth, build_s)| serde_json::json!({"emitters": emitters, "depth": depth, "build_s": build_s})),
             "adaptive": self.adaptive.iter().map(|a| a.json()).collect::<Vec<_>>(),
             "total_s": self.total.as_secs_f64(),
             "cases": cases,

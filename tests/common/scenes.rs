@@ -3,6 +3,15 @@
 use super::gltf_builder::GltfBuilder;
 
 /// Every scene in scenes/ by file name.
+/// A node rotation that turns a light's -z (where spot and directional lights shine) straight down: a quarter turn
+/// about x.
+pub const POINTING_DOWN: [f32; 4] = [
+    -std::f32::consts::FRAC_1_SQRT_2,
+    0.0,
+    0.0,
+    std::f32::consts::FRAC_1_SQRT_2,
+];
+
 pub fn all() -> Vec<(&'static str, GltfBuilder)> {
     vec![
         ("cornell-box.gltf", cornell_box()),
@@ -310,12 +319,7 @@ pub fn punctual_lights() -> GltfBuilder {
     );
     b.sphere("white sphere", [-1.0, 0.5, 0.0], 0.5, white);
     b.sphere("gold sphere", [1.0, 0.5, 0.0], 0.5, gold);
-    let down = [
-        -std::f32::consts::FRAC_1_SQRT_2,
-        0.0,
-        0.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ];
+    let down = POINTING_DOWN;
     b.punctual(
         json!({ "type": "point" }),
         [1.0, 0.8, 0.6],
@@ -849,12 +853,7 @@ pub fn halves() -> GltfBuilder {
         None,
     );
     // A directional light shines along its node's -z: turned a quarter about x, straight down.
-    let down = [
-        -std::f32::consts::FRAC_1_SQRT_2,
-        0.0,
-        0.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ];
+    let down = POINTING_DOWN;
     b.punctual(
         serde_json::json!({ "type": "directional" }),
         [1.0; 3],
@@ -930,5 +929,37 @@ pub fn prism() -> GltfBuilder {
         glass,
     );
     b.camera([0.0, 1.1, 3.6], [0.0, 1.1, 0.0], [0.0, 1.0, 0.0], 40.0);
+    b
+}
+
+/// A floor and a grey ball under one emissive bulb mesh placed four times: turned, stretched, mirrored and plain
+/// (tests/instances.rs, tests/light_tree.rs). Materials: white 0, grey 1, glow 2.
+pub fn lamps() -> GltfBuilder {
+    use serde_json::json;
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let glow = b.material("glow", [0.2; 3], [4.0, 3.0, 2.0], false);
+    b.quad(
+        "floor",
+        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.uv_sphere("ball", [0.0, 0.5, 0.0], 0.5, grey, true);
+    b.uv_sphere("bulb", [0.0, 0.0, 0.0], 0.3, glow, true);
+    b.transform_last_node(
+        json!({ "translation": [-1.4, 1.2, 0.3], "rotation": glam::Quat::from_rotation_z(0.7).to_array() }),
+    );
+    b.place_last_mesh(
+        "stretched",
+        json!({ "translation": [1.3, 1.0, -0.4], "scale": [1.8, 0.5, 1.0] }),
+    );
+    b.place_last_mesh(
+        "mirrored",
+        json!({ "translation": [0.2, 1.8, -1.2], "scale": [-1.6, 1.6, 1.6] }),
+    );
+    b.place_last_mesh("plain", json!({ "translation": [0.5, 0.5, 1.2] }));
+    b.camera([0.0, 2.0, 5.0], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 45.0);
     b
 }
