@@ -125,8 +125,8 @@ pub struct MotionKey {
 /// 128 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
 /// three rows each (x, y, z of a 3x4 affine map), `info` = (its BLAS root node, 1 when the transform mirrors, its
 /// index in `Scene::instances`, the record of its key 1 when it moves over the shutter, else 0), and `light` = (where
-/// its mesh's emitters' table starts in the light buffer, how many it holds, the probability (f32 bits) light
-/// selection picks this instance with, 0); all 0 for a mesh that does not emit. Record 0 is the header: `info` =
+/// its mesh's emitters' table starts in the light buffer, how many it holds, this instance's entry in light
+/// selection's table, the root of its mesh's light subtree in the light tree); all 0 for a mesh that does not emit. Record 0 is the header: `info` =
 /// (the TLAS root node, the instance count, the first BLAS triangle, 0). The instances' records follow in the TLAS's
 /// order, then each moving instance's keys 1 ..= MOTION_SEGMENTS, whole records at those times. 128 bytes a still
 /// instance, 640 a moving one. See `Instance` in layout.glsl.
@@ -143,7 +143,8 @@ pub struct GpuInstance {
     pub light: [u32; 4],
 }
 
-/// 48 bytes: vertex normals; `n0[3]` = NEE pdf per unit area (0 if not emissive), `n1[3]` = area, `n2[3]` = the
+/// 48 bytes: vertex normals; `n0[3]` = the triangle's entry in the light buffer + 1 (0 if light selection never
+/// picks it), `n1[3]` = area, `n2[3]` = the
 /// placing instance's index in `Scene::instances` (u32 bits).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
@@ -252,7 +253,7 @@ pub struct GpuLightNode {
     pub link: [u32; 4],
 }
 
-/// 48 bytes: probe_light_select's query and answer (see `LightSelectRecord` in layout.glsl).
+/// 64 bytes: probe_light_select's query and answer (see `LightSelectRecord` in layout.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct LightSelectRecord {
@@ -264,6 +265,10 @@ pub struct LightSelectRecord {
     pub picked: u32,
     pub prob: f32,
     pub pmf: f32,
+    pub sub_entry: u32,
+    pub sub_picked: u32,
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
 /// 48 bytes: a KHR_lights_punctual light (see `PunctualLight` in layout.glsl).
@@ -344,7 +349,7 @@ const _: () = assert!(std::mem::size_of::<TriShading>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 96);
 const _: () = assert!(std::mem::size_of::<GpuInstance>() == 128);
 const _: () = assert!(std::mem::size_of::<GpuLightNode>() == 64);
-const _: () = assert!(std::mem::size_of::<LightSelectRecord>() == 48);
+const _: () = assert!(std::mem::size_of::<LightSelectRecord>() == 64);
 
 /// 64 bytes: a pixel's AOV sums (survey.comp): albedo rgb and the samples added; the normal and the samples whose
 /// camera ray hit; the first hit's position and its distance along the camera ray (summed over hits); the instance

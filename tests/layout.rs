@@ -59,7 +59,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(MotionKey => "MotionKey", [v0, e1, e2, n0, n1, n2]),
         mirror!(GpuLight => "Light", [id, cdf, prob, area]),
         mirror!(GpuLightNode => "LightNode", [sphere, cone, angles, link]),
-        mirror!(LightSelectRecord => "LightSelectRecord", [p, entry, n, u, v, picked, prob, pmf]),
+        mirror!(LightSelectRecord => "LightSelectRecord", [p, entry, n, u, v, picked, prob, pmf, sub_entry, sub_picked, pad0, pad1]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, budget_max, pad1, pad2]),
         mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, pad1, pad2, t, tri, uv]),

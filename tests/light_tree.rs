@@ -41,6 +41,7 @@ fn queries(entries: &[u32], n: usize) -> Vec<LightSelectRecord> {
                 n,
                 u: lcg(&mut s),
                 v: lcg(&mut s),
+                sub_entry: LIGHT_NONE,
                 ..Default::default()
             }
         })
@@ -441,4 +442,153 @@ fn emissive_textures_are_sampled_where_they_glow() {
         vp < vu,
         "per-sample variance {vp} by footprint power is not below uniform's {vu}"
     );
+}
+
+/// Catches, in an instanced mesh's light subtree (stored once, entered with the shading point taken into the mesh's
+/// space): a pick whose probability is not its pdf twin's (the instance's pick times its triangle's within the
+/// subtree), picks not distributed as that pmf (chi-square), a pmf that does not sum to one over every emitter of
+/// every instance, and a point or normal taken into the mesh's space wrongly (a turned, stretched or mirrored bulb
+/// would then favour its triangles facing away from the point, where a power pick gives them half the picks).
+#[test]
+fn instanced_meshes_subtrees_pick_as_their_pdf_twin_says() {
+    use pathwave::constants::{LIGHT_INDEX_MASK, LIGHT_KIND_INSTANCE};
+    use pathwave::scene::{load, Instancing};
+    use std::collections::HashMap;
+    let (_dir, path) = common::write_temp(&bulbs_and_punctual_lights(), "bulbs.gltf");
+    let scene = load(&path, None).unwrap();
+    let packed = pathwave::render::gpu_scene::try_pack_with(&scene, Instancing::Always).unwrap();
+    let tree = &packed.light_tree;
+    assert!(
+        tree.stats.instanced > 100,
+        "{} emitters in subtrees",
+        tree.stats.instanced
+    );
+    // Every emitter: (entry, sub-entry or LIGHT_NONE), and for an instanced triangle its front's normal and a
+    // point on it in the world.
+    type Placed = Option<(glam::Vec3, glam::Vec3)>;
+    let mut pairs: Vec<(u32, u32, Placed)> = Vec::new();
+    for j in 0..packed.light_count {
+        let id = packed.lights[j as usize].id;
+        if id >> LIGHT_KIND_SHIFT != LIGHT_KIND_INSTANCE {
+            pairs.push((j, LIGHT_NONE, None));
+            continue;
+        }
+        let inst = &packed.instances[(id & LIGHT_INDEX_MASK) as usize];
+        assert_ne!(inst.light[3], 0, "instance entry {j} has no subtree");
+        let rows = [inst.world0, inst.world1, inst.world2].map(glam::Vec4::from);
+        let to_world = |v: glam::Vec3| {
+            glam::Vec3::new(
+                rows[0].dot(v.extend(1.0)),
+                rows[1].dot(v.extend(1.0)),
+                rows[2].dot(v.extend(1.0)),
+            )
+        };
+        for e in inst.light[0]..inst.light[0] + inst.light[1] {
+            let t = &packed.tri_verts[(packed.lights[e as usize].id & LIGHT_INDEX_MASK) as usize];
+            let v0 = glam::Vec3::from_slice(&t.v0[..3]);
+            let (a, b, c) = (
+                to_world(v0),
+                to_world(v0 + glam::Vec3::from_slice(&t.e1[..3])),
+                to_world(v0 + glam::Vec3::from_slice(&t.e2[..3])),
+            );
+            let mirrored = if inst.info[1] != 0 { -1.0 } else { 1.0 };
+            let normal = (b - a).cross(c - a).normalize_or_zero() * mirrored;
+            pairs.push((j, e, Some(((a + b + c) / 3.0, normal))));
+        }
+    }
+    let points = [
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+        ([-1.2, 0.0, 1.1], [0.0, 1.0, 0.0]),
+        ([1.0, 0.5, -1.0], [0.0, 0.0, 0.0]),
+        ([0.3, 1.2, 0.4], [0.6, 0.0, 0.8]),
+    ];
+    let picks = 40_000;
+    let mut r = renderer_with(&scene, Instancing::Always);
+    let mut s = 7;
+    for (p, n) in points {
+        let mut records: Vec<LightSelectRecord> = (pairs.iter())
+            .map(|&(entry, sub_entry, _)| LightSelectRecord {
+                p,
+                n,
+                entry,
+                sub_entry,
+                ..Default::default()
+            })
+            .collect();
+        records.extend((0..picks).map(|_| LightSelectRecord {
+            p,
+            n,
+            entry: 0,
+            sub_entry: LIGHT_NONE,
+            u: lcg(&mut s),
+            v: lcg(&mut s),
+            ..Default::default()
+        }));
+        let out = r.probe_light_select(&records, LightSampler::Bvh).unwrap();
+        let (twin, picked) = out.split_at(pairs.len());
+        let pmf: HashMap<(u32, u32), f64> = twin.iter().map(|d| ((d.entry, d.sub_entry), d.pmf as f64)).collect();
+        let total: f64 = pmf.values().sum();
+        assert!(total <= 1.0 + 1e-4, "at {p:?}: the pmf sums to {total}");
+        let mut counts: HashMap<(u32, u32), u64> = HashMap::new();
+        for d in picked {
+            let key = (d.picked, d.sub_picked);
+            if key != (LIGHT_NONE, LIGHT_NONE) {
+                let want = *pmf.get(&key).unwrap_or_else(|| panic!("pick {key:?} is no emitter"));
+                assert!(
+                    (d.prob as f64 - want).abs() <= 1e-5 * want,
+                    "pick {key:?} at {p:?} with probability {}, its pdf twin says {want}",
+                    d.prob
+                );
+            }
+            *counts.entry(key).or_default() += 1;
+        }
+        // A descent that reaches a node whose children both have no importance picks nothing (the bound is loose
+        // near a curved mesh's silhouette): exactly the mass the pmf is short of one, a cell of its own.
+        let mut pmf = pmf;
+        pmf.insert((LIGHT_NONE, LIGHT_NONE), (1.0 - total).max(0.0));
+        // Chi-square over emitters expected at least 5 times, the rest pooled; 5 sigma of the statistic's spread.
+        let (mut chi2, mut cells, mut pooled_n, mut pooled_e) = (0.0, 0usize, 0.0, 0.0);
+        for (key, &q) in &pmf {
+            let (o, e) = (*counts.get(key).unwrap_or(&0) as f64, q * picks as f64);
+            if e >= 5.0 {
+                chi2 += (o - e) * (o - e) / e;
+                cells += 1;
+            } else {
+                pooled_n += o;
+                pooled_e += e;
+            }
+        }
+        if pooled_e > 0.0 {
+            chi2 += (pooled_n - pooled_e) * (pooled_n - pooled_e) / pooled_e;
+            cells += 1;
+        }
+        let dof = (cells - 1) as f64;
+        // The share of picks on instanced triangles whose emitting face turns away from p (none of its light can
+        // reach p): a power pick within the mesh gives them half of each bulb's picks.
+        let p = glam::Vec3::from(p);
+        let (mut away, mut instanced) = (0.0, 0.0);
+        for &(entry, sub, placed) in &pairs {
+            let Some((c, normal)) = placed else {
+                continue;
+            };
+            let q = pmf[&(entry, sub)];
+            instanced += q;
+            if normal.dot(p - c) < -0.2 * (p - c).length() {
+                away += q;
+            }
+        }
+        eprintln!(
+            "at {p}: chi-square {chi2:.1} over {dof} degrees of freedom; {:.4} of the instanced picks face away, {:.4} pick nothing",
+            away / instanced,
+            1.0 - total
+        );
+        assert!(
+            chi2 < dof + 5.0 * (2.0 * dof).sqrt(),
+            "at {p}: chi-square {chi2} over {dof} degrees of freedom"
+        );
+        assert!(
+            away < 0.05 * instanced,
+            "at {p}: {away} of {instanced} on triangles facing away"
+        );
+    }
 }

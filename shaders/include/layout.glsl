@@ -52,8 +52,8 @@ struct MotionKey {
 // 128 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
 // 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, the record of
 // its key 1 when it moves over the shutter, else 0); light = (the first entry of its mesh's emitter table in the
-// light buffer, their count, the probability (float bits) light selection picks the instance with, 0), zero for a
-// mesh that does not emit. Record 0 is the header: info = (the TLAS root node, the instance count, the first BLAS
+// light buffer, their count, the instance's entry in light selection's table, the root of its mesh's light subtree),
+// zero for a mesh that does not emit. Record 0 is the header: info = (the TLAS root node, the instance count, the first BLAS
 // triangle, 0). A moving instance's keys 1 ..= MOTION_SEGMENTS are whole records after the instances' (see
 // instance_at).
 struct Instance {
@@ -280,8 +280,10 @@ struct EnvRecord {
     uint pad0;
 };
 
-// 48 bytes: probe_light_select's point, receiver normal and uniforms, the table entry whose pdf it asks for, and what
-// light selection answered: the entry picked (LIGHT_NONE: nothing can light p), its probability, the entry's pmf.
+// 64 bytes: probe_light_select's point, receiver normal and uniforms, the table entry whose pdf it asks for (and
+// for an instance, sub_entry: its mesh's emitter, or LIGHT_NONE for the instance's pick alone), and what light
+// selection answered: the entry picked (LIGHT_NONE: nothing can light p) and the emitter picked within it for an
+// instance (sub_picked, else LIGHT_NONE), their probability, the entry's (and sub-entry's) pmf.
 struct LightSelectRecord {
     vec3 p;
     uint entry;
@@ -291,6 +293,10 @@ struct LightSelectRecord {
     uint picked;
     float prob;
     float pmf;
+    uint sub_entry;
+    uint sub_picked;
+    uint pad0;
+    uint pad1;
 };
 
 // What Frame.bounce means to a probe kernel: PROBE_SAMPLE or PROBE_EVALUATE (PROBE_ANY_HIT for probe_trace).

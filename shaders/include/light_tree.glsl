@@ -53,30 +53,46 @@ float light_first_child(uvec4 link, vec3 p, vec3 n) {
     return i0 + i1 > 0.0 ? i0 / (i0 + i1) : -1.0;
 }
 
-// Descends from the root by importance at (p, n): u.x chooses, rescaled at each node, until the choices it made are
-// less likely than LIGHT_FRESH_NUMBER_BELOW, where u.y (an independent number with all its bits) takes over; 24 bits
-// then keep each pick within about 2^-12 of its pmf. The table entry picked and its probability within the tree;
-// false when nothing in the tree can light p.
-bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
-    uint node = light_node_link(0u).x;
+// The random numbers of one descent, through the tree and on into an instanced mesh's subtree: x chooses, rescaled
+// at each node, until the choices it made are less likely than LIGHT_FRESH_NUMBER_BELOW, where y (an independent
+// number with all its bits) takes over; 24 bits then keep each pick within about 2^-12 of its pmf.
+struct LightWalk {
+    float x;
+    float y;
+    float part;
+    bool fresh;
+};
+
+LightWalk light_walk(vec2 u) {
+    LightWalk w;
+    w.x = u.x;
+    w.y = u.y;
+    w.part = 1.0;
+    w.fresh = false;
+    return w;
+}
+
+// Descends from `node` (the root, or an instanced mesh's subtree's root with p and n in the mesh's space) by
+// importance at (p, n): the leaf's table entry and the probability of reaching it from `node`; false when nothing
+// below `node` can light p.
+bool tree_descend(uint node, vec3 p, vec3 n, inout LightWalk w, out uint entry, out float prob) {
     entry = 0u;
     prob = 0.0;
     if (node == 0u) return false;
-    float pr = 1.0, part = 1.0, x = u.x;
-    bool fresh = false;
+    float pr = 1.0;
     uvec4 link = light_node_link(node);
     for (uint d = 0u; d < LIGHT_TREE_MAX_DEPTH && link.x != LIGHT_NODE_LEAF; d++) {
         float p0 = light_first_child(link, p, n);
         if (p0 < 0.0) return false;
-        bool first = x < p0;
+        bool first = w.x < p0;
         node = first ? link.x : link.y & ~LIGHT_NODE_TWO_SIDED;
         float q = first ? p0 : 1.0 - p0;
         pr *= q;
-        part *= q;
-        x = min(first ? x / p0 : (x - p0) / (1.0 - p0), 0.99999994);
-        if (!fresh && part < LIGHT_FRESH_NUMBER_BELOW) {
-            x = u.y;
-            fresh = true;
+        w.part *= q;
+        w.x = min(first ? w.x / p0 : (w.x - p0) / (1.0 - p0), 0.99999994);
+        if (!w.fresh && w.part < LIGHT_FRESH_NUMBER_BELOW) {
+            w.x = w.y;
+            w.fresh = true;
         }
         link = light_node_link(node);
     }
@@ -86,9 +102,10 @@ bool tree_pick(vec3 p, vec3 n, vec2 u, out uint entry, out float prob) {
     return true;
 }
 
-// The probability tree_pick returns table entry `entry` from (p, n): the same products along the leaf's trail.
-float tree_pmf(uint entry, vec3 p, vec3 n) {
-    uint node = light_node_link(0u).x;
+// The probability tree_descend from `root` returns table entry `entry` at (p, n): the same products along the
+// leaf's trail.
+float tree_pmf_below(uint root, uint entry, vec3 p, vec3 n) {
+    uint node = root;
     uvec4 leaf = light_node_link(entry + 1u);
     if (node == 0u || leaf.x != LIGHT_NODE_LEAF) return 0.0;
     float pr = 1.0;
@@ -103,6 +120,9 @@ float tree_pmf(uint entry, vec3 p, vec3 n) {
     }
     return node == entry + 1u ? pr : 0.0;
 }
+
+// From the tree's root.
+float tree_pmf(uint entry, vec3 p, vec3 n) { return tree_pmf_below(light_node_link(0u).x, entry, p, n); }
 
 // A receiver's normal in one float for the path state: octahedral, 12 bits a coordinate, as an integer below 2^24
 // so the float is exact through any load or texel fetch. Light selection and its pdf twin both use the decoded one.

@@ -33,18 +33,41 @@ float rescale_pick(uint first, uint j, Light l, float u) {
 bool light_tree_on() { return scene_has(FEATURE_LIGHT_TREE) && (frame.flags & FLAG_LIGHT_TREE) != 0u; }
 bool light_uniform() { return (frame.flags & FLAG_LIGHT_UNIFORM) != 0u; }
 
-// Light selection: an entry of the light buffer (of the table, or of the tree's infinite lights) and the probability
-// it was picked with, from the point p with normal n. By power and uniformly, u_point.x picks and is rescaled to the
-// pick's share, so one stratified 2D sample spreads over the lights together (on the Cornell box's two light
-// triangles that lowered relMSE at equal samples by 2.4 % against a separate dimension). The tree takes u_pick: its
-// descent would leave u_point.x too few bits. The tree's share of the picks is the header's; the rest goes to the
-// infinite lights (environment, directional lights) by their power, as in the power table.
-bool select_light(vec3 p, vec3 n, vec2 u_pick, inout vec2 u_point, out uint j, out float prob) {
+// p and n in instance inst's mesh space (at the path's time), where its mesh's light subtree judges importance; the
+// pick and its pdf twin both take them from here, so both see the same floats.
+void light_into_instance(uint inst, vec3 p, vec3 n, out vec3 po, out vec3 no) {
+    Instance I = instance_at(inst);
+    po = vec3(dot(I.object0.xyz, p) + I.object0.w, dot(I.object1.xyz, p) + I.object1.w, dot(I.object2.xyz, p) + I.object2.w);
+    // A normal goes by the transpose of the forward map.
+    vec3 m = I.world0.xyz * n.x + I.world1.xyz * n.y + I.world2.xyz * n.z;
+    no = dot(m, m) > 0.0 ? normalize(m) : vec3(0.0);
+}
+
+// Light selection: an entry of the light buffer (of the table, or of the tree's infinite lights), for an instance
+// the emitter of its mesh picked within it when the tree picks (sub; else LIGHT_NONE, and sample_light picks by
+// power in the mesh's table), and the probability of both, from the point p with normal n. By power and uniformly,
+// u_point.x picks and is rescaled to the pick's share, so one stratified 2D sample spreads over the lights together
+// (on the Cornell box's two light triangles that lowered relMSE at equal samples by 2.4 % against a separate
+// dimension). The tree takes u_pick: its descent would leave u_point.x too few bits. The tree's share of the picks
+// is the header's; the rest goes to the infinite lights (environment, directional lights) by their power, as in the
+// power table. An instance the tree reaches continues the same descent into its mesh's subtree, stored once for
+// every instance of the mesh, with p and n taken into the mesh's space.
+bool select_light(vec3 p, vec3 n, vec2 u_pick, inout vec2 u_point, out uint j, out uint sub, out float prob) {
+    sub = LIGHT_NONE;
     if (light_tree_on()) {
         float share = light_node_sphere(0u).x;
         if (u_pick.x < share) {
-            bool ok = tree_pick(p, n, vec2(u_pick.x / share, u_pick.y), j, prob);
+            LightWalk w = light_walk(vec2(u_pick.x / share, u_pick.y));
+            bool ok = tree_descend(light_node_link(0u).x, p, n, w, j, prob);
             prob *= share;
+            if (ok && scene_has(FEATURE_INSTANCES) && (load_light(j).id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_INSTANCE) {
+                uint inst = load_light(j).id & LIGHT_INDEX_MASK;
+                vec3 po, no;
+                light_into_instance(inst, p, n, po, no);
+                float q;
+                ok = tree_descend(instances[inst].light.w, po, no, w, sub, q);
+                prob *= q;
+            }
             return ok;
         }
         uvec4 h = light_node_link(0u);
@@ -73,6 +96,17 @@ float light_pick_prob(uint j, vec3 p, vec3 n) {
     return load_light(j).prob;
 }
 
+// The probability that instance inst, once picked from (p, n), gives the emitter at entry e of its mesh's table:
+// through its mesh's subtree under the tree, else by power in the table.
+float instanced_pick_prob(uint inst, uint e, vec3 p, vec3 n) {
+    if (light_tree_on()) {
+        vec3 po, no;
+        light_into_instance(inst, p, n, po, no);
+        return tree_pmf_below(instances[inst].light.w, e, po, no);
+    }
+    return load_light(e).prob;
+}
+
 // The table entry of emissive triangle ts (its light-buffer entry + 1 in n0.w, 0 when light selection never picks
 // it), hit through instance inst: its probability of being picked from (p, n), over its area now (n1.w), which is
 // light sampling's density per unit area there; MIS weighs a BSDF sample's hit by it.
@@ -81,7 +115,7 @@ float emitter_pdf_area(TriShading ts, uint inst, vec3 p, vec3 n) {
     uint e = uint(ts.n0.w) - 1u;
     float prob;
     if (scene_has(FEATURE_INSTANCES) && inst != NO_INSTANCE) {
-        prob = light_pick_prob(instances[inst].light.z, p, n) * load_light(e).prob;
+        prob = light_pick_prob(instances[inst].light.z, p, n) * instanced_pick_prob(inst, e, p, n);
     } else {
         prob = light_pick_prob(e, p, n);
     }
@@ -113,10 +147,10 @@ LightSample sample_light(vec3 p, vec3 n, vec2 u, vec2 u_pick) {
     ls.wi = vec3(0.0, 0.0, 1.0);
     ls.dist = 0.0;
     ls.delta = false;
-    uint picked;
+    uint picked, sub;
     float prob;
     vec2 u_point = u;
-    if (!select_light(p, n, u_pick, u_point, picked, prob)) return ls;
+    if (!select_light(p, n, u_pick, u_point, picked, sub, prob)) return ls;
     Light l = load_light(picked);
     if (scene_has(FEATURE_PUNCTUAL) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_PUNCTUAL) {
         PunctualLight pl = punctuals[l.id & LIGHT_INDEX_MASK];
@@ -160,15 +194,19 @@ LightSample sample_light(vec3 p, vec3 n, vec2 u, vec2 u_pick) {
     uint tri = l.id & LIGHT_INDEX_MASK;
     uint inst = NO_INSTANCE;
     if (scene_has(FEATURE_INSTANCES) && (l.id >> LIGHT_KIND_SHIFT) == LIGHT_KIND_INSTANCE) {
-        // An instance of an emissive mesh: one of its triangles from the mesh's own table, u_point.x rescaled again
-        // to that triangle's share.
+        // An instance of an emissive mesh: the triangle the tree picked in its subtree, or one from the mesh's own
+        // table by power, u_point.x rescaled again to that triangle's share.
         inst = tri;
-        uvec4 table = instances[inst].light;
-        uint j = pick_light_in(table.x, table.y, u_point.x);
-        Light t = load_light(j);
-        u_point.x = rescale_pick(table.x, j, t, u_point.x);
-        tri = t.id & LIGHT_INDEX_MASK;
-        prob *= t.prob;
+        if (sub != LIGHT_NONE) {
+            tri = load_light(sub).id & LIGHT_INDEX_MASK;
+        } else {
+            uvec4 table = instances[inst].light;
+            uint j = pick_light_in(table.x, table.y, u_point.x);
+            Light t = load_light(j);
+            u_point.x = rescale_pick(table.x, j, t, u_point.x);
+            tri = t.id & LIGHT_INDEX_MASK;
+            prob *= t.prob;
+        }
     }
     TriVerts lv = load_tri_verts(tri);
     bool mirrored = false;

@@ -203,7 +203,11 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
     let theta_r = theta_o - theta_a;
     let w = a.cross(b);
     if w.length_squared() < 1e-12 {
-        return (a, -1.0);
+        // Axes too close to turn between (neighbouring triangles of a curved mesh): a's axis, opened to reach b's
+        // edge. Opening it to the sphere here once lost half of a light bulb's picks: such a node has importance
+        // where its two faces turned away have none, and a descent that reaches it picks nothing.
+        let theta = theta_a.max(theta_d + theta_b) + CONE_SLACK;
+        return (a, if theta >= PI { -1.0 } else { theta.cos() });
     }
     let axis = glam::Quat::from_axis_angle(w.normalize(), theta_r) * a;
     (axis.normalize(), theta_o.cos())
@@ -212,8 +216,9 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
 /// The tree on the host: the device's records and what `pathwave info` reports.
 #[derive(Clone, Debug, Default)]
 pub struct LightTree {
-    /// Record 0 is the header, then a leaf per entry of light selection's table (1 + entry; a record of zeros for
-    /// an entry outside the tree), then the interior nodes. See `GpuLightNode`.
+    /// Record 0 is the header, then a leaf per entry of the light buffer before the infinite lights' table (1 +
+    /// entry; a record of zeros for an entry outside the tree), then the interior nodes, the instanced meshes'
+    /// subtrees' after the tree's. See `GpuLightNode`.
     pub nodes: Vec<GpuLightNode>,
     pub stats: LightTreeStats,
 }
@@ -222,10 +227,14 @@ pub struct LightTree {
 pub struct LightTreeStats {
     /// Emitters in the tree (triangles, emissive instances, point and spot lights).
     pub emitters: usize,
+    /// Emitters in instanced meshes' subtrees (each mesh's triangles once).
+    pub instanced: usize,
     /// Interior nodes.
     pub interior: usize,
     /// Longest path from the root to a leaf, in edges.
     pub depth: u32,
+    /// Longest path from an instanced mesh's subtree's root to its leaves.
+    pub subtree_depth: u32,
     pub build: std::time::Duration,
 }
 
@@ -253,54 +262,78 @@ const BUCKETS: usize = 12;
 /// LIGHT_TREE_MAX_DEPTH for up to 2^(LIGHT_TREE_MAX_DEPTH - SAOH_DEPTH_LIMIT) emitters.
 const SAOH_DEPTH_LIMIT: u32 = LIGHT_TREE_MAX_DEPTH - 24;
 
-/// The tree over `emitters` (entry of light selection's table, its bounds), for a table of `entries` entries.
+/// The tree over `emitters` (entry of the light buffer, its bounds), for a light buffer of `entries` entries.
 /// `share` is the probability of descending the tree, `infinite` the infinite lights' table (first entry in the
-/// light buffer, count), both stored in the header. Emitters must number below 2^24 (the caller's limit).
+/// light buffer, count), both stored in the header. Emitters must number below 2^24 (the caller's limit). Instanced
+/// meshes' subtrees are added after it (`add_subtree`).
 pub fn build(emitters: Vec<(u32, LightBounds)>, entries: u32, share: f32, infinite: (u32, u32)) -> LightTree {
     let start = std::time::Instant::now();
-    let mut nodes = vec![GpuLightNode::default(); 1 + entries as usize];
-    let count = emitters.len();
-    let mut items: Vec<Item> = (emitters.into_iter())
-        .map(|(entry, b)| Item {
-            entry,
-            c: b.centroid(),
-            b,
-        })
-        .collect();
-    let mut depth = 0;
-    let root = if items.is_empty() {
-        0
-    } else {
-        // A binary tree over n leaves has n - 1 interior nodes, so every subtree's place is known before it is
-        // built and the two halves of the top levels build on two threads.
-        let first = nodes.len() as u32;
-        nodes.resize(nodes.len() + count - 1, GpuLightNode::default());
-        let mut leaves = Vec::with_capacity(count);
-        let (root, _) = {
-            let interior = &mut nodes[first as usize..];
-            build_range(&mut items, 0, (interior, first), &mut leaves, &mut depth)
-        };
-        for (entry, leaf) in leaves {
-            nodes[1 + entry as usize] = leaf;
-        }
-        root
+    let mut tree = LightTree {
+        nodes: vec![GpuLightNode::default(); 1 + entries as usize],
+        stats: LightTreeStats::default(),
     };
-    nodes[0] = GpuLightNode {
+    let count = emitters.len();
+    let (root, depth) = tree.grow(emitters);
+    tree.nodes[0] = GpuLightNode {
         sphere: [share, 0.0, 0.0, 0.0],
         link: [root, infinite.0, infinite.1, count as u32],
         ..Default::default()
     };
-    if root != 0 {
-        set_trails(&mut nodes, root);
+    tree.stats = LightTreeStats {
+        emitters: count,
+        interior: tree.nodes.len() - 1 - entries as usize,
+        depth,
+        build: start.elapsed(),
+        ..Default::default()
+    };
+    tree
+}
+
+impl LightTree {
+    /// A subtree over an instanced mesh's emitters in the mesh's own space (entries of its table in the light
+    /// buffer), stored once however many instances place the mesh: their leaves in the tree continue into it, with
+    /// the shading point taken into the mesh's space. Returns its root (a leaf's record for one emitter; 0 for none).
+    pub fn add_subtree(&mut self, emitters: Vec<(u32, LightBounds)>) -> u32 {
+        let start = std::time::Instant::now();
+        let count = emitters.len();
+        let before = self.nodes.len();
+        let (root, depth) = self.grow(emitters);
+        self.stats.instanced += count;
+        self.stats.interior += self.nodes.len() - before;
+        self.stats.subtree_depth = self.stats.subtree_depth.max(depth);
+        self.stats.build += start.elapsed();
+        root
     }
-    LightTree {
-        stats: LightTreeStats {
-            emitters: count,
-            interior: nodes.len() - 1 - entries as usize,
-            depth,
-            build: start.elapsed(),
-        },
-        nodes,
+
+    /// Builds a (sub)tree over `emitters`: interior nodes appended, leaves at 1 + entry, each leaf's trail from the
+    /// returned root. (root, depth); root 0 for no emitters.
+    fn grow(&mut self, emitters: Vec<(u32, LightBounds)>) -> (u32, u32) {
+        let count = emitters.len();
+        let mut items: Vec<Item> = (emitters.into_iter())
+            .map(|(entry, b)| Item {
+                entry,
+                c: b.centroid(),
+                b,
+            })
+            .collect();
+        if items.is_empty() {
+            return (0, 0);
+        }
+        let mut depth = 0;
+        // A binary tree over n leaves has n - 1 interior nodes, so every subtree's place is known before it is
+        // built and the two halves of the top levels build on two threads.
+        let first = self.nodes.len() as u32;
+        self.nodes.resize(self.nodes.len() + count - 1, GpuLightNode::default());
+        let mut leaves = Vec::with_capacity(count);
+        let (root, _) = {
+            let interior = &mut self.nodes[first as usize..];
+            build_range(&mut items, 0, (interior, first), &mut leaves, &mut depth)
+        };
+        for (entry, leaf) in leaves {
+            self.nodes[1 + entry as usize] = leaf;
+        }
+        set_trails(&mut self.nodes, root);
+        (root, depth)
     }
 }
 
@@ -553,28 +586,34 @@ impl LightTree {
 
     /// The descent from the root with uniforms u (and v, once u is used up): the entry picked and the probability
     /// of picking it, among the tree's emitters. None when nothing in the tree can light p.
-    pub fn pick(&self, p: Vec3, n: Vec3, mut u: f32, v: f32) -> Option<(u32, f32)> {
-        let mut node = self.root();
+    pub fn pick(&self, p: Vec3, n: Vec3, u: f32, v: f32) -> Option<(u32, f32)> {
+        self.descend(self.root(), p, n, &mut LightWalk::new(u, v))
+    }
+
+    /// The descent from `node` (the root, or an instanced mesh's subtree's with p and n in the mesh's space),
+    /// drawing on `walk`: the entry picked and the probability of picking it below `node`.
+    pub fn descend(&self, mut node: u32, p: Vec3, n: Vec3, walk: &mut LightWalk) -> Option<(u32, f32)> {
         if node == 0 {
             return None;
         }
-        let (mut prob, mut part, mut fresh) = (1.0f32, 1.0f32, false);
+        let mut prob = 1.0f32;
         while let Some((c0, c1)) = self.children(node) {
             let p0 = self.first_child_prob(node, p, n)?;
+            let u = walk.u;
             if u < p0 {
                 node = c0;
                 prob *= p0;
-                part *= p0;
-                u = (u / p0).min(ONE_MINUS_EPSILON);
+                walk.part *= p0;
+                walk.u = (u / p0).min(ONE_MINUS_EPSILON);
             } else {
                 node = c1;
                 prob *= 1.0 - p0;
-                part *= 1.0 - p0;
-                u = ((u - p0) / (1.0 - p0)).min(ONE_MINUS_EPSILON);
+                walk.part *= 1.0 - p0;
+                walk.u = ((u - p0) / (1.0 - p0)).min(ONE_MINUS_EPSILON);
             }
-            if !fresh && part < LIGHT_FRESH_NUMBER_BELOW {
-                u = v;
-                fresh = true;
+            if !walk.fresh && walk.part < LIGHT_FRESH_NUMBER_BELOW {
+                walk.u = walk.v;
+                walk.fresh = true;
             }
         }
         Some((node - 1, prob))
@@ -582,9 +621,17 @@ impl LightTree {
 
     /// The probability `pick` returns `entry` from (p, n): the same products along the leaf's trail.
     pub fn pmf(&self, p: Vec3, n: Vec3, entry: u32) -> f32 {
+        self.pmf_below(self.root(), p, n, entry)
+    }
+
+    /// The probability `descend` from `root` returns `entry`.
+    pub fn pmf_below(&self, root: u32, p: Vec3, n: Vec3, entry: u32) -> f32 {
         let leaf = &self.nodes[1 + entry as usize];
         let trail = leaf.link[2] as u64 | (leaf.link[3] as u64) << 32;
-        let mut node = self.root();
+        let mut node = root;
+        if node == 0 {
+            return 0.0;
+        }
         let mut prob = 1.0f32;
         let mut d = 0;
         while let Some((c0, c1)) = self.children(node) {
@@ -604,6 +651,27 @@ impl LightTree {
             prob
         } else {
             0.0
+        }
+    }
+}
+
+/// The random numbers of one descent, through the tree and on into an instanced mesh's subtree: u chooses, rescaled
+/// at each node, until the choices made are less likely than LIGHT_FRESH_NUMBER_BELOW, where v takes over.
+#[derive(Clone, Copy, Debug)]
+pub struct LightWalk {
+    pub u: f32,
+    pub v: f32,
+    pub part: f32,
+    pub fresh: bool,
+}
+
+impl LightWalk {
+    pub fn new(u: f32, v: f32) -> LightWalk {
+        LightWalk {
+            u,
+            v,
+            part: 1.0,
+            fresh: false,
         }
     }
 }
@@ -799,5 +867,28 @@ mod tests {
             .unwrap()
             .transformed(&[glam::Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0))], 1.0);
         assert_eq!(stretched.cos_o, -1.0);
+    }
+
+    // Neighbouring faces of a curved mesh have axes too close to turn between: their union must stay about as narrow
+    // as they are (it once opened to the sphere, and a light bulb lost half of its picks to nodes whose importance
+    // its faces turned away do not share), and still hold both.
+    #[test]
+    fn unions_of_nearly_parallel_cones_stay_narrow() {
+        for angle in [1e-7f32, 1e-6, 1e-5, 1e-4] {
+            let a = Vec3::new(0.549, -0.671, 0.498).normalize();
+            let b = glam::Quat::from_axis_angle(a.any_orthonormal_vector(), angle) * a;
+            for (cos_a, cos_b) in [(1.0, 1.0), (0.999, 1.0), (1.0, 0.99)] {
+                let (axis, cos_o) = cone_union(a, cos_a, b, cos_b);
+                assert!(cos_o > 0.98, "{angle}: cos {cos_o}");
+                let theta = cos_o.acos();
+                for (v, c) in [(a, cos_a), (b, cos_b)] {
+                    let edge = axis.dot(v).clamp(-1.0, 1.0).acos() + c.clamp(-1.0, 1.0).acos();
+                    assert!(
+                        edge <= theta + 1e-6,
+                        "{angle}: a part reaches {edge}, the union {theta}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -285,7 +285,8 @@ impl Renderer {
     /// BVH only where the scene has LIGHT_TREE_MIN_EMITTERS emitters for it or more.
     fn lit(&self, frame: Frame) -> Frame {
         let mut flags = frame.flags;
-        if (self.scene.light_tree.emitters as u32) < LIGHT_TREE_MIN_EMITTERS {
+        let tree = &self.scene.light_tree;
+        if ((tree.emitters + tree.instanced) as u32) < LIGHT_TREE_MIN_EMITTERS {
             flags &= !FLAG_LIGHT_TREE;
         }
         let env_prob = if flags & FLAG_LIGHT_TREE != 0 {

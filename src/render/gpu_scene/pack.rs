@@ -281,13 +281,13 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             message: format!("out of host memory packing its {} triangles", soup.len()),
         })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
-    let (mut instances, mesh_lights) = if instanced.contains(&true) {
+    let (mut instances, mesh_lights, mesh_emitters) = if instanced.contains(&true) {
         pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds, &mut emission).ok_or_else(|| Error::Scene {
             path: scene.path.clone(),
             message: "out of host memory packing its instanced meshes".into(),
         })?
     } else {
-        (Vec::new(), Vec::new())
+        (Vec::new(), Vec::new(), Vec::new())
     };
     let bvh_build = if instances.is_empty() {
         bvh_build
@@ -337,7 +337,16 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             t.tri_shading[(l.id & LIGHT_INDEX_MASK) as usize].n0[3] = (j + 1) as f32;
         }
     }
-    let (light_tree, env_prob_tree) = light_tree(&emitters, &mut lights, light_count);
+    let (mut light_tree, env_prob_tree) = light_tree(&emitters, &mut lights);
+    // Each emissive instanced mesh's subtree, once; its instances' records name its root.
+    let mut subtree_of = std::collections::HashMap::new();
+    for (first, bounds) in mesh_emitters {
+        let entries = bounds.into_iter().map(|(j, b)| (j + light_count, b)).collect();
+        subtree_of.insert(first + light_count, light_tree.add_subtree(entries));
+    }
+    for record in instances.iter_mut().skip(1).filter(|r| r.light[1] > 0) {
+        record.light[3] = subtree_of.get(&record.light[0]).copied().unwrap_or(0);
+    }
     let (textures, texels) = pack_textures(scene);
     Ok(PackedScene {
         bounds,
@@ -370,11 +379,12 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
 /// BVH][TLAS][each mesh's BVH], every index offset to its place. Grows `bounds` by the instances' boxes.
 ///
 /// An emissive mesh's triangles get a table of their own (returned; records point into it from 0, so the caller
-/// offsets them past light selection's table), picked in proportion to their power in the mesh's space, each
-/// triangle's TriShading.n0.w holding its probability there; each of its instances becomes one emitter in
-/// `t.emitters`, whose power is the mesh's scaled by the transform's area factor |det|^(2/3). Exact for rotations
-/// and uniform scales; under a stretch the pick is a little off the power, which costs variance, not bias: the
-/// device divides by the pick's own probability and the triangle's area in the world.
+/// offsets them past light selection's table), picked in proportion to their power in the mesh's space by the power
+/// and uniform samplers, and the bounds of its emitters (entries of that table) for the light tree's subtree of the
+/// mesh; each of its instances becomes one emitter in `t.emitters`, whose power is the mesh's scaled by the
+/// transform's area factor |det|^(2/3). Exact for rotations and uniform scales; under a stretch the pick is a little
+/// off the power, which costs variance, not bias: the device divides by the pick's own probability and the
+/// triangle's area in the world.
 #[allow(clippy::type_complexity)]
 fn pack_instances(
     scene: &Scene,
@@ -383,7 +393,7 @@ fn pack_instances(
     t: &mut PackedTriangles,
     bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
     emission: &mut Emission,
-) -> Option<(Vec<GpuInstance>, Vec<GpuLight>)> {
+) -> Option<(Vec<GpuInstance>, Vec<GpuLight>, Vec<MeshEmitters>)> {
     use glam::Vec3;
     // Each instanced mesh's BVH and packed triangles, and where they start.
     let mut parts: Vec<(usize, Bvh, PackedTriangles, (Vec3, Vec3))> = Vec::new();
@@ -453,12 +463,19 @@ fn pack_instances(
     // Per part: (where its emitter table starts, its length, its power in the mesh's space).
     let mut part_lights = Vec::with_capacity(parts.len());
     let mut mesh_lights: Vec<GpuLight> = Vec::new();
+    let mut mesh_emitters = Vec::new();
     for (_, blas, packed, _) in &mut parts {
         let root = bvh.nodes.len() as u32;
         let tri_base = t.tri_verts.len() as u32;
         let power: f64 = packed.emitters.iter().map(|e| e.power).sum();
         let cone = (packed.emitters.iter().filter_map(|e| e.bounds)).reduce(|a, b| a.union(&b));
         part_lights.push((mesh_lights.len() as u32, packed.emitters.len() as u32, power, cone));
+        if !packed.emitters.is_empty() {
+            let first = mesh_lights.len() as u32;
+            let bounds = packed.emitters.iter().enumerate();
+            let bounds = bounds.filter_map(|(i, e)| e.bounds.map(|b| (first + i as u32, b)));
+            mesh_emitters.push((first, bounds.collect()));
+        }
         let (mut acc, mut previous_cdf) = (0.0f64, 0.0f32);
         for (i, e) in packed.emitters.iter().enumerate() {
             let (slot, area) = (e.id, e.area);
@@ -536,8 +553,12 @@ fn pack_instances(
         key_records.extend(keys[1..].iter().map(|w| instance_record(w, info, [0; 4])));
     }
     records.append(&mut key_records);
-    Some((records, mesh_lights))
+    Some((records, mesh_lights, mesh_emitters))
 }
+
+/// An instanced mesh's emitters for its light subtree: where its table starts among the instanced meshes' tables,
+/// and each emitter's place there with its bounds in the mesh's space.
+type MeshEmitters = (u32, Vec<(u32, LightBounds)>);
 
 /// One instance record: `world_from_object` and its inverse as rows, `info` and `light` (see GpuInstance).
 fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4], light: [u32; 4]) -> GpuInstance {
@@ -767,11 +788,12 @@ fn light_table(emitters: &[Emitter], instances: &mut [GpuInstance]) -> (Vec<GpuL
     (lights, env_prob, total)
 }
 
-/// The light BVH over the finite emitters of the table's first `light_count` entries of `lights`, and the infinite
+/// The light BVH over the finite emitters of light selection's table (the first entries of `lights`, one per
+/// emitter), with a leaf's place for every entry of `lights` (the instanced meshes' tables too), and the infinite
 /// lights' own table, appended to `lights`. The infinite lights keep the share the power table gives them (their
 /// estimated power, the environment's through the scene's bounding sphere, over the total) and split it by power;
 /// the tree gets the rest. Returns the tree and the environment's probability under it.
-fn light_tree(emitters: &[Emitter], lights: &mut Vec<GpuLight>, light_count: u32) -> (LightTree, f32) {
+fn light_tree(emitters: &[Emitter], lights: &mut Vec<GpuLight>) -> (LightTree, f32) {
     let infinite: Vec<usize> = (0..emitters.len()).filter(|&j| emitters[j].bounds.is_none()).collect();
     let inf_total: f32 = infinite.iter().map(|&j| lights[j].prob).sum();
     let finite: Vec<(u32, LightBounds)> = (emitters.iter().enumerate())
@@ -802,7 +824,7 @@ fn light_tree(emitters: &[Emitter], lights: &mut Vec<GpuLight>, light_count: u32
             area: 0.0,
         });
     }
-    let tree = bvh::lights::build(finite, light_count, share, (first, infinite.len() as u32));
+    let tree = bvh::lights::build(finite, first, share, (first, infinite.len() as u32));
     (tree, env_prob)
 }
 
