@@ -892,7 +892,7 @@ fn view(args: ViewArgs) -> Result<()> {
 enum CompareWith {
     Mitsuba,
     Embree,
-    /// The lamp grid against Mitsuba 3, once per light sampler (bvh, power, uniform).
+    /// The lamp grid and the city block against Mitsuba 3, once per light sampler (bvh, power, uniform).
     Lights,
 }
 
@@ -911,7 +911,7 @@ struct BenchArgs {
     device: Option<DeviceChoice>,
     /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
     /// relMSE on the Cornell box), `embree` (embreex, random-ray traversal on the terrain) or `lights` (Mitsuba 3 on
-    /// the lamp grid, once per light sampler). Repeatable.
+    /// the lamp grid and the city block, once per light sampler). Repeatable.
     #[arg(long, value_enum)]
     compare: Vec<CompareWith>,
     /// The Python interpreter that has `mitsuba` and `embreex` installed.

@@ -65,7 +65,7 @@ pub enum Compare {
     Mitsuba,
     /// Embree (embreex) on the terrain mesh: random-ray traversal speed.
     Embree,
-    /// Mitsuba 3 on the lamp grid (many lights), once per light sampler: relMSE x time.
+    /// Mitsuba 3 on the lamp grid and the city block (many lights), once per light sampler: relMSE x time.
     Lights,
 }
 
@@ -273,7 +273,7 @@ pub struct BenchReport {
     pub mitsuba: Option<MitsubaComparison>,
     /// The same with spectral transport, against Mitsuba's llvm_ad_spectral.
     pub mitsuba_spectral: Option<MitsubaComparison>,
-    /// The lamp grid, once per light sampler.
+    /// The lamp grid and the city block, once per light sampler.
     pub mitsuba_lights: Vec<MitsubaComparison>,
     /// The light BVH's build over the terrain with every triangle emitting: (emitters, depth, seconds).
     pub light_tree: Option<(usize, u32, f64)>,
@@ -345,22 +345,25 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         }
     }
     if o.compare.contains(&Compare::Lights) {
-        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid.
-        let lamps = o.scenes.join("lamp-grid.gltf");
-        for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
-            progress(&format!(
-                "Mitsuba comparison, lamp grid, lights by {}",
-                light_sampler.name()
-            ));
-            let case = compare::MitsubaCase {
-                scene: &lamps,
-                spectral: false,
-                light_sampler,
-                size: (192, 128),
-                reference_spp: 4096,
-            };
-            let m = compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)?;
-            report.mitsuba_lights.push(m);
+        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid (hundreds of
+        // lamps, a few far bright panels) and the city block (thousands of lit windows, most facing away).
+        for (name, file) in [("lamp grid", "lamp-grid.gltf"), ("city block", "city-block.gltf")] {
+            let scene = o.scenes.join(file);
+            for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
+                progress(&format!(
+                    "Mitsuba comparison, {name}, lights by {}",
+                    light_sampler.name()
+                ));
+                let case = compare::MitsubaCase {
+                    scene: &scene,
+                    spectral: false,
+                    light_sampler,
+                    size: (192, 128),
+                    reference_spp: 4096,
+                };
+                let m = compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)?;
+                report.mitsuba_lights.push(m);
+            }
         }
     }
     report.device = (report.cases.first().map(|c| c.device.clone()))
