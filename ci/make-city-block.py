@@ -64,7 +64,7 @@ def facade(origin, along, width, height, floors, columns):
         for c in range(columns):
             s0, y0 = c * col_w + 0.25 * col_w, f * floor_h + 0.3 * floor_h
             s1, y1 = s0 + 0.5 * col_w, y0 + 0.45 * floor_h
-            lit = rng.random() < 0.6
+            lit = rng.random() < 0.7
             m = rng.choice(WINDOWS) if lit else 3
             quad([at(s0, y0, 0.03), at(s1, y0, 0.03), at(s1, y1, 0.03), at(s0, y1, 0.03)], m)
 
@@ -77,7 +77,7 @@ def building(x0, z0, x1, z1, height):
         (ax, az), (bx, bz) = corners[k], corners[(k + 1) % 4]
         length = abs(bx - ax) + abs(bz - az)
         along = ((bx - ax) / length, (bz - az) / length)
-        facade((ax, az), along, length, height, floors, max(2, int(length / 3.0)))
+        facade((ax, az), along, length, height, floors, max(2, int(length / 2.4)))
     quad([(x0, height, z0), (x0, height, z1), (x1, height, z1), (x1, height, z0)], 2)  # roof, +y
 
 
@@ -89,18 +89,24 @@ for sx in (-1, 1):
         # This quadrant's pavement, facing up.
         (x0, x1), (z0, z1) = sorted((sx * 6, sx * 60)), sorted((sz * 6, sz * 60))
         quad([(x0, 0.01, z0), (x0, 0.01, z1), (x1, 0.01, z1), (x1, 0.01, z0)], 1)
-        along = 9.0
-        while along < 56:
-            w = 8 + 6 * rng.random()
-            d = 10 + 6 * rng.random()
-            h = 10 + 30 * rng.random()
-            # One building facing each street from this corner's block.
-            a0, a1 = along, min(along + w, 58)
-            for (lo, hi) in (((a0, 9.0), (a1, 9.0 + d)), ((9.0, a0), (9.0 + d, a1))):
-                x0, x1 = sorted((sx * lo[0], sx * hi[0]))
-                z0, z1 = sorted((sz * lo[1], sz * hi[1]))
-                building(x0, z0, x1, z1, h if lo[0] == a0 else 10 + 30 * rng.random())
-            along = a1 + 1.0
+        # A corner building, then a row along each street behind it: no two buildings overlap or share a wall
+        # (coplanar walls would leave which window a ray meets to the renderer, and the bench compares renderers).
+        (x0, x1), (z0, z1) = sorted((sx * 9.0, sx * 23.0)), sorted((sz * 9.0, sz * 23.0))
+        building(x0, z0, x1, z1, 12 + 24 * rng.random())
+        for street in (0, 1):
+            along = 25.0
+            while along < 56:
+                w = 8 + 6 * rng.random()
+                d = 10 + 4 * rng.random()
+                a0, a1 = along, min(along + w, 58)
+                # Along the x street (street 0) the run is in x and the depth in z; along the z street, the reverse.
+                (u0, u1), (v0, v1) = (a0, a1), (9.0, 9.0 + d)
+                if street == 1:
+                    (u0, u1), (v0, v1) = (v0, v1), (u0, u1)
+                x0, x1 = sorted((sx * u0, sx * u1))
+                z0, z1 = sorted((sz * v0, sz * v1))
+                building(x0, z0, x1, z1, 10 + 30 * rng.random())
+                along = a1 + 1.0
 
 positions, meshes, accessors, views, data = [], [], [], [], b""
 for m, qs in quads.items():
