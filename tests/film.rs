@@ -198,6 +198,51 @@ fn merged_parts_are_the_bytes_of_one_render_in_any_order() {
     assert_eq!(p1.samples, vec![8..16], "part 1 of 3 of 24 samples");
 }
 
+/// Catches light selection through the light tree that depends on anything but the point, its normal and the
+/// sample's random numbers (a pass's or a part's place, state left from another pass): the lamp grid, where the tree
+/// runs, rendered in two `--samples` parts merges to the bytes of one render; a part whose lights were picked by
+/// power is refused, naming the light sampler.
+#[test]
+fn lamp_grid_parts_through_the_light_tree_merge_to_one_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let grid = common::scenes_dir().join("lamp-grid.gltf");
+    let lamps = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            grid.to_str().unwrap(),
+            "--size",
+            "48x32",
+            "--seed",
+            "3",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        let r = run(&args, d);
+        assert!(r.status.success(), "render {out} failed");
+        r
+    };
+    let single = lamps("single.exr", &["--spp", "12", "--film-stats"]);
+    assert!(
+        String::from_utf8_lossy(&single.stderr).contains("lights by bvh"),
+        "the lamp grid's render did not run the light tree"
+    );
+    lamps("a.exr", &["--samples", "0..5"]);
+    lamps("b.exr", &["--samples", "5..12"]);
+    lamps("power.exr", &["--samples", "5..12", "--light-sampler", "power"]);
+    assert!(run(&["merge", "b.exr", "a.exr", "-o", "ab.exr"], d).status.success());
+    assert!(
+        bytes(d, "ab.exr") == bytes(d, "single.exr"),
+        "the lamp grid's parts merged differ from one render"
+    );
+    let out = run(&["merge", "a.exr", "power.exr", "-o", "mixed.exr"], d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("power.exr") && err.contains("light-sampler"), "{err}");
+    assert!(!d.join("mixed.exr").exists());
+}
+
 /// Catches a merge that writes something it should have refused: overlapping ranges, another seed, scene, option
 /// or size, and a plain EXR; each is an error naming the part, and no output appears.
 #[test]
