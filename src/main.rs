@@ -892,7 +892,8 @@ fn view(args: ViewArgs) -> Result<()> {
 enum CompareWith {
     Mitsuba,
     Embree,
-    /// The lamp grid and the city block against Mitsuba 3, once per light sampler (bvh, power, uniform).
+    /// The lamp grid, the city block and the emissive panel against Mitsuba 3, once per light sampler (bvh, power,
+    /// uniform).
     Lights,
 }
 
@@ -911,7 +912,7 @@ struct BenchArgs {
     device: Option<DeviceChoice>,
     /// Also measure against another renderer in the same run: `mitsuba` (Mitsuba 3 llvm_ad_rgb, equal-time
     /// relMSE on the Cornell box), `embree` (embreex, random-ray traversal on the terrain) or `lights` (Mitsuba 3 on
-    /// the lamp grid and the city block, once per light sampler). Repeatable.
+    /// the lamp grid, the city block and the emissive panel, once per light sampler). Repeatable.
     #[arg(long, value_enum)]
     compare: Vec<CompareWith>,
     /// The Python interpreter that has `mitsuba` and `embreex` installed.

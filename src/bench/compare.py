@@ -99,7 +99,13 @@ class Mitsuba:
                     "reflectance": {"type": "rgb", "value": m["reflectance"]},
                 },
             }
-            if m.get("radiance"):
+            if m.get("radiance_texture"):
+                # Linear texels already times the emissive factor; bilinear, as pathwave filters them.
+                tex = m["radiance_texture"]
+                shape["emitter"] = {"type": "area", "radiance": {
+                    "type": "bitmap", "filename": tex["exr"], "raw": True, "filter_type": "bilinear",
+                    "wrap_mode": tex["wrap"]}}
+            elif m.get("radiance"):
                 shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["radiance"]}}
             scene[f"mesh{k}"] = shape
         # Mitsuba's default sampler, and its (0,2)-sequence one, the counterpart of pathwave's.

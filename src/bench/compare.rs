@@ -333,8 +333,10 @@ impl MitsubaComparison {
 }
 
 /// Writes `scene` for the helper: one PLY per material and a JSON description. Only what both renderers agree on
-/// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles and a pinhole camera. Returns the
-/// description's path and a text that names the scene's content (not where its files are) for the reference cache.
+/// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles (an emissive texture too: its
+/// texels times the emissive factor, linear, in an EXR the emitter's bitmap reads bilinearly with the sampler's wrap
+/// mode) and a pinhole camera. Returns the description's path and a text that names the scene's content (not where
+/// its files are) for the reference cache.
 fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(PathBuf, String), Error> {
     if scene.environment.is_some() || !scene.punctual.is_empty() {
         return Err(err("only scenes lit by emissive triangles translate to Mitsuba"));
@@ -345,33 +347,44 @@ fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(P
     let mut content = Vec::new();
     for (k, m) in scene.materials.iter().enumerate() {
         let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
-        let textured = m.texture_refs().iter().any(Option::is_some);
-        let tris: Vec<&[Vec3; 3]> = soup
-            .positions()
-            .iter()
-            .zip(soup.material())
-            .filter(|(_, &mk)| mk as usize == k)
-            .map(|(t, _)| t)
-            .collect();
+        let emissive_map = m.emissive_texture.filter(|r| {
+            let t = &scene.textures[r.texture];
+            r.tex_coord == 0 && r.transform == scene::texture::IDENTITY_TRANSFORM && !t.nearest && t.wrap_s == t.wrap_t
+        });
+        let others = m.texture_refs().iter().filter(|r| r.is_some()).count();
+        let textured = others > usize::from(emissive_map.is_some());
+        let tris: Vec<usize> = (0..soup.len()).filter(|&t| soup.material()[t] as usize == k).collect();
         if tris.is_empty() {
             continue;
         }
         if !lambertian || textured || m.double_sided || m.alpha_tested() {
             return Err(err(format!(
-                "material '{}' does not translate to Mitsuba (only untextured, single-sided Lambertian ones do)",
+                "material '{}' does not translate to Mitsuba (only single-sided Lambertian ones, untextured but for \
+                 their emission, do)",
                 m.name
             )));
         }
+        let uv = if emissive_map.is_some() {
+            "property float u\nproperty float v\n"
+        } else {
+            ""
+        };
         let ply = dir.join(format!("mesh{k}.ply"));
         let mut bytes = format!(
             "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
-             property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+             property float z\n{uv}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
             3 * tris.len(),
             tris.len()
         )
         .into_bytes();
-        for p in tris.iter().copied().flatten() {
-            bytes.extend(p.to_array().iter().flat_map(|c| c.to_le_bytes()));
+        for &t in &tris {
+            for c in 0..3 {
+                bytes.extend(soup.positions()[t][c].to_array().iter().flat_map(|x| x.to_le_bytes()));
+                if emissive_map.is_some() {
+                    let w = soup.texcoords()[t][c];
+                    bytes.extend([w.x, w.y].iter().flat_map(|x| x.to_le_bytes()));
+                }
+            }
         }
         for f in 0..tris.len() as i32 {
             bytes.push(3);
@@ -383,7 +396,26 @@ fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(P
             "reflectance": m.base_color.to_array(),
             "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
         });
-        content.push(mesh.clone());
+        if let Some(r) = emissive_map.filter(|_| e.max_element() > 0.0) {
+            let t = &scene.textures[r.texture];
+            let image = &scene.images[t.image];
+            let linear: Vec<[f32; 3]> = (image.texels.iter())
+                .map(|p| std::array::from_fn(|c| crate::output::srgb_decode(p[c] as f32 / 255.0) * e[c]))
+                .collect();
+            let exr = dir.join(format!("emission{k}.exr"));
+            crate::output::write_image(&exr, image.width, image.height, &linear, 0.0)?;
+            let wrap = match t.wrap_s {
+                scene::Wrap::Repeat => "repeat",
+                scene::Wrap::ClampToEdge => "clamp",
+                scene::Wrap::MirroredRepeat => "mirror",
+            };
+            let texels: Vec<u8> = linear.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            mesh["radiance_texture"] = json!({"exr": format!("{:016x}", fnv_bytes(&texels)), "wrap": wrap});
+            content.push(mesh.clone());
+            mesh["radiance_texture"]["exr"] = json!(exr);
+        } else {
+            content.push(mesh.clone());
+        }
         mesh["ply"] = json!(ply);
         std::fs::write(&ply, bytes).map_err(err)?;
         meshes.push(mesh);

@@ -65,7 +65,8 @@ pub enum Compare {
     Mitsuba,
     /// Embree (embreex) on the terrain mesh: random-ray traversal speed.
     Embree,
-    /// Mitsuba 3 on the lamp grid and the city block (many lights), once per light sampler: relMSE x time.
+    /// Mitsuba 3 on the lamp grid, the city block and the emissive panel (many lights), once per light sampler:
+    /// relMSE x time.
     Lights,
 }
 
@@ -273,7 +274,7 @@ pub struct BenchReport {
     pub mitsuba: Option<MitsubaComparison>,
     /// The same with spectral transport, against Mitsuba's llvm_ad_spectral.
     pub mitsuba_spectral: Option<MitsubaComparison>,
-    /// The lamp grid and the city block, once per light sampler.
+    /// The lamp grid, the city block and the emissive panel, once per light sampler.
     pub mitsuba_lights: Vec<MitsubaComparison>,
     /// The light BVH's build over the terrain with every triangle emitting: (emitters, depth, seconds).
     pub light_tree: Option<(usize, u32, f64)>,
@@ -346,8 +347,13 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     }
     if o.compare.contains(&Compare::Lights) {
         // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid (hundreds of
-        // lamps, a few far bright panels) and the city block (thousands of lit windows, most facing away).
-        for (name, file) in [("lamp grid", "lamp-grid.gltf"), ("city block", "city-block.gltf")] {
+        // lamps, a few far bright panels), the city block (thousands of lit windows, most facing away) and the
+        // emissive panel (a screen's triangles under one emissive texture, mostly black).
+        for (name, file) in [
+            ("lamp grid", "lamp-grid.gltf"),
+            ("city block", "city-block.gltf"),
+            ("emissive panel", "emissive-panel.gltf"),
+        ] {
             let scene = o.scenes.join(file);
             for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
                 progress(&format!(
