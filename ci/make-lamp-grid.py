@@ -97,7 +97,8 @@ idx_bytes = b"".join(struct.pack("<I", k) for k in indices)
 data = pos_bytes + idx_bytes
 accessors, meshes, nodes = [], [], []
 views = [
-    {"buffer": 0, "byteOffset": 0, "byteLength": len(pos_bytes), "target": 34962},
+    # Every primitive's positions are an accessor into this one view, which glTF then requires to state its stride.
+    {"buffer": 0, "byteOffset": 0, "byteLength": len(pos_bytes), "byteStride": 12, "target": 34962},
     {"buffer": 0, "byteOffset": len(pos_bytes), "byteLength": len(idx_bytes), "target": 34963},
 ]
 for (first, count, material, base, verts) in primitives:
