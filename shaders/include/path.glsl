@@ -241,9 +241,20 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
             Spectrum contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             shadow.wanted = spectrum_positive(contribution);
-            // Stop just short of the light so the shadow ray cannot hit the emitter it aims at.
-            shadow.origin = vec4(side > 0.0 ? p_off : p_back, ls.dist * (1.0 - 1e-4));
-            shadow.dir = ls.wi;
+            // The shadow ray starts off the surface but ends at the light's point itself, just short of it so it
+            // cannot hit the emitter it aims at. Its length measured from p_pick instead would overshoot by the
+            // offset, through that emitter wherever the offset leans towards its back: facades facing each other
+            // across a street lost up to 6 % of their direct light to it under the power and uniform selections.
+            vec3 o = side > 0.0 ? p_off : p_back;
+            vec3 to_light = ls.wi;
+            float dist = ls.dist;
+            if (ls.dist < 1e29) {
+                vec3 d = p_pick + ls.wi * ls.dist - o;
+                dist = length(d);
+                to_light = d / dist;
+            }
+            shadow.origin = vec4(o, dist * (1.0 - 1e-4));
+            shadow.dir = to_light;
             shadow.radiance = contribution;
         }
     }
