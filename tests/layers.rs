@@ -467,13 +467,13 @@ fn malformed_layer_extensions_are_refused_naming_the_material() {
         ),
         (
             "KHR_materials_iridescence",
-            json!({ "iridescenceIOR": "oily" }),
-            "iridescenceIOR",
+            json!({ "iridescenceIor": "oily" }),
+            "iridescenceIor",
         ),
         (
             "KHR_materials_iridescence",
-            json!({ "iridescenceIOR": 0.5 }),
-            "iridescenceIOR",
+            json!({ "iridescenceIor": 0.5 }),
+            "iridescenceIor",
         ),
         (
             "KHR_materials_iridescence",
@@ -508,4 +508,54 @@ fn malformed_layer_extensions_are_refused_naming_the_material() {
             "{key}: {e}"
         );
     }
+}
+
+// KHR_materials_iridescence's `iridescenceIor` (the schema's spelling) reaches the film: a smooth black plastic
+// (IOR 1.5) under a film 50 um thick, far past light's coherence, mirrors the white environment by the incoherent
+// sum of the film's two interfaces' Fresnel reflections, which the film's IOR sets: 0.024 at 1.33, 0.127 at 2.0.
+// Would catch the IOR read under another name (until this test the loader read `iridescenceIOR` and every film had
+// the default 1.3: the two films rendered the same bytes).
+#[test]
+fn the_films_ior_is_read_from_iridescence_ior() {
+    let fresnel = |cos_i: f64, eta: f64| {
+        let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
+        let parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+        let perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+        0.5 * (parallel * parallel + perpendicular * perpendicular)
+    };
+    let mut seen = Vec::new();
+    for film in [1.33f64, 2.0] {
+        let mut b = GltfBuilder::new();
+        let m = b.material("black plastic", [0.0; 3], [0.0; 3], false);
+        let mj = b.material_json(m);
+        mj["pbrMetallicRoughness"] =
+            json!({ "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.0 });
+        mj["extensions"]["KHR_materials_specular"] = json!({ "specularFactor": 1.0 });
+        mj["extensions"]["KHR_materials_iridescence"] = json!({
+            "iridescenceFactor": 1.0, "iridescenceIor": film,
+            "iridescenceThicknessMinimum": 50000.0, "iridescenceThicknessMaximum": 50000.0
+        });
+        b.use_extension("KHR_materials_iridescence");
+        screen_quad(&mut b, m);
+        view(&mut b);
+        let f = render(&b, Some([1.0; 3]), 4, pathwave::Estimator::Bsdf, 1);
+        let mean = f.mean();
+        // The four pixels at the centre, seen 3.6 degrees off the normal.
+        let cos_i = 2.0 / (4.0f64 + 2.0 * 0.125 * 0.125).sqrt();
+        let cos_film = (1.0 - (1.0 - cos_i * cos_i) / (film * film)).sqrt();
+        let (r12, r23) = (fresnel(cos_i, film), fresnel(cos_film, 1.5 / film));
+        let expected = r12 + (1.0 - r12).powi(2) * r23 / (1.0 - r12 * r23);
+        for (x, y) in [(3, 3), (4, 3), (3, 4), (4, 4)] {
+            let got = mean[y * N + x];
+            eprintln!("film IOR {film}: pixel ({x}, {y}) {got:?}, incoherent sum {expected:.5}");
+            for c in got {
+                assert!(
+                    (c as f64 - expected).abs() < 3e-3,
+                    "film IOR {film}: pixel ({x}, {y}) reflects {got:?}, optics says {expected}"
+                );
+            }
+        }
+        seen.push(mean[3 * N + 3][1]);
+    }
+    assert!(seen[1] > 3.0 * seen[0], "the two films must differ: {seen:?}");
 }

@@ -737,7 +737,7 @@ pub fn iridescence() -> GltfBuilder {
     b.use_extension("KHR_materials_iridescence");
     let film = |b: &mut GltfBuilder, m: usize, ior: f32, thickness: f32| {
         b.material_json(m)["extensions"]["KHR_materials_iridescence"] = serde_json::json!({
-            "iridescenceFactor": 1.0, "iridescenceIOR": ior, "iridescenceThicknessMaximum": thickness
+            "iridescenceFactor": 1.0, "iridescenceIor": ior, "iridescenceThicknessMaximum": thickness
         });
     };
     for (col, thickness) in [200.0f32, 350.0, 500.0, 700.0].into_iter().enumerate() {

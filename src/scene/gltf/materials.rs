@@ -224,7 +224,7 @@ impl Loader<'_> {
                     }),
             }
         };
-        let ior = number("iridescenceIOR", d.ior, 1.0, 10.0)?;
+        let ior = number("iridescenceIor", d.ior, 1.0, 10.0)?;
         let thickness_min = number("iridescenceThicknessMinimum", d.thickness_min, 0.0, 1e5)?;
         let thickness_max = number("iridescenceThicknessMaximum", d.thickness_max, 0.0, 1e5)?;
         Ok(Iridescence {
