@@ -93,8 +93,35 @@ fn compare_with_originals(dir: &str) {
         ("glass.gltf", None),
         ("animated.gltf", Some(0.7)),
     ] {
+        compare_pair(dir, name, common::scenes_dir().join(name), data(dir, name), time);
+    }
+}
+
+// gltf-pipeline writes one Draco stream and one set of accessors for two meshes of one geometry (the Cornell box's
+// short block top and a raised red copy of it): both primitives name them, and it must render like the uncompressed
+// file. Would catch the second primitive refused ("decoded by another Draco primitive too", as it was) or decoded
+// twice into the same accessors.
+#[test]
+fn draco_primitives_sharing_a_stream_render_like_the_original() {
+    let original = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/shared-geometry.gltf");
+    let packed = data("draco", "shared-geometry.gltf");
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&packed).unwrap()).unwrap();
+    let prim = |m: usize| {
+        let p = &json["meshes"][m]["primitives"][0];
+        (p["attributes"].clone(), p["indices"].clone(), p["extensions"].clone())
+    };
+    assert_eq!(
+        prim(10),
+        prim(16),
+        "the fixture no longer shares one stream between the two meshes"
+    );
+    compare_pair("draco", "shared-geometry.gltf", original, packed, None);
+}
+
+fn compare_pair(dir: &str, name: &str, original: std::path::PathBuf, packed: std::path::PathBuf, time: Option<f32>) {
+    {
         let mut films = Vec::new();
-        for path in [common::scenes_dir().join(name), data(dir, name)] {
+        for path in [original, packed] {
             let mut scene = load(&path, None).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             assert!(scene.warnings.is_empty(), "{}: {:?}", path.display(), scene.warnings);
             if let Some(time) = time {
@@ -177,7 +204,7 @@ fn mutated_draco(mutate: impl Fn(&mut serde_json::Value)) -> (tempfile::TempDir,
 #[test]
 fn malformed_draco_primitives_are_refused_naming_them() {
     type Mutation = fn(&mut serde_json::Value);
-    let cases: [(&str, Mutation); 7] = [
+    let cases: [(&str, Mutation); 8] = [
         ("bufferView 99 does not exist", |j| {
             j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"] = 99.into()
         }),
@@ -201,6 +228,12 @@ fn malformed_draco_primitives_are_refused_naming_them() {
                 .as_u64()
                 .unwrap() as usize;
             j["accessors"][a]["count"] = 3.into();
+        }),
+        ("decoded by another Draco primitive too, from another stream", |j| {
+            // The short block's top names the floor's accessors but keeps its own stream.
+            let floor = j["meshes"][0]["primitives"][0].clone();
+            j["meshes"][10]["primitives"][0]["attributes"] = floor["attributes"].clone();
+            j["meshes"][10]["primitives"][0]["indices"] = floor["indices"].clone();
         }),
         ("does not decode", |j| {
             let v = j["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["bufferView"]

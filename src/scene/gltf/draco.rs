@@ -33,6 +33,10 @@ pub(super) fn decompress(
     let buffer = Index::new(root.buffers.len() as u32);
     let mut out = Vec::new();
     let mut decoded = HashSet::new();
+    // What each decode wrote: its extension JSON, the accessors it filled and the faces accessor it added, so that
+    // a primitive naming the same stream with the same accessors (gltf-pipeline writes one of each for meshes of
+    // identical geometry) takes what is already there instead of decoding again.
+    let mut done: Vec<(Value, Vec<usize>, Option<Index<json::Accessor>>)> = Vec::new();
     for m in 0..root.meshes.len() {
         for p in 0..root.meshes[m].primitives.len() {
             let prim = &root.meshes[m].primitives[p];
@@ -44,18 +48,31 @@ pub(super) fn decompress(
             let ext = ext.clone();
             let stream = stream(root, buffers, &ext).map_err(err)?;
             let plan = Plan::of(root, prim, &ext).map_err(err)?;
-            for &a in plan.attributes.iter().map(|(_, a, _)| a).chain(plan.indices.iter()) {
+            let accessors: Vec<usize> = plan.attributes.iter().map(|(_, a, _)| *a).chain(plan.indices).collect();
+            if let Some((_, _, faces)) = done.iter().find(|(e, a, _)| *e == ext && *a == accessors) {
+                if faces.is_some() {
+                    root.meshes[m].primitives[p].indices = *faces;
+                }
+                continue;
+            }
+            for &a in &accessors {
                 if !decoded.insert(a) {
-                    return Err(err(format!("accessor {a} is decoded by another Draco primitive too")));
+                    return Err(err(format!(
+                        "accessor {a} is decoded by another Draco primitive too, from another stream or with other \
+                         attributes"
+                    )));
                 }
             }
             let mesh = decode(stream, &plan).map_err(err)?;
             plan.write(root, &mesh, buffer, &mut out).map_err(err)?;
+            let mut faces = None;
             if plan.indices.is_none() {
                 // A primitive without indices gets an accessor for the decoded faces.
                 let indices = push_indices(root, &mesh, buffer, &mut out);
                 root.meshes[m].primitives[p].indices = Some(indices);
+                faces = Some(indices);
             }
+            done.push((ext, accessors, faces));
         }
     }
     if !out.is_empty() {
