@@ -518,3 +518,57 @@ fn vertex_colours_multiply_the_base_colour() {
         );
     }
 }
+
+/// COLOR_0's alpha multiplies the material's: a black quad whose vertex alpha runs from 0 on its left edge to 1 on
+/// its right, in front of an emitter. MASK (cutoff 0.5) hides its left half from camera rays, BLEND lets 1 - alpha
+/// of each column's samples through (alpha is linear in x across both triangles), and OPAQUE ignores alpha, as glTF
+/// says. Would catch vertex alpha dropped (it was: every mode rendered the quad opaque), or applied under OPAQUE.
+#[test]
+fn vertex_alpha_is_coverage_under_mask_and_blend() {
+    let yfov = 2.0 * (1.0f32 / 1.5).atan();
+    for mode in ["MASK", "BLEND", "OPAQUE"] {
+        let mut b = GltfBuilder::new();
+        let m = alpha_material(&mut b, mode, 1.0, None);
+        screen_quad(&mut b, m, 0.5);
+        // Corners: top-left, bottom-left, bottom-right, top-right.
+        b.add_colors(&[
+            [1.0, 1.0, 1.0, 0.0],
+            [1.0, 1.0, 1.0, 0.0],
+            [1.0, 1.0, 1.0, 1.0],
+            [1.0, 1.0, 1.0, 1.0],
+        ]);
+        let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
+        b.quad(
+            "emitter",
+            [
+                [-3.0, -3.0, -1.0],
+                [3.0, -3.0, -1.0],
+                [3.0, 3.0, -1.0],
+                [-3.0, 3.0, -1.0],
+            ],
+            back,
+            Some([0.0, 0.0, 1.0]),
+        );
+        b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
+        let film = render(&b, None, |s| {
+            s.max_depth = Some(0);
+            s.spp = 256;
+        });
+        let (mean, var) = (film.mean(), film.sample_variance());
+        for i in 0..N {
+            let column: f64 = (0..N).map(|j| mean[j * N + i][0] as f64).sum::<f64>() / N as f64;
+            let stderr = ((0..N).map(|j| var[j * N + i][0] as f64).sum::<f64>() / film.spp as f64).sqrt() / N as f64;
+            let u = (i as f64 + 0.5) / N as f64;
+            let want = match mode {
+                "MASK" => f64::from(u < 0.5),
+                "BLEND" => 1.0 - u,
+                _ => 0.0,
+            };
+            eprintln!("{mode} column {i}: {column:.4} +- {stderr:.4}, want {want:.4}");
+            assert!(
+                (column - want).abs() < 4.0 * stderr + 1e-6,
+                "{mode}: column {i} lets {column} through, want {want}"
+            );
+        }
+    }
+}

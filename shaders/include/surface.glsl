@@ -20,7 +20,8 @@ vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
     return texture_sample(floatBitsToUint(s.u.w), st, srgb);
 }
 
-// COLOR_0 at the hit, white without vertex colours. Its alpha is not applied (coverage comes from the material).
+// COLOR_0 at the hit, white without vertex colours. Its alpha multiplies the material's under MASK and BLEND, as
+// the base colour's does (glTF: COLOR_0 multiplies baseColorFactor, alpha included).
 vec4 vertex_color(uint tri, vec2 b) {
     if ((frame.flags & FLAG_VERTEX_COLORS) == 0u) return vec4(1.0);
     TriColors c = load_tri_colors(tri);
@@ -28,7 +29,7 @@ vec4 vertex_color(uint tri, vec2 b) {
 }
 
 float material_alpha(Material m, uint tri, vec2 b) {
-    float a = m.base_color.w;
+    float a = m.base_color.w * vertex_color(tri, b).a;
     if (slot_used(m.textures[TEX_BASE_COLOR])) a *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true).a;
     return a;
 }

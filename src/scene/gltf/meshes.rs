@@ -3,7 +3,7 @@
 use super::quantized::{POSITION_TYPES, TEXCOORD_TYPES, UNIT_TYPES};
 use super::{scene_err, Loader};
 use crate::error::Error;
-use crate::scene::{Material, Mesh, Primitive};
+use crate::scene::{AlphaMode, Material, Mesh, Primitive};
 use glam::{Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -221,7 +221,28 @@ impl Loader<'_> {
             ..read
         };
         self.read_deformation(mesh_name, prim, &mut p)?;
+        self.unfold_vertex_alpha(material, &p);
         Ok(Some(p))
+    }
+
+    /// COLOR_0's alpha multiplies the material's (glTF: COLOR_0 multiplies baseColorFactor), so a MASK or BLEND
+    /// material the loader found opaque (its factor and texture leave alpha at 1) is alpha-tested again once a
+    /// primitive's vertex alpha goes below 1. Under OPAQUE, alpha is ignored, as the spec says.
+    fn unfold_vertex_alpha(&mut self, material: u32, p: &Primitive) {
+        if !p.colors.as_ref().is_some_and(|c| c.iter().any(|v| v.w < 1.0)) {
+            return;
+        }
+        let Some(declared) = self.document.materials().nth(material as usize) else {
+            return;
+        };
+        let m = &mut self.scene.materials[material as usize];
+        if m.alpha_mode == AlphaMode::Opaque {
+            m.alpha_mode = match declared.alpha_mode() {
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask(declared.alpha_cutoff().unwrap_or(0.5)),
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            };
+        }
     }
 
     /// The material the selected KHR_materials_variants variant maps this primitive to, if it maps it. Every
