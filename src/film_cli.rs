@@ -45,8 +45,10 @@ pub struct MergeArgs {
 /// writes the result: integer sums make it the bits one render of the union writes, in whatever order the parts
 /// come. Nothing is written when any part is refused.
 pub fn merge(args: MergeArgs) -> Result<()> {
+    let inputs: Vec<(&str, &std::path::Path)> = args.parts.iter().map(|p| ("film file", p.as_path())).collect();
     for out in &args.output {
         output::check_writable(out)?;
+        output::check_not_input(out, &inputs)?;
     }
     let mut merged: Option<(u32, u32, ExactFilm, FilmMeta, PathBuf)> = None;
     let mut devices: Vec<String> = Vec::new();

@@ -560,9 +560,17 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let shots = args.shots()?;
     // Refuse a bad output path before spending time on the render.
+    let mut inputs = vec![("scene", args.common.scene.as_path())];
+    if let Some(env) = &args.common.env.env {
+        inputs.push(("environment map", env.as_path()));
+    }
     for shot in &shots {
         for out in &shot.outputs {
             output::check_writable(out)?;
+            output::check_not_input(out, &inputs)?;
+            for &aov in args.aovs() {
+                output::check_not_input(&output::aov_path(out, aov), &inputs)?;
+            }
         }
     }
     let (first_sample, spp) = args.sample_range()?;
@@ -853,6 +861,7 @@ fn write_outputs(
 fn view(args: ViewArgs) -> Result<()> {
     if let Some(out) = &args.screenshot {
         output::check_writable(out)?;
+        output::check_not_input(out, &[("scene", args.common.scene.as_path())])?;
     }
     let scene = args.common.load()?;
     let animation = match &args.common.animation {

@@ -40,6 +40,10 @@ fn scene_case(needle: &'static str, edit: impl Fn(&mut Value) + Send + Sync + 's
 }
 
 fn base_scene() -> Value {
+    serde_json::from_str(&base_builder().to_json()).unwrap()
+}
+
+fn base_builder() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let light = b.material("light", [0.8; 3], [4.0; 3], false);
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
@@ -64,7 +68,7 @@ fn base_scene() -> Value {
         &[0.0, 1.0],
         &[0.0, 0.0, 0.0, 0.1, 0.0, 0.0],
     );
-    serde_json::from_str(&b.to_json()).unwrap()
+    b
 }
 
 fn cases() -> Vec<Case> {
@@ -321,6 +325,29 @@ fn cases() -> Vec<Case> {
         }
         v.push(c);
     }
+    // Outputs that are inputs: the scene itself (a glTF named .exr), and a film file merged onto itself.
+    v.push(case(
+        &["render", "SCENE_EXR", "-o", "SCENE_EXR", "--size", "8x8", "--spp", "1"],
+        "also the scene",
+    ));
+    v.push(case(
+        &["merge", "OUTDIR/part.exr", "-o", "OUTDIR/part.exr"],
+        "also the film file",
+    ));
+    // A GLB with bytes past the length its header declares.
+    v.push(case(
+        &["render", "LONG_GLB", "-o", "OUT", "--size", "8x8", "--spp", "1"],
+        "declares a length of",
+    ));
+    // Integer positions without KHR_mesh_quantization.
+    v.push(scene_case("need KHR_mesh_quantization", |d: &mut Value| {
+        let a = d["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+            .as_u64()
+            .unwrap() as usize;
+        d["accessors"][a]["componentType"] = json!(5121);
+        d["accessors"][a]["min"] = json!([0, 0, 0]);
+        d["accessors"][a]["max"] = json!([255, 255, 255]);
+    }));
     // Hostile but handled: a channel whose keys do not increase is dropped with a warning, and the scene renders.
     let mut c = scene_case("", |d: &mut Value| {
         let s = d["animations"][0]["samplers"][0]["input"].as_u64().unwrap() as usize;
@@ -362,6 +389,11 @@ fn run(c: &Case, dir: &Path) -> Option<String> {
     std::fs::write(dir.join("empty.gltf"), b"").unwrap();
     std::fs::write(dir.join("junk.gltf"), b"{\"asset\": [[[[ \x00\xff").unwrap();
     std::fs::write(dir.join("truncated.glb"), b"glTF\x02\x00\x00\x00\x08\x00\x00\x00").unwrap();
+    std::fs::write(dir.join("scene.exr"), doc.to_string()).unwrap();
+    std::fs::write(dir.join("part.exr"), b"not a film").unwrap();
+    let mut long = base_builder().to_glb();
+    long.extend_from_slice(&[0; 16]);
+    std::fs::write(dir.join("long.glb"), long).unwrap();
     let out = dir.join("out.png");
     let _ = std::fs::remove_file(&out);
     std::fs::write(dir.join("junk.hdr"), b"#?RADIANCE\nnot an image").unwrap();
@@ -379,6 +411,8 @@ fn run(c: &Case, dir: &Path) -> Option<String> {
             "EMPTY" => dir.join("empty.gltf").display().to_string(),
             "JUNK" => dir.join("junk.gltf").display().to_string(),
             "TRUNCATED_GLB" => dir.join("truncated.glb").display().to_string(),
+            "LONG_GLB" => dir.join("long.glb").display().to_string(),
+            "SCENE_EXR" => dir.join("scene.exr").display().to_string(),
             a if a.starts_with("OUTDIR/") => dir.join(&a[7..]).display().to_string(),
             a => a.to_string(),
         }

@@ -228,6 +228,25 @@ fn radiance_that_could_overflow_is_refused_naming_the_item() {
     assert!(run.status.success(), "{}", stderr(&run));
     let (_, _, px) = pathwave::output::read_exr(&out).unwrap();
     assert!(px.iter().flatten().all(|c| c.is_finite()));
+
+    // NaN texels in an EXR map were turned black without a word (max(NaN, 0) is 0): refused, counted and placed.
+    let nan_sky = dir.path().join("nan-sky.exr");
+    exr::prelude::write_rgb_file(&nan_sky, 4, 2, |x, y| {
+        let v = if (x, y) == (1, 0) || (x, y) == (2, 1) {
+            f32::NAN
+        } else {
+            1.0
+        };
+        (v, 1.0f32, 1.0f32)
+    })
+    .unwrap();
+    let args = ["render", &cornell(), "-o", o, "--env", nan_sky.to_str().unwrap()];
+    assert_refused(
+        &args,
+        &[],
+        dir.path(),
+        "nan-sky.exr: 2 texels of the environment map are NaN (not a number), the first at (1, 0)",
+    );
 }
 
 #[test]

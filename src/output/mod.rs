@@ -100,6 +100,24 @@ pub fn check_writable(path: &Path) -> Result<(), Error> {
     Ok(())
 }
 
+/// Refuses an output that is one of the run's inputs (`inputs`: what each is, and its path), however it is named
+/// (links, `..`): writing it would destroy what was read. An output that does not exist yet is no input.
+pub fn check_not_input(out: &Path, inputs: &[(&str, &Path)]) -> Result<(), Error> {
+    let Ok(o) = std::fs::canonicalize(out) else {
+        return Ok(());
+    };
+    match inputs
+        .iter()
+        .find(|(_, i)| std::fs::canonicalize(i).is_ok_and(|i| i == o))
+    {
+        Some((what, _)) => Err(Error::Output {
+            path: out.to_path_buf(),
+            message: format!("this output is also the {what} being read; writing it would destroy the {what}"),
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Writes linear RGB pixels (row 0 at the top). PNG applies 2^exposure, clamps, and encodes sRGB.
 pub fn write_image(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]], exposure: f32) -> Result<(), Error> {
     write_images(&[path], width, height, rgb, exposure)

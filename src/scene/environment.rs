@@ -72,6 +72,20 @@ impl Environment {
         if width == 0 || height == 0 {
             return Err(env_err(path, "the environment map has no pixels"));
         }
+        // NaN first: `max(0.0)` below would turn it into black without a word.
+        let nans = rgb.pixels().filter(|p| p.0.iter().any(|c| c.is_nan())).count();
+        if let Some(i) = rgb.pixels().position(|p| p.0.iter().any(|c| c.is_nan())) {
+            return Err(env_err(
+                path,
+                format!(
+                    "{nans} texel{} of the environment map {} NaN (not a number), the first at ({}, {})",
+                    if nans == 1 { "" } else { "s" },
+                    if nans == 1 { "is" } else { "are" },
+                    i as u32 % width,
+                    i as u32 / width
+                ),
+            ));
+        }
         let texels: Vec<[f32; 3]> = rgb.pixels().map(|p| p.0.map(|c| (c * intensity).max(0.0))).collect();
         if texels.iter().any(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(env_err(path, "the environment map holds non-finite values"));

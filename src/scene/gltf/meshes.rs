@@ -94,6 +94,20 @@ impl Loader<'_> {
                 if acc.normalized() { " normalized" } else { "" }
             )));
         }
+        // Core glTF allows floats, and normalized unsigned bytes and shorts for texture coordinates; the other
+        // integer types need KHR_mesh_quantization, which a file must then name (the Khronos validator calls it an
+        // error otherwise: a reader without the extension would misread the geometry).
+        let core = acc.data_type() == DataType::F32
+            || (what.starts_with("TEXCOORD")
+                && acc.normalized()
+                && matches!(acc.data_type(), DataType::U8 | DataType::U16));
+        if !core && !self.document.extensions_used().any(|e| e == "KHR_mesh_quantization") {
+            return Err(err(format!(
+                "{:?}{} components need KHR_mesh_quantization, which the file does not list in extensionsUsed",
+                acc.data_type(),
+                if acc.normalized() { " normalized" } else { "" }
+            )));
+        }
         self.check_extent(acc, what)
     }
 

@@ -113,6 +113,20 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
             "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes",
         ));
     }
+    // The header's length is the whole file's (glTF 2.0, "Binary glTF Layout"); bytes past it are no part of the
+    // asset, and a shorter file is truncated. The Khronos validator calls either an error (GLB_LENGTH_MISMATCH).
+    if bytes.starts_with(b"glTF") {
+        let declared = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
+        if declared != bytes.len() {
+            return Err(scene_err(
+                path,
+                format!(
+                    "not a valid glTF file: the GLB header declares a length of {declared} bytes, but the file holds {}",
+                    bytes.len()
+                ),
+            ));
+        }
+    }
     let (json, blob) = parse(path, &bytes)?;
     drop(bytes);
     pre_validate(path, &json)?;
