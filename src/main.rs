@@ -73,6 +73,10 @@ struct LoadArgs {
     /// with V). Default: the primitives' own materials.
     #[arg(long)]
     variant: Option<String>,
+    /// Refuse a scene whose image files are missing, as a render farm may want, instead of rendering its materials
+    /// without those textures (with a warning naming each image).
+    #[arg(long)]
+    strict: bool,
 }
 
 impl LoadArgs {
@@ -83,6 +87,7 @@ impl LoadArgs {
             max_texture_pixels: self.max_texture_pixels,
             max_memory: self.max_memory(),
             variant: self.variant.clone(),
+            strict: self.strict,
         }
     }
 

@@ -356,3 +356,54 @@ fn images_together_are_bounded_by_the_host_memory_budget() {
         &["image 0 'first' (a.png)", "--max-memory"],
     );
 }
+
+/// What real files get wrong and Blender and three.js read anyway, tolerated with a warning or refused with the
+/// reason: POSITION accessors without the min and max glTF requires load (one warning, the same triangles); a file
+/// whose only primitives are lines says so; a scene object without `nodes` (valid glTF 2.0) is an empty scene, not
+/// a parse error ("missing field nodes", as gltf 1.4 said).
+#[test]
+fn what_real_files_get_wrong_is_tolerated_or_explained() {
+    let original: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(common::cornell()).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut doc = original.clone();
+        edit(&mut doc);
+        let path = dir.path().join(name);
+        std::fs::write(&path, doc.to_string()).unwrap();
+        path
+    };
+    let unbounded = write("unbounded.gltf", &|d| {
+        for a in d["accessors"].as_array_mut().unwrap() {
+            let a = a.as_object_mut().unwrap();
+            a.remove("min");
+            a.remove("max");
+        }
+    });
+    let scene = pathwave::scene::load(&unbounded, None).unwrap_or_else(|e| panic!("{e}"));
+    let reference = pathwave::scene::load(&common::cornell(), None).unwrap();
+    assert_eq!(scene.flatten().len(), reference.flatten().len());
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(
+        scene.warnings[0].contains("and 15 more: POSITION without min and max"),
+        "{:?}",
+        scene.warnings
+    );
+
+    let lines = write("lines.gltf", &|d| {
+        for m in d["meshes"].as_array_mut().unwrap() {
+            m["primitives"][0]["mode"] = 1.into();
+        }
+    });
+    let e = pathwave::scene::load(&lines, None).err().unwrap().to_string();
+    assert!(
+        e.contains("no triangles to render: its 16 primitives are points or lines"),
+        "{e}"
+    );
+
+    let empty = write("empty.gltf", &|d| {
+        d["scenes"][0].as_object_mut().unwrap().remove("nodes");
+    });
+    let e = pathwave::scene::load(&empty, None).err().unwrap().to_string();
+    assert!(e.contains("no triangles to render: scene 0 has no nodes"), "{e}");
+}

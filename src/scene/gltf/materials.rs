@@ -525,7 +525,7 @@ impl Loader<'_> {
                 t
             }
         };
-        if texture.is_none() {
+        if texture.is_none() && !self.missing_textures.contains(&tex.index()) {
             self.warn(format!(
                 "material '{material}': {slot} uses texture {}, which names no image; it is ignored",
                 tex.index()
@@ -572,6 +572,21 @@ impl Loader<'_> {
         };
         let image = match self.image_map.get(&source.index()) {
             Some(&i) => i,
+            None if !self.strict && self.image_file_missing(&source) => {
+                // Blender and three.js render such a file too: the material keeps its factors.
+                let name = source.name().map(|n| format!(" '{n}'")).unwrap_or_default();
+                let uri = match source.source() {
+                    gltf::image::Source::Uri { uri, .. } => uri::describe(uri),
+                    gltf::image::Source::View { .. } => String::new(),
+                };
+                self.warn(format!(
+                    "image {}{name} ({uri}): file not found; the materials that sample it render without it, with \
+                     their factors (--strict refuses the scene instead)",
+                    source.index()
+                ));
+                self.missing_textures.insert(tex.index());
+                return Ok(None);
+            }
             None => {
                 let decoded = (self.image_bytes(&source))
                     .and_then(|bytes| texture::decode(&bytes, self.max_texture_pixels, self.image_memory))
@@ -602,6 +617,16 @@ impl Loader<'_> {
     }
 
     /// An image's encoded bytes, from its bufferView or its URI.
+    /// Whether the image is a file the URI policy lets pathwave read and that does not exist (nothing else: a
+    /// folder, a FIFO, a path leading out of the scene's folder or an undecodable file is still refused).
+    fn image_file_missing(&self, image: &gltf::Image) -> bool {
+        let gltf::image::Source::Uri { uri, .. } = image.source() else {
+            return false;
+        };
+        matches!(self.uris.resolve(uri), Ok(uri::Target::File(f))
+            if std::fs::symlink_metadata(&f).is_err_and(|e| e.kind() == std::io::ErrorKind::NotFound))
+    }
+
     fn image_bytes(&self, image: &gltf::Image) -> Result<Vec<u8>, String> {
         match image.source() {
             gltf::image::Source::View { view, .. } => {

@@ -217,6 +217,7 @@ impl Loader<'_> {
             self.warn(format!(
                 "mesh '{mesh_name}': a primitive of mode {mode:?} is skipped (only triangles render)"
             ));
+            self.skipped_primitives += 1;
             return Ok(None);
         }
         let Some(mut present) = self.check_geometry(mesh_name, prim)? else {

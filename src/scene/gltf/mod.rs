@@ -74,6 +74,8 @@ pub struct LoadOptions {
     /// The KHR_materials_variants variant whose materials the primitives take (by name; default: none, the
     /// primitives' own materials).
     pub variant: Option<String>,
+    /// Refuse a missing image file instead of leaving its textures out with a warning (`--strict`).
+    pub strict: bool,
 }
 
 impl Default for LoadOptions {
@@ -84,6 +86,7 @@ impl Default for LoadOptions {
             max_texture_pixels: DEFAULT_MAX_TEXTURE_PIXELS,
             max_memory: crate::memory::default_max_memory(),
             variant: None,
+            strict: false,
         }
     }
 }
@@ -130,7 +133,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     let (json, blob) = parse(path, &bytes)?;
     drop(bytes);
     pre_validate(path, &json)?;
-    validate(path, &json)?;
+    let tolerated = validate(path, &json)?;
     let document = gltf::Document::from_json_without_validation(json);
     let need = crate::memory::load_estimate(&document);
     if need > options.max_memory {
@@ -157,6 +160,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     };
     let mut scene = Scene {
         path: path.to_path_buf(),
+        warnings: tolerated,
         ..Default::default()
     };
     Loader {
@@ -172,6 +176,9 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         image_map: Default::default(),
         mesh_map: Default::default(),
         variant: None,
+        strict: options.strict,
+        missing_textures: Default::default(),
+        skipped_primitives: 0,
     }
     .run(&document, options.camera, options.variant.as_deref())?;
     Ok(scene)
@@ -196,6 +203,11 @@ struct Loader<'a> {
     mesh_map: HashMap<usize, usize>,
     /// The selected KHR_materials_variants variant's index.
     variant: Option<u32>,
+    /// `LoadOptions::strict`, and the glTF textures left out because their image file is missing (already warned).
+    strict: bool,
+    missing_textures: HashSet<usize>,
+    /// Primitives skipped for their mode (points, lines), for the error when nothing else is left.
+    skipped_primitives: usize,
 }
 
 impl Loader<'_> {
@@ -265,7 +277,21 @@ impl Loader<'_> {
             self.warn("the file has no camera; using one that frames the scene".into());
         }
         if self.scene.is_empty() {
-            return Err(scene_err(self.path, "the scene has no triangles to render"));
+            let scene = doc.default_scene().or_else(|| doc.scenes().next());
+            let why = match scene {
+                Some(s) if s.nodes().len() == 0 => format!(": scene {} has no nodes", s.index()),
+                _ if self.skipped_primitives > 0 => format!(
+                    ": its {} primitive{} {} points or lines, which pathwave skips (only triangles render)",
+                    self.skipped_primitives,
+                    if self.skipped_primitives == 1 { "" } else { "s" },
+                    if self.skipped_primitives == 1 { "is" } else { "are" },
+                ),
+                _ => String::new(),
+            };
+            return Err(scene_err(
+                self.path,
+                format!("the scene has no triangles to render{why}"),
+            ));
         }
         Ok(())
     }

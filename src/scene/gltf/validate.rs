@@ -20,7 +20,7 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Opti
     };
     let mut value: Option<gltf::json::Value> = from_slice(&json).ok();
     let dropped = match value.as_mut() {
-        Some(v) => drop_untargeted_channels(path, v)?,
+        Some(v) => drop_untargeted_channels(path, v)? + give_scenes_nodes(v),
         None => 0,
     };
     let root = match value {
@@ -30,6 +30,22 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Opti
     }
     .map_err(|e| invalid(&e))?;
     Ok((root, blob))
+}
+
+/// Gives every scene object without `nodes` (glTF 2.0 allows it: an empty scene) an empty list, which gltf 1.4's
+/// schema requires; returns how many it changed.
+fn give_scenes_nodes(root: &mut gltf::json::Value) -> usize {
+    let Some(scenes) = root.get_mut("scenes").and_then(gltf::json::Value::as_array_mut) else {
+        return 0;
+    };
+    let mut changed = 0;
+    for scene in scenes.iter_mut().filter_map(gltf::json::Value::as_object_mut) {
+        if !scene.contains_key("nodes") {
+            scene.insert("nodes".into(), gltf::json::Value::Array(Vec::new()));
+            changed += 1;
+        }
+    }
+    changed
 }
 
 /// Removes the animation channels whose target has no `node` and which are otherwise well-formed; returns how many.
@@ -80,11 +96,24 @@ fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result
 /// zeros; `check_accessor` handles it) and a texture without a source (pathwave never reads texture sources); and
 /// a required extension gltf does not know but pathwave reads itself (KHR_mesh_quantization: `quantized`).
 /// Every other finding refuses the file, listed as gltf would.
-pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Error> {
+pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<Vec<String>, Error> {
     use gltf::json::validation::Validate;
     let mut findings = Vec::new();
+    let mut unbounded: Vec<String> = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |p, error| {
         let p = p();
+        // POSITION's min and max are required, but Blender and three.js read files without them, and pathwave
+        // bounds its geometry from the positions themselves.
+        if error == gltf::json::validation::Error::Missing
+            && (p.as_str().ends_with("attributes[\"POSITION\"].min")
+                || p.as_str().ends_with("attributes[\"POSITION\"].max"))
+        {
+            let at = p.as_str().trim_end_matches(".min").trim_end_matches(".max").to_string();
+            if !unbounded.contains(&at) {
+                unbounded.push(at);
+            }
+            return;
+        }
         let read_here = error == gltf::json::validation::Error::Unsupported
             && p.as_str().starts_with("extensionsRequired[")
             && SUPPORTED_EXTENSIONS
@@ -94,8 +123,18 @@ pub(super) fn validate(path: &Path, root: &gltf::json::Root) -> Result<(), Error
             findings.push(format!("{p}: {error}"));
         }
     });
+    let mut warnings = Vec::new();
+    if let Some(first) = unbounded.first() {
+        let more = match unbounded.len() {
+            1 => String::new(),
+            n => format!(" and {} more", n - 1),
+        };
+        warnings.push(format!(
+            "{first}{more}: POSITION without min and max, which glTF requires; the bounds are computed from the positions"
+        ));
+    }
     if findings.is_empty() {
-        return Ok(());
+        return Ok(warnings);
     }
     Err(scene_err(
         path,
