@@ -297,6 +297,22 @@ fn normal_maps_tilt_the_shading_normal_the_gltf_way() {
     }
 }
 
+/// A white emitter behind the view's quad (at z = -1, facing the camera): what alpha lets through shows as 1.
+fn emitting_backdrop(b: &mut GltfBuilder) {
+    let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
+    b.quad(
+        "emitter",
+        [
+            [-3.0, -3.0, -1.0],
+            [3.0, -3.0, -1.0],
+            [3.0, 3.0, -1.0],
+            [-3.0, 3.0, -1.0],
+        ],
+        back,
+        Some([0.0, 0.0, 1.0]),
+    );
+}
+
 fn alpha_material(b: &mut GltfBuilder, mode: &str, alpha: f32, cutoff: Option<f32>) -> usize {
     let m = b.material("occluder", [0.0; 3], [0.0; 3], true);
     let mj = b.material_json(m);
@@ -321,18 +337,7 @@ fn alpha_mask_and_blend_hide_surfaces_from_camera_rays() {
     let t = b.texture(image, json!({ "magFilter": NEAREST }));
     b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
     screen_quad(&mut b, m, 0.5);
-    let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
-    b.quad(
-        "emitter",
-        [
-            [-3.0, -3.0, -1.0],
-            [3.0, -3.0, -1.0],
-            [3.0, 3.0, -1.0],
-            [-3.0, 3.0, -1.0],
-        ],
-        back,
-        Some([0.0, 0.0, 1.0]),
-    );
+    emitting_backdrop(&mut b);
     // The occluder at z = 0.5 fills a wider view than N pixels: frame exactly it.
     let yfov = 2.0 * (1.0f32 / 1.5).atan();
     b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
@@ -351,18 +356,7 @@ fn alpha_mask_and_blend_hide_surfaces_from_camera_rays() {
     let mut b = GltfBuilder::new();
     let m = alpha_material(&mut b, "BLEND", 0.25, None);
     screen_quad(&mut b, m, 0.5);
-    let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
-    b.quad(
-        "emitter",
-        [
-            [-3.0, -3.0, -1.0],
-            [3.0, -3.0, -1.0],
-            [3.0, 3.0, -1.0],
-            [-3.0, 3.0, -1.0],
-        ],
-        back,
-        Some([0.0, 0.0, 1.0]),
-    );
+    emitting_backdrop(&mut b);
     b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
     let film = render(&b, None, |s| {
         s.max_depth = Some(0);
@@ -537,18 +531,7 @@ fn vertex_alpha_is_coverage_under_mask_and_blend() {
             [1.0, 1.0, 1.0, 1.0],
             [1.0, 1.0, 1.0, 1.0],
         ]);
-        let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
-        b.quad(
-            "emitter",
-            [
-                [-3.0, -3.0, -1.0],
-                [3.0, -3.0, -1.0],
-                [3.0, 3.0, -1.0],
-                [-3.0, 3.0, -1.0],
-            ],
-            back,
-            Some([0.0, 0.0, 1.0]),
-        );
+        emitting_backdrop(&mut b);
         b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
         let film = render(&b, None, |s| {
             s.max_depth = Some(0);
