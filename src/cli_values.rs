@@ -76,6 +76,65 @@ pub fn parse_focus_distance(s: &str) -> Result<f32, String> {
     number(s, 0.0, LENGTH_LIMIT, true)
 }
 
+/// Three finite numbers X,Y,Z each within `limit` in magnitude.
+fn triple(s: &str, limit: f32, what: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let values: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse::<f32>().ok()).collect();
+    match values[..] {
+        [x, y, z] if parts.len() == 3 && values.iter().all(|v| v.is_finite() && v.abs() <= limit) => Ok([x, y, z]),
+        _ => Err(format!("'{s}' is not {what}")),
+    }
+}
+
+/// A point for --eye and --target: scene units within LENGTH_LIMIT, as the lens's lengths.
+pub fn parse_point(s: &str) -> Result<[f32; 3], String> {
+    triple(s, LENGTH_LIMIT, "a point X,Y,Z of three finite numbers (e.g. 0,1,5)")
+}
+
+/// --up: any direction but zero; only its direction counts.
+pub fn parse_up(s: &str) -> Result<[f32; 3], String> {
+    let v = triple(
+        s,
+        LENGTH_LIMIT,
+        "a direction X,Y,Z of three finite numbers (e.g. 0,1,0)",
+    )?;
+    if v.iter().all(|c| *c == 0.0) {
+        return Err(format!("'{s}' has no direction"));
+    }
+    Ok(v)
+}
+
+/// --yfov in degrees, strictly between 0 and 180 (a perspective camera's range); parsed as f64 so a file's yfov
+/// in radians, printed in degrees to 17 digits, comes back as the same f32.
+pub fn parse_yfov(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v < 180.0 => Ok(v),
+        _ => Err(format!("{s} is not a field of view in degrees, in (0, 180)")),
+    }
+}
+
+/// --orbit AZIMUTH,ELEVATION,DISTANCE: azimuth in [-360, 360] degrees, elevation in (-90, 90) (straight up or
+/// down has no image direction with +y up), distance in (0, LENGTH_LIMIT].
+pub fn parse_orbit(s: &str) -> Result<[f32; 3], String> {
+    let [az, el, d] = triple(
+        s,
+        LENGTH_LIMIT,
+        "AZIMUTH,ELEVATION,DISTANCE (degrees, degrees, scene units; e.g. 45,30,5)",
+    )?;
+    if az.abs() > 360.0 {
+        return Err(format!("'{s}': the azimuth {az} is not within -360 to 360 degrees"));
+    }
+    if el.abs() >= 90.0 {
+        return Err(format!(
+            "'{s}': the elevation {el} is not strictly between -90 and 90 degrees"
+        ));
+    }
+    if d <= 0.0 {
+        return Err(format!("'{s}': the distance {d} is not positive"));
+    }
+    Ok([az, el, d])
+}
+
 pub fn parse_rgb(s: &str) -> Result<[f32; 3], String> {
     let parts: Vec<&str> = s.split(',').collect();
     let values: Vec<f32> = parts.iter().filter_map(|p| p.trim().parse::<f32>().ok()).collect();

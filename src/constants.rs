@@ -111,6 +111,7 @@ pub const TEXTURE_NEAREST: u32 = 16;
 pub const TONEMAP_CLAMP: u32 = 0;
 pub const TONEMAP_ACES: u32 = 1;
 pub const TONEMAP_NEUTRAL: u32 = 2;
+pub const TONEMAP_AGX: u32 = 3;
 pub const TONEMAP_BGRA: u32 = 16;
 /// Workgroups of the 2D tone-map stage are TONEMAP_TILE x TONEMAP_TILE pixels.
 pub const TONEMAP_TILE: u32 = 8;

@@ -39,6 +39,9 @@ pub struct MergeArgs {
     /// Exposure in stops applied to PNG output, -64 to 64.
     #[arg(long, default_value = "0", value_parser = crate::cli_values::parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
+    /// Tone curve of PNG output after --exposure, as for `render`.
+    #[arg(long, value_enum, default_value = "none")]
+    tonemap: output::ToneCurve,
 }
 
 /// Reads every part, refuses any that does not belong (naming it and what differs), adds their exact sums and
@@ -112,7 +115,11 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         film: &film,
         meta: &meta,
     };
-    output::write_images_with(&args.output, width, height, &mean, args.exposure, Some(stats))?;
+    let display = output::Display {
+        exposure: args.exposure,
+        curve: args.tonemap,
+    };
+    output::write_images_with(&args.output, width, height, &mean, display, Some(stats))?;
     eprintln!(
         "{}: {} parts merged, {width}x{height}, {} samples per pixel (samples {})",
         args.output

@@ -194,9 +194,46 @@ struct SceneArgs {
     #[arg(long, value_enum, default_value = "bvh")]
     light_sampler: LightSampler,
     #[command(flatten)]
+    view: CameraArgs,
+    #[command(flatten)]
     env: EnvArgs,
     #[command(flatten)]
     limits: LoadArgs,
+}
+
+/// A camera given on the command line (README, "Cameras"), replacing or changing the file's.
+#[derive(clap::Args)]
+struct CameraArgs {
+    /// Where the camera stands, X,Y,Z in scene units; with --target.
+    #[arg(long, value_parser = parse_point, requires = "target", conflicts_with = "orbit", allow_hyphen_values = true)]
+    eye: Option<[f32; 3]>,
+    /// The point the camera looks at, X,Y,Z; alone, the file's camera turns to it; with --orbit, the orbit's centre
+    /// (default: the centre of the scene's bounds).
+    #[arg(long, value_parser = parse_point, allow_hyphen_values = true)]
+    target: Option<[f32; 3]>,
+    /// The image's up direction, X,Y,Z (default 0,1,0).
+    #[arg(long, value_parser = parse_up, allow_hyphen_values = true)]
+    up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees, (0, 180); alone, it changes only the field of view of the file's camera.
+    #[arg(long, value_parser = parse_yfov, allow_hyphen_values = true)]
+    yfov: Option<f64>,
+    /// AZIMUTH,ELEVATION,DISTANCE: a camera looking at --target (default: the bounds' centre) from this direction
+    /// (azimuth in degrees from +z towards +x, elevation in degrees up) and distance.
+    #[arg(long, value_parser = parse_orbit, allow_hyphen_values = true)]
+    orbit: Option<[f32; 3]>,
+}
+
+impl CameraArgs {
+    fn spec(&self) -> scene::CameraSpec {
+        let v = |p: Option<[f32; 3]>| p.map(glam::Vec3::from);
+        scene::CameraSpec {
+            eye: v(self.eye),
+            target: v(self.target),
+            up: v(self.up),
+            yfov: self.yfov,
+            orbit: self.orbit,
+        }
+    }
 }
 
 impl SceneArgs {
@@ -209,9 +246,23 @@ impl SceneArgs {
     /// `load`, at `time` rather than --time's.
     fn load_at(&self, time: f32) -> Result<scene::Scene> {
         let mut scene = self.limits.load(&self.scene, self.camera)?;
+        self.aim(&mut scene)?;
         self.pose(&mut scene, time)?;
         scene.environment = self.env.environment(self.limits.max_texture_pixels)?;
         Ok(scene)
+    }
+
+    /// Gives `scene` the camera --eye, --target, --up, --yfov and --orbit ask for, if any (before posing, so that
+    /// an orbit's default centre is the bounds' centre of the file's own pose).
+    fn aim(&self, scene: &mut scene::Scene) -> Result<()> {
+        let spec = self.view.spec();
+        let o = spec
+            .resolve(scene)
+            .map_err(|e| anyhow::anyhow!("{}: the command line's camera: {e}", self.scene.display()))?;
+        if let Some(o) = o {
+            scene.override_camera(o);
+        }
+        Ok(())
     }
 
     /// Poses `scene` at `time` with --animation and --shutter, if that changes it; refused if the pose would not
@@ -287,9 +338,10 @@ struct ViewArgs {
     /// Exposure in stops (+ and - change it in the window), -64 to 64.
     #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
-    /// Tone curve (T cycles through them in the window).
+    /// Tone curve after --exposure (T cycles through them in the window; P's PNG uses the one shown): none
+    /// (linear, clipped), aces (Narkowicz's fit), agx (Sobotka's AgX) or pbr-neutral (Khronos PBR Neutral).
     #[arg(long, value_enum, default_value = "aces")]
-    tonemap: pathwave::viewer::ToneCurve,
+    tonemap: output::ToneCurve,
     /// Shader folder to use and watch: edited stages are rebuilt while the window stays open.
     #[arg(long)]
     shader_dir: Option<PathBuf>,
@@ -330,6 +382,14 @@ struct RenderArgs {
     /// Exposure in stops applied to PNG output, -64 to 64.
     #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
+    /// Write the fraction of each pixel's camera samples that hit the scene as alpha: an A channel in EXR (the
+    /// colour as rendered: premultiplied with --hide-env), RGBA in PNG (straight: divided by alpha with --hide-env).
+    #[arg(long)]
+    alpha: bool,
+    /// Tone curve of PNG output after --exposure: none (linear, clipped at 1), aces (Narkowicz's fit), agx
+    /// (Sobotka's AgX) or pbr-neutral (Khronos PBR Neutral). EXR output stays linear.
+    #[arg(long, value_enum, default_value = "none")]
+    tonemap: output::ToneCurve,
     /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
     #[arg(long, value_enum, default_value = "mis", hide = true)]
     estimator: Estimator,
@@ -451,6 +511,7 @@ impl RenderArgs {
     fn film_settings(&self) -> Vec<(String, String)> {
         let c = &self.common;
         let opt = |v: Option<String>| v.unwrap_or_else(|| "default".into());
+        let triple = |v: [f32; 3]| format!("{},{},{}", v[0], v[1], v[2]);
         [
             ("size", format!("{}x{}", self.size.0, self.size.1)),
             ("max-depth", opt(c.max_depth.map(|d| d.to_string()))),
@@ -458,6 +519,11 @@ impl RenderArgs {
             ("light-sampler", c.light_sampler.name().to_string()),
             ("energy-compensation", (!self.no_energy_compensation).to_string()),
             ("camera", opt(c.camera.map(|n| n.to_string()))),
+            ("eye", opt(c.view.eye.map(triple))),
+            ("target", opt(c.view.target.map(triple))),
+            ("up", opt(c.view.up.map(triple))),
+            ("yfov", opt(c.view.yfov.map(|d| d.to_string()))),
+            ("orbit", opt(c.view.orbit.map(triple))),
             ("aperture", c.aperture.to_string()),
             ("focus-distance", opt(c.focus_distance.map(|f| f.to_string()))),
             ("time", opt(c.time.map(|t| t.to_string()))),
@@ -613,7 +679,7 @@ fn render(args: RenderArgs) -> Result<()> {
         spp,
         first_sample,
         exact_film: args.film_stats(),
-        aovs: args.denoise || args.aovs().iter().any(|a| a.surveyed()),
+        aovs: args.denoise || args.alpha || args.aovs().iter().any(|a| a.surveyed()),
         debug_aovs: args.aovs().iter().any(|a| a.debug()),
         adaptive: args.adaptive.then_some(pathwave::Adaptive {
             threshold: args.noise_threshold,
@@ -820,6 +886,21 @@ fn write_outputs(
     let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
     let aovs = args.aovs();
     let mut layers = Vec::new();
+    let coverage = match args.alpha {
+        true => Some(
+            film.aovs
+                .as_ref()
+                .context("the render has no coverage for --alpha")?
+                .coverage(),
+        ),
+        false => None,
+    };
+    if let Some(c) = &coverage {
+        layers.push(output::Channel {
+            name: "A".into(),
+            samples: output::Samples::F32(c.clone()),
+        });
+    }
     let mut own = Vec::new();
     for &a in aovs {
         layers.extend(source.channels(a, true).ok_or_else(|| missing(a))?);
@@ -849,9 +930,18 @@ fn write_outputs(
             let content = match (aov, png) {
                 (None, _) => Content::Image {
                     rgb: pixels,
-                    exposure: args.exposure,
+                    display: output::Display {
+                        exposure: args.exposure,
+                        curve: args.tonemap,
+                    },
                     stats,
                     layers: &layers,
+                    alpha: coverage.as_deref().map(|coverage| output::Alpha {
+                        coverage,
+                        // glTF holds no environment: only these options give one.
+                        over_black: args.common.env.hide_env
+                            || (args.common.env.env.is_none() && args.common.env.env_color.is_none()),
+                    }),
                 },
                 (Some(k), false) => Content::Channels(&own[*k]),
                 (Some(k), true) => Content::Srgb8(&pictures[*k]),

@@ -236,7 +236,7 @@ fn bad_inputs_are_refused_cleanly() {
     assert_refused(
         &["render", &cornell(), "-o", o, "--env", txt_env.to_str().unwrap()],
         &out,
-        "must be .hdr or .exr",
+        "must be .hdr, .exr, .png, .jpg or .jpeg",
     );
     assert_refused(&["render", &cornell(), "-o", o, "--env-color", "1,2"], &out, "R,G,B");
     assert_refused(

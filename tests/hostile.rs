@@ -94,6 +94,13 @@ fn cases() -> Vec<Case> {
         ("--shutter", &["-1", "NaN", "4000"]),
         ("--max-memory", &["0", "-1G", "1.5G", "99999999999T"]),
         ("--max-texture-pixels", &["0", "-5"]),
+        ("--yfov", &["0", "180", "-10", "NaN", "inf"]),
+        (
+            "--orbit",
+            &["0,90,1", "0,-90,1", "361,0,1", "0,0,0", "0,0,-1", "NaN,0,1", "1,2"],
+        ),
+        ("--up", &["0,0,0", "1,inf,0", "1,1"]),
+        ("--tonemap", &["filmic", ""]),
     ] {
         for bad in bads {
             let needle = if opt == "--camera" && *bad == "7" {
@@ -106,6 +113,18 @@ fn cases() -> Vec<Case> {
     }
     for bad in ["NaN,1,1", "1,1", "-1,0,0", "3e38,1,1", "a,b,c"] {
         v.push(render(&["--env-color", bad], "--env-color"));
+    }
+    // A command-line camera: points, their pairing and a view that has no image direction.
+    for (args, needle) in [
+        (&["--eye", "NaN,0,0", "--target", "0,0,0"][..], "--eye"),
+        (&["--eye", "0,0,1e19", "--target", "0,0,0"], "--eye"),
+        (&["--eye", "0,0,1"], "--target"),
+        (&["--eye", "0,0,1", "--target", "0,0,0", "--orbit", "0,0,1"], "--orbit"),
+        (&["--eye", "1,2,3", "--target", "1,2,3"], "one point"),
+        (&["--eye", "0,5,0", "--target", "0,0,0"], "parallel"),
+        (&["--eye", "0,0,5", "--target", "0,0,0", "--up", "0,0,1"], "parallel"),
+    ] {
+        v.push(render(args, needle));
     }
     for (args, needle) in [
         (&["--frames", "3..1"][..], "--frames"),
@@ -156,7 +175,7 @@ fn cases() -> Vec<Case> {
         ("FIFO_HDR", "regular file"),
         ("JUNK_HDR", "junk.hdr"),
         ("/nonexistent.hdr", "nonexistent.hdr"),
-        ("JUNK", "must be .hdr or .exr"),
+        ("JUNK", "must be .hdr, .exr, .png, .jpg or .jpeg"),
     ] {
         v.push(render(&["--env", map], needle));
     }
@@ -366,6 +385,16 @@ fn cases() -> Vec<Case> {
         &["--time", "3e7", "--shutter", "3600"],
         &["--seed", "4294967295"],
         &["--seed", "7"],
+        &["--orbit", "-360,89.9,1e17", "--yfov", "179.9"],
+        &[
+            "--eye",
+            "-1e17,1e17,-1e17",
+            "--target",
+            "1e17,-1e17,1e17",
+            "--up",
+            "1e-30,1,0",
+        ],
+        &["--tonemap", "agx", "--alpha", "--env-color", "1,1,1", "--hide-env"],
     ] {
         let mut c = render(extra, "");
         c.needle = None;

@@ -122,7 +122,15 @@ fn write_film(dir: &Path, px: &[[f32; 3]], w: u32, h: u32) -> PathBuf {
         film: &film,
         meta: &meta,
     };
-    pathwave::output::write_images_with(&[&path], w, h, &film.mean(), 0.0, Some(stats)).unwrap();
+    pathwave::output::write_images_with(
+        &[&path],
+        w,
+        h,
+        &film.mean(),
+        pathwave::output::Display::linear(0.0),
+        Some(stats),
+    )
+    .unwrap();
     assert!(pathwave::output::read_film(&path).unwrap().stats.is_some());
     path
 }

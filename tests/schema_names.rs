@@ -164,6 +164,61 @@ fn every_schema_property_of_every_material_extension_is_read() {
     assert!(checked >= 35, "only {checked} properties: the schemas are missing");
 }
 
+/// KHR_node_visibility by its schema's one property, at the value that is not its default: a node so marked hides its
+/// mesh and light and every node below it, even one marked the other way, and keeps its camera (the extension's
+/// text); the same tree at the default value shows everything.
+#[test]
+fn node_visibility_is_read_by_its_schemas_name() {
+    let schemas = schemas("node.");
+    let (ext, props) = schemas
+        .iter()
+        .find(|(e, _)| e == "KHR_node_visibility")
+        .expect("the schema is kept");
+    assert_eq!(props.len(), 1, "{props:?}");
+    let (name, schema) = props.iter().next().unwrap();
+    let default = schema["default"].as_bool().unwrap();
+    let build = |value: bool| {
+        let mut b = GltfBuilder::new();
+        let m = b.material("m", [0.5; 3], [1.0; 3], false);
+        let c = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        b.quad("parent quad", c, m, None);
+        let parent = b.last_node();
+        b.quad("child quad", c, m, None);
+        let child = b.last_node();
+        b.punctual(
+            json!({"type": "point"}),
+            [1.0; 3],
+            1.0,
+            [0.0, 2.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+        );
+        let light = b.last_node();
+        b.camera([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0);
+        let camera = b.last_node();
+        b.quad("sibling quad", c, m, None);
+        for k in [child, light, camera] {
+            b.add_child(parent, k);
+        }
+        b.use_extension("KHR_node_visibility");
+        b.transform_node(
+            parent,
+            json!({ "extensions": { ext.as_str(): { name.as_str(): value } } }),
+        );
+        b.transform_node(
+            child,
+            json!({ "extensions": { ext.as_str(): { name.as_str(): default } } }),
+        );
+        let (_dir, path) = common::write_temp(&b, "visibility.gltf");
+        pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let shown = build(default);
+    assert_eq!((shown.triangle_count(), shown.punctual.len()), (6, 1));
+    let hidden = build(!default);
+    assert_eq!(hidden.triangle_count(), 2, "only the sibling's quad is left");
+    assert!(hidden.punctual.is_empty(), "the hidden node's light is gone");
+    assert!(hidden.camera.is_some(), "visibility does not affect cameras");
+}
+
 /// Every property a project scene or test fixture gives a material extension (or KHR_texture_transform) is one its
 /// schema names: a fixture written from the same misreading as the loader would pass the test above for ever.
 #[test]
@@ -171,6 +226,7 @@ fn project_scenes_and_fixtures_use_the_schemas_names() {
     let known: Vec<(String, Vec<String>)> = schemas("material.")
         .into_iter()
         .chain(schemas("textureInfo."))
+        .chain(schemas("node."))
         .map(|(ext, props)| (ext, props.keys().cloned().collect()))
         .collect();
     let mut files = Vec::new();

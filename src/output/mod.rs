@@ -4,8 +4,34 @@ use std::path::Path;
 
 pub mod aov;
 pub mod film_file;
+pub mod tone;
 pub use aov::{aov_path, Aov, AovSource, Channel, Samples};
 pub use film_file::{read_film, FilmFile, FilmMeta, PartOf};
+pub use tone::ToneCurve;
+
+/// How a PNG shows linear radiance: scaled by 2^`exposure`, through `curve`, then sRGB-encoded to 8 bits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Display {
+    pub exposure: f32,
+    pub curve: ToneCurve,
+}
+
+impl Display {
+    /// Linear, clipped at 1, after `exposure` stops.
+    pub fn linear(exposure: f32) -> Self {
+        Display {
+            exposure,
+            curve: ToneCurve::None,
+        }
+    }
+
+    /// The 8-bit sRGB pixel of linear radiance `c`.
+    pub fn pixel(&self, c: [f32; 3]) -> [u8; 3] {
+        let scale = 2f32.powf(self.exposure);
+        let shown = self.curve.apply(c.map(|v| v * scale));
+        shown.map(|v| (srgb_encode(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
+    }
+}
 
 /// What EXR outputs carry besides the mean: the exact film and what made it (a film file, see `film_file`).
 #[derive(Clone, Copy)]
@@ -133,16 +159,17 @@ pub fn write_images<P: AsRef<Path>>(
     rgb: &[[f32; 3]],
     exposure: f32,
 ) -> Result<(), Error> {
-    write_images_with(paths, width, height, rgb, exposure, None)
+    write_images_with(paths, width, height, rgb, Display::linear(exposure), None)
 }
 
-/// `write_images`, with the EXR outputs carrying `stats` when given (film files); PNG outputs hold the image only.
+/// `write_images`, PNGs shown by `display`, with the EXR outputs carrying `stats` when given (film files); PNG
+/// outputs hold the image only.
 pub fn write_images_with<P: AsRef<Path>>(
     paths: &[P],
     width: u32,
     height: u32,
     rgb: &[[f32; 3]],
-    exposure: f32,
+    display: Display,
     stats: Option<Stats>,
 ) -> Result<(), Error> {
     let files: Vec<OutFile> = (paths.iter())
@@ -150,9 +177,10 @@ pub fn write_images_with<P: AsRef<Path>>(
             path: p.as_ref(),
             content: Content::Image {
                 rgb,
-                exposure,
+                display,
                 stats,
                 layers: &[],
+                alpha: None,
             },
         })
         .collect();
@@ -163,17 +191,28 @@ pub fn write_images_with<P: AsRef<Path>>(
 #[derive(Clone, Copy)]
 pub enum Content<'a> {
     /// The beauty image: as EXR with the film statistics (`stats`, a film file) and extra channels (`layers`, the
-    /// AOVs) when given; as PNG in sRGB after 2^exposure, the image alone.
+    /// AOVs) when given; as PNG as `display` shows it, the image alone.
     Image {
         rgb: &'a [[f32; 3]],
-        exposure: f32,
+        display: Display,
         stats: Option<Stats<'a>>,
         layers: &'a [Channel],
+        /// With `--alpha`: the PNG is RGBA (the EXR's A channel comes among `layers`).
+        alpha: Option<Alpha<'a>>,
     },
     /// An EXR of these channels alone (an AOV's own file).
     Channels(&'a [Channel]),
     /// 8-bit sRGB pixels, as PNG.
     Srgb8(&'a [[u8; 3]]),
+}
+
+/// Each pixel's coverage (the fraction of its camera samples that hit the scene) for an RGBA PNG.
+#[derive(Clone, Copy)]
+pub struct Alpha<'a> {
+    pub coverage: &'a [f32],
+    /// The colour is premultiplied over black (the environment hidden from camera rays): PNG's alpha is straight,
+    /// so the colour is divided by the coverage before its tone curve. Otherwise the colour is written as it is.
+    pub over_black: bool,
 }
 
 /// A file to write and what goes in it.
@@ -211,9 +250,32 @@ pub fn write_files(width: u32, height: u32, files: &[OutFile]) -> Result<(), Err
                 list.extend_from_slice(layers);
                 encode_channels(tmp.path(), path, width, height, &list, None)?
             }
-            (_, Content::Image { rgb, exposure, .. }) => {
+            (
+                Format::Png,
+                Content::Image {
+                    rgb,
+                    display,
+                    alpha: Some(a),
+                    ..
+                },
+            ) => {
                 assert_eq!(rgb.len(), pixels);
-                encode(&tmp, path, format, width, height, rgb, exposure)?
+                assert_eq!(a.coverage.len(), pixels);
+                let bytes: Vec<u8> = (rgb.iter().zip(a.coverage))
+                    .flat_map(|(c, &k)| {
+                        let straight = match a.over_black && k > 0.0 {
+                            true => c.map(|v| v / k),
+                            false => *c,
+                        };
+                        let [r, g, b] = display.pixel(straight);
+                        [r, g, b, (k.clamp(0.0, 1.0) * 255.0 + 0.5) as u8]
+                    })
+                    .collect();
+                png_8bit(&tmp, path, width, height, &bytes, png::ColorType::Rgba)?
+            }
+            (_, Content::Image { rgb, display, .. }) => {
+                assert_eq!(rgb.len(), pixels);
+                encode(&tmp, path, format, width, height, rgb, display)?
             }
             (Format::Exr, Content::Channels(list)) => encode_channels(tmp.path(), path, width, height, list, None)?,
             (Format::Png, Content::Srgb8(px)) => {
@@ -310,10 +372,21 @@ pub fn write_srgb8(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> 
 }
 
 fn png_rgb8(tmp: &tempfile::NamedTempFile, path: &Path, width: u32, height: u32, bytes: &[u8]) -> Result<(), Error> {
+    png_8bit(tmp, path, width, height, bytes, png::ColorType::Rgb)
+}
+
+fn png_8bit(
+    tmp: &tempfile::NamedTempFile,
+    path: &Path,
+    width: u32,
+    height: u32,
+    bytes: &[u8],
+    color: png::ColorType,
+) -> Result<(), Error> {
     let err = |message: String| output_err(path, message);
     let file = std::io::BufWriter::new(tmp.as_file());
     let mut enc = png::Encoder::new(file, width, height);
-    enc.set_color(png::ColorType::Rgb);
+    enc.set_color(color);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
     let mut w = enc
@@ -331,7 +404,7 @@ fn encode(
     width: u32,
     height: u32,
     rgb: &[[f32; 3]],
-    exposure: f32,
+    display: Display,
 ) -> Result<(), Error> {
     let err = |message: String| output_err(path, message);
     match format {
@@ -350,11 +423,7 @@ fn encode(
                 .map_err(|e| err(format!("EXR encoding failed: {e}")))?;
         }
         Format::Png => {
-            let scale = 2f32.powf(exposure);
-            let bytes: Vec<u8> = rgb
-                .iter()
-                .flat_map(|p| p.map(|c| (srgb_encode((c * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8))
-                .collect();
+            let bytes: Vec<u8> = rgb.iter().flat_map(|p| display.pixel(*p)).collect();
             png_rgb8(tmp, path, width, height, &bytes)?;
         }
     }

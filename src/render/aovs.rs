@@ -27,6 +27,17 @@ impl Aovs {
             .collect()
     }
 
+    /// The fraction of each pixel's camera samples whose ray hit the scene (whatever it hit first: glass counts,
+    /// an alpha-tested cut-out it passed through does not): the alpha of `render --alpha`.
+    pub fn coverage(&self) -> Vec<f32> {
+        (self.sums.iter())
+            .map(|a| match a.albedo[3] {
+                0.0 => 0.0,
+                n => a.normal[3] / n,
+            })
+            .collect()
+    }
+
     /// The mean distance along the camera ray to the first hit, over the samples that hit; infinite where none did.
     pub fn depth(&self) -> Vec<f32> {
         (self.sums.iter())

@@ -420,7 +420,7 @@ impl Uploaded {
         gpu.fingerprint = options.fingerprint.then(|| packed.fingerprint());
         let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
         // From the packed bounds: the scene's own walk would place every instance again.
-        let camera = scene.camera.unwrap_or_else(|| Camera::framing(packed.bounds));
+        let camera = scene.camera.unwrap_or_else(|| scene.default_camera(packed.bounds));
         Ok(Uploaded {
             gpu,
             bvh_reads,

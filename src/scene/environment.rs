@@ -32,19 +32,27 @@ impl Environment {
         }
     }
 
-    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`, with the default size limit.
+    /// Loads an equirectangular map, scaled by `intensity`, with the default size limit (see `load_limited`).
     pub fn load(path: &Path, intensity: f32) -> Result<Self, Error> {
         Self::load_limited(path, intensity, super::gltf::DEFAULT_MAX_TEXTURE_PIXELS)
     }
 
-    /// Loads an equirectangular .hdr or .exr, scaled by `intensity`. The path must be a regular file (checked
-    /// before it is opened: a FIFO would block), and the map at most `max_pixels`, read from its header before
-    /// anything is decoded.
+    /// Loads an equirectangular map, scaled by `intensity`: linear radiance from .hdr or .exr, or 8- or 16-bit
+    /// .png, .jpg or .jpeg taken as sRGB-encoded (decoded to linear before `intensity`, as glTF's colour textures).
+    /// The path must be a regular file (checked before it is opened: a FIFO would block), and the map at most
+    /// `max_pixels`, read from its header before anything is decoded.
     pub fn load_limited(path: &Path, intensity: f32, max_pixels: u64) -> Result<Self, Error> {
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        if !matches!(ext.as_deref(), Some("hdr") | Some("exr")) {
-            return Err(env_err(path, "environment maps must be .hdr or .exr"));
-        }
+        let srgb = match ext.as_deref() {
+            Some("hdr") | Some("exr") => false,
+            Some("png") | Some("jpg") | Some("jpeg") => true,
+            _ => {
+                return Err(env_err(
+                    path,
+                    "environment maps must be .hdr, .exr, .png, .jpg or .jpeg",
+                ))
+            }
+        };
         let len = super::gltf::regular_len(path)
             .map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
         if len > super::gltf::MAX_FILE_BYTES {
@@ -86,7 +94,12 @@ impl Environment {
                 ),
             ));
         }
-        let texels: Vec<[f32; 3]> = rgb.pixels().map(|p| p.0.map(|c| (c * intensity).max(0.0))).collect();
+        // An 8-bit map's values are display-encoded: lit by them as they are, a scene would take mid-grey 0.5 for
+        // 0.21 and come out about twice too bright in the dark.
+        let decode = |c: f32| if srgb { crate::output::srgb_decode(c) } else { c };
+        let texels: Vec<[f32; 3]> = (rgb.pixels())
+            .map(|p| p.0.map(|c| (decode(c) * intensity).max(0.0)))
+            .collect();
         if texels.iter().any(|t| !t.iter().all(|c| c.is_finite())) {
             return Err(env_err(path, "the environment map holds non-finite values"));
         }

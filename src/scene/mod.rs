@@ -1,6 +1,7 @@
 //! The host scene model: meshes placed by instances, materials, textures, emitters and the camera.
 pub mod animation;
 mod environment;
+pub mod framing;
 mod gltf;
 pub mod instancing;
 pub mod rig;
@@ -10,6 +11,7 @@ pub mod texture;
 
 pub use self::gltf::{load, load_with, LoadOptions, DEFAULT_MAX_TEXTURE_PIXELS, MAX_FILE_BYTES, SUPPORTED_EXTENSIONS};
 pub use environment::Environment;
+pub use framing::{CameraOverride, CameraSpec};
 pub use instancing::{handedness, invertible, Instancing, INSTANCING_MIN_TRIANGLES};
 pub use rig::{JointSet, MorphTarget, Motion, PoseTime, Rig};
 pub use soup::{box_corners, soup_bounds, KeyTriangle, TriangleSoup, WorldTriangle};
@@ -313,19 +315,6 @@ impl Projection {
 }
 
 impl Camera {
-    /// A camera on +Z that frames `bounds` (lo, hi), or the unit cube about the origin when there are none.
-    pub fn framing(bounds: Option<(Vec3, Vec3)>) -> Camera {
-        let (lo, hi) = bounds.unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
-        let center = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-3);
-        let yfov = 45f32.to_radians();
-        let distance = radius / (yfov * 0.5).tan() * 1.1 + radius;
-        Camera {
-            world_from_camera: Mat4::from_translation(center + Vec3::Z * distance),
-            projection: Projection::Perspective { yfov },
-        }
-    }
-
     /// A camera at `eye` looking at `target`, +y up (`eye` not straight above or below it).
     pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Camera {
         let forward = (target - eye).normalize();
@@ -531,11 +520,22 @@ impl Scene {
         self.world_triangles().count()
     }
 
-    /// The file's camera, or one that frames the whole scene from +Z.
+    /// The file's camera, or the default view (`framing`).
     pub fn camera_or_default(&self) -> Camera {
         match self.camera {
             Some(c) => c,
-            None => Camera::framing((!self.is_empty()).then(|| self.bounds())),
+            None => self.default_camera((!self.is_empty()).then(|| self.bounds())),
+        }
+    }
+
+    /// Makes `o` the camera this pose and every later one places (a command-line camera).
+    pub fn override_camera(&mut self, o: CameraOverride) {
+        self.rig.camera_override = Some(o);
+        self.camera = o.apply(self.camera);
+        if let Some(m) = &mut self.motion {
+            for k in &mut m.keys {
+                k.camera = o.apply(k.camera);
+            }
         }
     }
 

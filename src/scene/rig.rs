@@ -66,6 +66,8 @@ pub struct Rig {
     pub file_meshes: usize,
     /// The Nth camera in node order that `pose` makes the scene's camera (default: the first).
     pub camera_choice: Option<usize>,
+    /// A command-line camera that replaces (or changes the projection of) the chosen one in every pose.
+    pub camera_override: Option<super::CameraOverride>,
     /// What the scene is posed with now.
     pub posed: PoseTime,
 }
@@ -279,6 +281,10 @@ impl Scene {
                 path: self.path.clone(),
                 message: format!("--camera {i}: the file has {} camera(s)", cameras.len()),
             })?),
+        };
+        let camera = match self.rig.camera_override {
+            Some(o) => o.apply(camera),
+            None => camera,
         };
         Ok(Placed {
             instances,

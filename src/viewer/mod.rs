@@ -48,33 +48,7 @@ pub struct ViewOptions {
     pub denoise: bool,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ToneCurve {
-    /// Linear, clipped at 1 (what PNG output does).
-    Clamp,
-    /// Narkowicz's ACES filmic fit.
-    Aces,
-    /// Khronos PBR Neutral.
-    Neutral,
-}
-
-impl ToneCurve {
-    fn code(self) -> u32 {
-        use crate::constants::*;
-        match self {
-            ToneCurve::Clamp => TONEMAP_CLAMP,
-            ToneCurve::Aces => TONEMAP_ACES,
-            ToneCurve::Neutral => TONEMAP_NEUTRAL,
-        }
-    }
-    fn next(self) -> Self {
-        match self {
-            ToneCurve::Clamp => ToneCurve::Aces,
-            ToneCurve::Aces => ToneCurve::Neutral,
-            ToneCurve::Neutral => ToneCurve::Clamp,
-        }
-    }
-}
+pub use crate::output::ToneCurve;
 
 /// Opens the window and runs until it is closed (or `frames` are done).
 pub fn run(scene: Scene, options: ViewOptions) -> Result<(), Error> {
@@ -780,7 +754,7 @@ impl State {
         let bgra = self.swapchain.bgra;
         let bgra_bit = if bgra { crate::constants::TONEMAP_BGRA } else { 0 };
         let (curve, exposure) = match self.display {
-            Some(_) => (ToneCurve::Clamp, 1.0),
+            Some(_) => (ToneCurve::None, 1.0),
             None => (self.curve, 2f32.powf(self.exposure)),
         };
         let op = curve.code() | bgra_bit;
@@ -799,14 +773,19 @@ impl State {
         Ok(())
     }
 
-    /// Writes the running mean to `path`, and with `both` as EXR (linear) and PNG (this view's exposure) side by side.
+    /// Writes the running mean to `path`, and with `both` as EXR (linear) and PNG (this view's exposure and tone curve) side by side.
     fn save(&mut self, path: &std::path::Path, both: bool) -> Result<(), Error> {
         let film = self.renderer.film(&self.session)?;
-        // What the window shows: the denoised image or a view, once made; else the running mean.
-        let (pixels, exposure) = match (&self.shown, self.display) {
-            (Some((_, _, linear)), Some(_)) => (linear.clone(), 0.0),
-            (Some((_, _, linear)), None) => (linear.clone(), self.exposure),
-            (None, _) => (film.mean(), self.exposure),
+        // What the window shows: the denoised image or a view, once made; else the running mean. The PNG shows it
+        // as the window does (a view linear at exposure 0).
+        let look = crate::output::Display {
+            exposure: self.exposure,
+            curve: self.curve,
+        };
+        let (pixels, display) = match (&self.shown, self.display) {
+            (Some((_, _, linear)), Some(_)) => (linear.clone(), crate::output::Display::linear(0.0)),
+            (Some((_, _, linear)), None) => (linear.clone(), look),
+            (None, _) => (film.mean(), look),
         };
         let paths = if both {
             vec![path.with_extension("exr"), path.with_extension("png")]
@@ -814,7 +793,7 @@ impl State {
             vec![path.to_path_buf()]
         };
         for p in paths {
-            crate::output::write_image(&p, film.width, film.height, &pixels, exposure)?;
+            crate::output::write_images_with(&[&p], film.width, film.height, &pixels, display, None)?;
             eprintln!("saved {} ({} spp)", p.display(), film.spp);
         }
         Ok(())

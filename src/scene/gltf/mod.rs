@@ -42,6 +42,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
+    // Read as the file states it; what KHR_animation_pointer would animate of it is not (that extension is not read).
+    "KHR_node_visibility",
     "KHR_texture_basisu",
     "KHR_texture_transform",
     // Metadata (XMP packets): nothing in them changes the image, so reading past them is the whole of supporting them.
@@ -305,8 +307,10 @@ impl Loader<'_> {
         default_material: u32,
         visited: &mut HashSet<usize>,
     ) -> Result<(), Error> {
-        let mut stack: Vec<(gltf::Node, Option<usize>)> = roots.into_iter().rev().map(|n| (n, None)).collect();
-        while let Some((node, parent)) = stack.pop() {
+        // Each with its parent and whether every node above it is visible (KHR_node_visibility hides whole trees).
+        let mut stack: Vec<(gltf::Node, Option<usize>, bool)> =
+            roots.into_iter().rev().map(|n| (n, None, true)).collect();
+        while let Some((node, parent, shown)) = stack.pop() {
             if !visited.insert(node.index()) {
                 return Err(scene_err(
                     self.path,
@@ -318,11 +322,12 @@ impl Loader<'_> {
             }
             self.scene.rig.nodes[node.index()].parent = parent;
             self.scene.rig.order.push(node.index());
+            let shown = shown && self.visible(&node)?;
             if placed {
-                self.node(&node, default_material)?;
+                self.node(&node, default_material, shown)?;
             }
             let children: Vec<gltf::Node> = node.children().collect();
-            stack.extend(children.into_iter().rev().map(|c| (c, Some(node.index()))));
+            stack.extend(children.into_iter().rev().map(|c| (c, Some(node.index()), shown)));
         }
         Ok(())
     }
@@ -360,15 +365,37 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// Takes in one placed node's light, camera, mesh and skin; `pose` places them.
-    fn node(&mut self, node: &gltf::Node, default_material: u32) -> Result<(), Error> {
+    /// KHR_node_visibility's `visible` of this node alone (true without the extension); refused when not a boolean.
+    fn visible(&self, node: &gltf::Node) -> Result<bool, Error> {
+        let Some(ext) = node.extensions().and_then(|e| e.get("KHR_node_visibility")) else {
+            return Ok(true);
+        };
+        match ext.get("visible") {
+            None => Ok(true),
+            Some(serde_json::Value::Bool(b)) => Ok(*b),
+            Some(v) => Err(scene_err(
+                self.path,
+                format!(
+                    "node {}: KHR_node_visibility's visible is {v}, not true or false",
+                    node.index()
+                ),
+            )),
+        }
+    }
+
+    /// Takes in one placed node's light, camera, mesh and skin; `pose` places them. A node `shown` false
+    /// (KHR_node_visibility, here or above) keeps its camera, as the extension says, and nothing else.
+    fn node(&mut self, node: &gltf::Node, default_material: u32, shown: bool) -> Result<(), Error> {
         let i = node.index();
         self.scene.rig.nodes[i].placed = true;
-        if let Some(light) = node.light() {
-            self.scene.rig.nodes[i].light = Some(self.punctual(&light)?);
-        }
         if let Some(cam) = node.camera() {
             self.scene.rig.nodes[i].camera = self.camera(&cam);
+        }
+        if !shown {
+            return Ok(());
+        }
+        if let Some(light) = node.light() {
+            self.scene.rig.nodes[i].light = Some(self.punctual(&light)?);
         }
         if let Some(mesh) = node.mesh() {
             // Read at the first node that places it, so its warnings and errors come in node order as before.
