@@ -305,3 +305,80 @@ fn base64_encode(b: &[u8]) -> String {
     use base64::Engine;
     base64::engine::general_purpose::STANDARD.encode(b)
 }
+
+/// KHR_meshopt_compression, EXT's successor: a quad whose COLOR_0 (normalized RGBA8) is stored through the COLOR
+/// filter (YCoCg, 8 bits; meshoptimizer's own encoder, as gltfpack calls it) and the version-1 vertex codec, in a
+/// view whose buffer is a fallback. Its colours must load as the originals within the filter's quantisation (a few
+/// 255ths: would catch the filter not applied, where the bytes are YCoCg, or the extension not read, where the
+/// fallback's zeros are), and the same file under EXT_meshopt_compression, which has no COLOR filter, is refused.
+#[test]
+fn khr_meshopt_colour_filter_decodes_vertex_colours() {
+    use serde_json::json;
+    let colors: [[f32; 4]; 4] = [
+        [0.9, 0.1, 0.2, 1.0],
+        [0.2, 0.8, 0.3, 0.5],
+        [0.1, 0.3, 0.95, 0.25],
+        [0.6, 0.6, 0.05, 0.0],
+    ];
+    let filtered: Vec<[u8; 4]> = meshopt::encoding::encode_filter_color::<u8>(&colors, 8);
+    let compressed = meshopt::encoding::encode_vertex_buffer_level(&filtered, 2, Some(1)).unwrap();
+    let positions: [[f32; 3]; 4] = [[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]];
+    let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
+    let mut bin: Vec<u8> = bytemuck::cast_slice(&positions).to_vec();
+    bin.extend_from_slice(bytemuck::cast_slice(&indices));
+    let packed_at = bin.len().next_multiple_of(4);
+    bin.resize(packed_at, 0);
+    bin.extend_from_slice(&compressed);
+    bin.resize(bin.len().next_multiple_of(4), 0);
+    let file = |ext: &str| {
+        json!({
+            "asset": { "version": "2.0" },
+            "extensionsUsed": [ext],
+            "extensionsRequired": [ext],
+            "buffers": [
+                { "byteLength": bin.len(), "uri": "quad.bin" },
+                { "byteLength": 16, "extensions": { ext: { "fallback": true } } },
+            ],
+            "bufferViews": [
+                { "buffer": 0, "byteOffset": 0, "byteLength": 48, "target": 34962 },
+                { "buffer": 0, "byteOffset": 48, "byteLength": 12, "target": 34963 },
+                { "buffer": 1, "byteOffset": 0, "byteLength": 16, "byteStride": 4, "target": 34962,
+                  "extensions": { ext: { "buffer": 0, "byteOffset": packed_at, "byteLength": compressed.len(),
+                      "byteStride": 4, "count": 4, "mode": "ATTRIBUTES", "filter": "COLOR" } } },
+            ],
+            "accessors": [
+                { "bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                  "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0] },
+                { "bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR" },
+                { "bufferView": 2, "componentType": 5121, "normalized": true, "count": 4, "type": "VEC4" },
+            ],
+            "materials": [{ "pbrMetallicRoughness": { "baseColorFactor": [1.0, 1.0, 1.0, 1.0] } }],
+            "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0, "COLOR_0": 2 }, "indices": 1, "material": 0 }] }],
+            "nodes": [{ "mesh": 0 }],
+            "scenes": [{ "nodes": [0] }],
+        })
+    };
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("quad.bin"), &bin).unwrap();
+    let path = dir.path().join("quad.gltf");
+    std::fs::write(&path, file("KHR_meshopt_compression").to_string()).unwrap();
+    let scene = load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = scene.meshes[0].primitives[0].colors.clone().expect("COLOR_0 is read");
+    for (got, want) in loaded.iter().zip(&colors) {
+        for c in 0..4 {
+            assert!(
+                (got[c] - want[c]).abs() <= 3.0 / 255.0,
+                "COLOR_0 {got} against the original {want:?}"
+            );
+        }
+    }
+    std::fs::write(&path, file("EXT_meshopt_compression").to_string()).unwrap();
+    let e = load(&path, None)
+        .map(|_| ())
+        .expect_err("EXT has no COLOR filter")
+        .to_string();
+    assert!(
+        e.contains("EXT_meshopt_compression") && e.contains("filter 'COLOR'"),
+        "{e}"
+    );
+}

@@ -24,6 +24,18 @@ struct Dielectric {
     specular_color_texture: Option<TextureRef>,
 }
 
+/// KHR_materials_pbrSpecularGlossiness (archived, read from its JSON; the gltf crate's model of it is not used):
+/// what replaces the metallic-roughness part of a material that has it.
+struct SpecGloss {
+    diffuse: [f32; 4],
+    diffuse_texture: Option<TextureRef>,
+    specular: Vec3,
+    glossiness: f32,
+    texture: Option<TextureRef>,
+}
+
+const SPEC_GLOSS: &str = "KHR_materials_pbrSpecularGlossiness";
+
 /// KHR_materials_transmission and KHR_materials_volume.
 struct Transmission {
     transmission: f32,
@@ -58,7 +70,20 @@ impl Loader<'_> {
                 ),
             ));
         }
-        let slots = self.slots(&name, m)?;
+        let mut slots = self.slots(&name, m)?;
+        let mut c = c;
+        // Specular-glossiness, when the material has it, is what its author meant (the extension's best practice):
+        // the diffuse colour is the base colour of a dielectric whose F0 is the specular colour, with roughness
+        // 1 - glossiness and no metal. The glossiness texture's alpha becomes a roughness texture of its own.
+        let spec_gloss = self.spec_gloss(&name, m)?;
+        if let Some(sg) = &spec_gloss {
+            c = sg.diffuse;
+            slots.base_color = sg.diffuse_texture;
+            slots.metallic_roughness = match sg.texture {
+                Some(r) => Some(self.roughness_from_glossiness(&name, r, sg.glossiness)?),
+                None => None,
+            };
+        }
         if m.occlusion_texture().is_some() {
             self.warn(format!(
                 "material '{name}': occlusionTexture is ignored (a path tracer computes occlusion)"
@@ -66,7 +91,24 @@ impl Loader<'_> {
         }
         let alpha = c[3].clamp(0.0, 1.0);
         let alpha_mode = self.alpha_mode(&name, m, alpha, slots.base_color)?;
-        let d = self.dielectric(&name, m)?;
+        let mut d = self.dielectric(&name, m)?;
+        let mut roughness = pbr.roughness_factor().clamp(0.0, 1.0);
+        let mut metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        if let Some(sg) = &spec_gloss {
+            // KHR_materials_specular's colour scales the IOR's F0 (clamped at 1): this one makes F0 the specular
+            // colour itself, texture included (RGB, sRGB, as the specular colour texture is read).
+            let r = (d.ior - 1.0) / (d.ior + 1.0);
+            if r * r < 1e-6 {
+                d.ior = 1.5;
+            }
+            let f0 = ((d.ior - 1.0) / (d.ior + 1.0)).powi(2);
+            d.specular = 1.0;
+            d.specular_color = sg.specular / f0;
+            d.specular_texture = None;
+            d.specular_color_texture = sg.texture;
+            metallic = 0.0;
+            roughness = if sg.texture.is_some() { 1.0 } else { 1.0 - sg.glossiness };
+        }
         let t = self.transmission(&name, m)?;
         let clearcoat = self.clearcoat(&name, m)?;
         let sheen = self.sheen(&name, m)?;
@@ -75,7 +117,7 @@ impl Loader<'_> {
         let diffuse_transmission = self.diffuse_transmission(&name, m)?;
         let dispersion = self.dispersion(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
-        let mut pbr_metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        let mut pbr_metallic = metallic;
         let mut specular = d.specular.clamp(0.0, 1.0);
         if unlit {
             // Nothing reflects: keep the lobes' feature bits clear so the scene's stages fold them away.
@@ -91,7 +133,7 @@ impl Loader<'_> {
             emission: emission.max(Vec3::ZERO),
             double_sided: m.double_sided(),
             metallic: pbr_metallic,
-            roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+            roughness,
             ior: d.ior,
             dispersion: if unlit { 0.0 } else { dispersion },
             specular,
@@ -280,6 +322,82 @@ impl Loader<'_> {
             texture: self.json_texture(name, what, ext, "diffuseTransmissionTexture")?,
             color_texture: self.json_texture(name, what, ext, "diffuseTransmissionColorTexture")?,
         })
+    }
+
+    /// KHR_materials_pbrSpecularGlossiness's factors and textures, when the material has the extension.
+    fn spec_gloss(&mut self, name: &str, m: &gltf::Material) -> Result<Option<SpecGloss>, Error> {
+        let Some(ext) = m.extension_value(SPEC_GLOSS).cloned() else {
+            return Ok(None);
+        };
+        let bad = |key: &str, what: &str| scene_err(self.path, format!("material '{name}': {SPEC_GLOSS}.{key} {what}"));
+        let diffuse = match ext.get("diffuseFactor") {
+            None => [1.0; 4],
+            Some(v) => json_numbers::<4>(v).ok_or_else(|| bad("diffuseFactor", "is not four finite numbers"))?,
+        };
+        let specular = match ext.get("specularFactor") {
+            None => Vec3::ONE,
+            Some(v) => json_color(v).ok_or_else(|| bad("specularFactor", "is not three finite numbers"))?,
+        };
+        let glossiness = self.json_factor(name, SPEC_GLOSS, &ext, "glossinessFactor", 1.0)?;
+        let diffuse_texture = self.json_texture(name, SPEC_GLOSS, &ext, "diffuseTexture")?;
+        let texture = self.json_texture(name, SPEC_GLOSS, &ext, "specularGlossinessTexture")?;
+        Ok(Some(SpecGloss {
+            diffuse: diffuse.map(|x| x.clamp(0.0, 1.0)),
+            diffuse_texture,
+            specular: specular.clamp(Vec3::ZERO, Vec3::ONE),
+            glossiness,
+            texture,
+        }))
+    }
+
+    /// A metallic-roughness texture whose green (roughness, linear) is 1 - `glossiness` times the alpha of `r`'s
+    /// texels (the specular-glossiness texture's linear glossiness), made once per texture and factor, sampled
+    /// and placed like `r`. Its texels count against the host's image budget like a decoded image's.
+    fn roughness_from_glossiness(&mut self, name: &str, r: TextureRef, glossiness: f32) -> Result<TextureRef, Error> {
+        let key = (r.texture, glossiness.to_bits());
+        let texture = match self.gloss_map.get(&key) {
+            Some(&t) => t,
+            None => {
+                let source = self.scene.textures[r.texture];
+                let image = &self.scene.images[source.image];
+                let kept = image.width as u64 * image.height as u64 * crate::memory::HOST_BYTES_PER_PIXEL_KEPT;
+                if kept > self.image_memory {
+                    return Err(scene_err(
+                        self.path,
+                        format!(
+                            "material '{name}': the roughness image made from {SPEC_GLOSS}.specularGlossinessTexture \
+                             needs {kept} bytes, more than the {} left of the memory limit",
+                            self.image_memory
+                        ),
+                    ));
+                }
+                self.image_memory -= kept;
+                let texels = (image.texels.iter())
+                    .map(|p| {
+                        [
+                            0,
+                            ((1.0 - glossiness * p[3] as f32 / 255.0) * 255.0 + 0.5) as u8,
+                            0,
+                            255,
+                        ]
+                    })
+                    .collect();
+                let made = texture::Image {
+                    width: image.width,
+                    height: image.height,
+                    texels,
+                };
+                self.scene.images.push(made);
+                self.scene.textures.push(Texture {
+                    image: self.scene.images.len() - 1,
+                    ..source
+                });
+                let t = self.scene.textures.len() - 1;
+                self.gloss_map.insert(key, t);
+                t
+            }
+        };
+        Ok(TextureRef { texture, ..r })
     }
 
     /// A factor in [0, 1] of an extension's JSON (clamped there), `default` when absent.
@@ -640,6 +758,16 @@ impl Loader<'_> {
             gltf::image::Source::Uri { uri, .. } => uri::image_bytes(self.uris, uri),
         }
     }
+}
+
+/// N finite numbers of an extension's JSON.
+fn json_numbers<const N: usize>(v: &Value) -> Option<[f32; N]> {
+    let a = v.as_array().filter(|a| a.len() == N)?;
+    let mut out = [0.0; N];
+    for (o, x) in out.iter_mut().zip(a) {
+        *o = x.as_f64().map(|x| x as f32).filter(|x| x.is_finite())?;
+    }
+    Some(out)
 }
 
 /// Three finite numbers of an extension's JSON, as a colour.

@@ -1,17 +1,20 @@
-//! EXT_meshopt_compression: every compressed bufferView decoded (meshoptimizer, through the `meshopt` crate) into
-//! its fallback buffer at its own offset, before anything reads it, so the rest of the reader sees plain glTF.
+//! EXT_meshopt_compression and KHR_meshopt_compression: every compressed bufferView decoded (meshoptimizer, through
+//! the `meshopt` crate) into its fallback buffer at its own offset, before anything reads it, so the rest of the
+//! reader sees plain glTF. KHR is EXT's successor with the same fields, one filter more (COLOR, YCoCg colours) and
+//! the vertex codec's version 1 (which meshoptimizer's decoder reads from the data's header); a view or buffer with
+//! both reads KHR's.
 use super::scene_err;
 use crate::error::Error;
 use gltf::json::Value;
 use std::path::Path;
 
 const EXT: &str = "EXT_meshopt_compression";
+const KHR: &str = "KHR_meshopt_compression";
 
 /// Whether a buffer only stands in for decoded data (`"fallback": true`): it has no bytes of its own to load.
 pub(super) fn is_fallback(buffer: &gltf::Buffer) -> bool {
-    buffer
-        .extension_value(EXT)
-        .and_then(|e| e.get("fallback"))
+    let ext = buffer.extension_value(KHR).or_else(|| buffer.extension_value(EXT));
+    ext.and_then(|e| e.get("fallback"))
         .and_then(Value::as_bool)
         .unwrap_or(false)
 }
@@ -36,8 +39,12 @@ fn field(ext: &Value, key: &str) -> Option<usize> {
 /// Decodes every compressed view of `doc` into `buffers` (which hold its fallback buffers as zeros).
 pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf::buffer::Data]) -> Result<(), Error> {
     for view in doc.views() {
-        let Some(ext) = view.extension_value(EXT) else { continue };
-        let err = |m: &str| scene_err(path, format!("bufferView {} ({EXT}): {m}", view.index()));
+        let (name, ext) = match (view.extension_value(KHR), view.extension_value(EXT)) {
+            (Some(e), _) => (KHR, e),
+            (None, Some(e)) => (EXT, e),
+            (None, None) => continue,
+        };
+        let err = |m: &str| scene_err(path, format!("bufferView {} ({name}): {m}", view.index()));
         let text = |key: &str, default: &str| -> Result<String, Error> {
             match ext.get(key) {
                 None => Ok(default.to_string()),
@@ -76,6 +83,7 @@ pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf:
             "OCTAHEDRAL" => mode == "ATTRIBUTES" && (c.stride == 4 || c.stride == 8),
             "QUATERNION" => mode == "ATTRIBUTES" && c.stride == 8,
             "EXPONENTIAL" => mode == "ATTRIBUTES",
+            "COLOR" => name == KHR && mode == "ATTRIBUTES" && (c.stride == 4 || c.stride == 8),
             _ => false,
         };
         if !filter_ok {
@@ -128,6 +136,7 @@ pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf:
                 "OCTAHEDRAL" => ::meshopt::ffi::meshopt_decodeFilterOct(out, c.count, c.stride),
                 "QUATERNION" => ::meshopt::ffi::meshopt_decodeFilterQuat(out, c.count, c.stride),
                 "EXPONENTIAL" => ::meshopt::ffi::meshopt_decodeFilterExp(out, c.count, c.stride),
+                "COLOR" => ::meshopt::ffi::meshopt_decodeFilterColor(out, c.count, c.stride),
                 _ => {}
             }
         }

@@ -35,6 +35,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_iridescence",
+    // Archived, but common in older assets: read as a dielectric with F0 the specular colour (materials.rs).
+    "KHR_materials_pbrSpecularGlossiness",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
@@ -42,6 +44,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_variants",
     "KHR_materials_volume",
     "KHR_mesh_quantization",
+    "KHR_meshopt_compression",
     // Read as the file states it; what KHR_animation_pointer would animate of it is not (that extension is not read).
     "KHR_node_visibility",
     "KHR_texture_basisu",
@@ -176,6 +179,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         cameras: 0,
         texture_map: Default::default(),
         image_map: Default::default(),
+        gloss_map: Default::default(),
         mesh_map: Default::default(),
         variant: None,
         strict: options.strict,
@@ -201,6 +205,8 @@ struct Loader<'a> {
     /// glTF texture index to scene texture (None: no readable image); glTF image index to scene image.
     texture_map: HashMap<usize, Option<usize>>,
     image_map: HashMap<usize, usize>,
+    /// Roughness textures made from specular-glossiness textures: (source texture, glossiness bits) to texture.
+    gloss_map: HashMap<(usize, u32), usize>,
     /// glTF mesh index to scene mesh: a mesh is read once, at the first node that places it.
     mesh_map: HashMap<usize, usize>,
     /// The selected KHR_materials_variants variant's index.

@@ -123,7 +123,7 @@ pub(super) fn import_buffers(
     for buffer in doc.buffers() {
         let declared = buffer.length();
         let (mut data, name) = match buffer.source() {
-            // Filled by EXT_meshopt_compression's decoder; `load_estimate` has bounded its byteLength already.
+            // Filled by the meshopt decoder (EXT_ or KHR_meshopt_compression); `load_estimate` has bounded its byteLength already.
             _ if super::meshopt::is_fallback(&buffer) => (vec![0; declared], "its decoded views".to_string()),
             gltf::buffer::Source::Bin => match blob.take() {
                 Some(b) => (b, "the GLB binary chunk".to_string()),
