@@ -334,9 +334,19 @@ impl GltfBuilder {
                 self.animations.len() - 1
             }
         };
+        // Animation data is no vertex buffer: a view target there is an error to the Khronos validator.
+        self.untarget(input);
+        self.untarget(output);
         let (_, samplers, channels) = &mut self.animations[a];
         samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
         channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
+    }
+
+    /// Drops the `target` of `accessor`'s bufferView: for data that is not vertex attributes (animation samplers,
+    /// inverse bind matrices).
+    fn untarget(&mut self, accessor: usize) {
+        let view = self.accessors[accessor]["bufferView"].as_u64().unwrap() as usize;
+        self.views[view].as_object_mut().unwrap().remove("target");
     }
 
     /// Gives the last mesh a morph target of position displacements (one per vertex) and the mesh default weights.
@@ -379,10 +389,7 @@ impl GltfBuilder {
         let wa = self.float_accessor(vertex_weights, "VEC4");
         self.set_attribute("WEIGHTS_0", wa);
         let ibm = self.float_accessor(inverse_bind, "MAT4");
-        self.views[self.accessors[ibm]["bufferView"].as_u64().unwrap() as usize]
-            .as_object_mut()
-            .unwrap()
-            .remove("target");
+        self.untarget(ibm);
         self.skins.push(json!({ "joints": joints, "inverseBindMatrices": ibm }));
         let mesh = self.meshes.len() - 1;
         let node = (self.nodes.iter_mut().rev())
