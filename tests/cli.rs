@@ -474,3 +474,35 @@ fn dispersion_renders_spectrally_unless_rgb_is_asked_for() {
         "cannot be used with",
     );
 }
+
+/// `info FOLDER` takes a census: every .gltf and .glb under it loads or is refused on a line of its own (a bad file
+/// does not end the census), then the extensions and a summary line.
+#[test]
+fn info_takes_a_census_of_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let nested = dir.path().join("nested");
+    std::fs::create_dir(&nested).unwrap();
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    b.quad(
+        "q",
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        m,
+        None,
+    );
+    b.write(&dir.path().join("quad.gltf"));
+    std::fs::write(nested.join("quad.glb"), b.to_glb()).unwrap();
+    std::fs::write(nested.join("junk.gltf"), "not json").unwrap();
+    std::fs::write(dir.path().join("notes.txt"), "not a scene").unwrap();
+    let o = pathwave(&["info", dir.path().to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(text.contains("loads    quad.gltf: 2 triangles"), "{text}");
+    assert!(text.contains("loads    nested/quad.glb: 2 triangles"), "{text}");
+    assert!(text.contains("refused  nested/junk.gltf: "), "{text}");
+    assert!(
+        text.contains("extension   KHR_materials_specular: 2 of the files that load, supported"),
+        "{text}"
+    );
+    assert!(text.contains("census: 2 of 3 files load"), "{text}");
+}
