@@ -1096,7 +1096,9 @@ fn census(dir: &std::path::Path, limits: &LoadArgs) -> Result<()> {
             };
             if meta.is_dir() {
                 walk(&p, out)?;
-            } else if meta.is_file() && {
+            } else if !meta.is_symlink() && {
+                // A FIFO or device named .gltf is listed so that its refusal is reported, not silently skipped;
+                // the loader refuses it from its metadata without opening it.
                 let ext = p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
                 matches!(ext.as_deref(), Some("gltf" | "glb"))
             } {

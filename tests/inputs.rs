@@ -199,7 +199,21 @@ fn fifos_devices_and_folders_are_refused_before_they_are_opened() {
     for scene in [fifo.to_str().unwrap(), "/dev/zero"] {
         assert_refused(&["info", scene], &[&format!("{scene}: "), not_regular]);
     }
-    assert_refused(&["info", d.to_str().unwrap()], &["is a folder"]);
+    let png = d.join("folder.png");
+    assert_refused(
+        &["render", d.to_str().unwrap(), "-o", png.to_str().unwrap()],
+        &["is a folder"],
+    );
+    // A folder given to info is a census; the FIFO in it is listed as refused without being opened (opening
+    // it would block for ever: pathwave() kills the run after 10 s).
+    let census = pathwave(&["info", d.to_str().unwrap()], 10);
+    let out = String::from_utf8_lossy(&census.stdout);
+    assert!(census.status.success(), "{}", stderr(&census));
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("refused  pipe.gltf: ") && l.contains(not_regular)),
+        "{out}"
+    );
     let out = d.join("out.png");
     for env in [fifo_hdr, d.join("zero.hdr")] {
         let args = [
