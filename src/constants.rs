@@ -95,9 +95,11 @@ pub const TEX_IRIDESCENCE_THICKNESS: u32 = 14;
 /// KHR_materials_diffuse_transmission: the factor (A) and the colour (sRGB RGB).
 pub const TEX_DIFFUSE_TRANSMISSION: u32 = 15;
 pub const TEX_DIFFUSE_TRANSMISSION_COLOR: u32 = 16;
-pub const TEX_SLOTS: u32 = 17;
-/// 16-byte texels per material (layout.glsl's Material is 736 bytes).
-pub const MATERIAL_TEXELS: u32 = 46;
+/// KHR_materials_diffuse_roughness: the roughness (R).
+pub const TEX_DIFFUSE_ROUGHNESS: u32 = 17;
+pub const TEX_SLOTS: u32 = 18;
+/// 16-byte texels per material (layout.glsl's Material is 768 bytes).
+pub const MATERIAL_TEXELS: u32 = 48;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
@@ -263,6 +265,9 @@ pub const FEATURE_SPECTRAL: u32 = 131072;
 /// Light selection descends the light BVH (light_tree.glsl): a render setting (FLAG_LIGHT_TREE) for scenes with a
 /// tree; renders by power or uniform keep their bytes and speed.
 pub const FEATURE_LIGHT_TREE: u32 = 262144;
+/// Some material's diffuse lobe is rough (KHR_materials_diffuse_roughness above 0): the energy-preserving
+/// Oren-Nayar lobe (EON) replaces the Lambertian one there.
+pub const FEATURE_DIFFUSE_ROUGHNESS: u32 = 524288;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;

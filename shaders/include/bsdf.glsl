@@ -1,5 +1,5 @@
 // The glTF metallic-roughness BSDF (spec Appendix B, with KHR_materials_ior, _specular, _transmission, _volume, and
-// _anisotropy, _iridescence, _diffuse_transmission, and the _sheen and _clearcoat layers over it):
+// _anisotropy, _iridescence, _diffuse_transmission, _diffuse_roughness, and the _sheen and _clearcoat layers over it):
 // eval, sample and pdf live together here, in the shading frame (z = normal on wo's side), so they cannot drift apart.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
@@ -39,6 +39,7 @@ struct Bsdf {
     float outside_ior;    // above the film: air, or the clear coat's 1.5
     float diffuse_transmission; // KHR_materials_diffuse_transmission: the share of the diffuse lobe that passes
     Spectrum dt_color;
+    float diffuse_roughness; // KHR_materials_diffuse_roughness: EON's r (0: the Lambertian lobe)
     // Hemispherical averages a stretched lobe or a film needs on every evaluation, computed once per hit (see
     // bsdf_averages): inlined at each evaluation they made every stage's pipeline several times larger before
     // specialisation folded them away.
@@ -111,6 +112,7 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.outside_ior = b.clearcoat > 0.0 ? 1.5 : 1.0;
     b.diffuse_transmission = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? m.diffuse_transmission.w : 0.0;
     b.dt_color = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? spectrum_reflectance(m.diffuse_transmission.rgb) : Spectrum(0.0);
+    b.diffuse_roughness = scene_has(FEATURE_DIFFUSE_ROUGHNESS) ? clamp(m.specular_color.w, 0.0, 1.0) : 0.0;
     if (b.anisotropic) {
         float s = m.anisotropy.x;
         b.aniso_alpha = vec2(mix(b.alpha, 1.0, s * s), max(b.alpha, ANISO_MIN_ALPHA));
@@ -628,6 +630,46 @@ void glass_eval_pdf(Bsdf b, vec3 wo, vec3 wi, out Spectrum f, out float pdf) {
     pdf = vndf_pdf(b, wo, m) * abs(wi_m) / (denom * denom) * (1.0 - F);
 }
 
+// KHR_materials_diffuse_roughness's lobe: the energy-preserving Oren-Nayar BRDF (EON: Portsmouth, Kutz and Hill 2024,
+// OpenPBR's glossy-diffuse base), Fujii's single-scattering Oren-Nayar with roughness r in [0, 1] plus the multiple
+// scattering it loses, so that a white surface reflects everything it receives at every angle. The glTF extension
+// names it (the factor is r as it is, as OpenPBR's base_diffuse_roughness and Babylon.js take it). Sampled as the
+// Lambertian lobe is, by the cosine (as Cycles samples its Oren-Nayar): the weights stay bounded except where wo
+// and wi both graze.
+const float EON_C1 = 0.5 - 2.0 / (3.0 * PI);
+const float EON_C2 = 2.0 / 3.0 - 28.0 / (15.0 * PI);
+
+// Fujii Oren-Nayar's directional albedo at cosine mu for a white surface, in closed form: A + B/pi G(mu), where
+// G's (sin/mu)(1 - sin^3) is written as sin mu (1 + sin + sin^2) / (1 + sin), which keeps its precision at grazing
+// mu (the albedo goes to 1 there).
+float fon_albedo(float mu, float r) {
+    float si = sqrt(max(1.0 - mu * mu, 0.0));
+    float g = si * (acos(clamp(mu, -1.0, 1.0)) - si * mu) +
+              2.0 / 3.0 * (si * mu * (1.0 + si + si * si) / (1.0 + si) - si);
+    return (1.0 + r / PI * g) / (1.0 + EON_C1 * r);
+}
+
+// EON's f(wo, wi) for albedo rho, wo and wi on the same side (z > 0): the single scattering
+// rho / pi A (1 + r s/t), s = wo.wi - mu_o mu_i, t = max(mu_o, mu_i) where s > 0 (else 1), A = 1 / (1 + C1 r), and
+// the compensation rho_ms / pi (1 - E(mu_o)) (1 - E(mu_i)) / (1 - E_avg), rho_ms = rho^2 E_avg / (1 - rho (1 - E_avg))
+// with E_avg = A (1 + C2 r). Symmetric in wo and wi.
+Spectrum eon_eval(Spectrum rho, float r, vec3 wo, vec3 wi) {
+    float s = dot(wo, wi) - wo.z * wi.z;
+    float s_over_t = s > 0.0 ? s / max(max(wo.z, wi.z), 1e-7) : s;
+    float a = 1.0 / (1.0 + EON_C1 * r);
+    float e_avg = a * (1.0 + EON_C2 * r);
+    Spectrum rho_ms = rho * rho * e_avg / max(Spectrum(1.0) - rho * (1.0 - e_avg), Spectrum(1e-7));
+    float lobe = max(1.0 - fon_albedo(wo.z, r), 0.0) * max(1.0 - fon_albedo(wi.z, r), 0.0) / max(1.0 - e_avg, 1e-7);
+    return (rho * (a * (1.0 + r * s_over_t)) + rho_ms * lobe) / PI;
+}
+
+// The diffuse lobe of albedo rho: Lambertian, or EON where the material's diffuse roughness asks for it (wi on wo's
+// side; a transmitted wi is mirrored to it first).
+Spectrum diffuse_lobe(Bsdf b, Spectrum rho, vec3 wo, vec3 wi) {
+    if (scene_has(FEATURE_DIFFUSE_ROUGHNESS) && b.diffuse_roughness > 0.0) return eon_eval(rho, b.diffuse_roughness, wo, wi);
+    return rho / PI;
+}
+
 // The base's f(wo, wi), below the layers.
 Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     float glass_w = (1.0 - b.metallic) * b.transmission;
@@ -640,14 +682,15 @@ Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
         // Diffuse transmission: Lambertian on the far side, through the dielectric layer on both ways as the diffuse
         // reflection is (so the two share the energy the layer lets in).
         if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
-            below += opaque * b.diffuse_transmission * coat_transmittance(b, wo, flip_z(wi)) * b.dt_color / PI;
+            below += opaque * b.diffuse_transmission * coat_transmittance(b, wo, flip_z(wi)) *
+                     diffuse_lobe(b, b.dt_color, wo, flip_z(wi));
         }
         return below;
     }
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     Spectrum fd = dielectric_fresnel(b, c);
-    Spectrum diffuse = opaque * coat_transmittance(b, wo, wi) * b.base_color / PI;
+    Spectrum diffuse = opaque * coat_transmittance(b, wo, wi) * diffuse_lobe(b, b.base_color, wo, wi);
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) diffuse *= 1.0 - b.diffuse_transmission;
     if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo, wi);
     // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).

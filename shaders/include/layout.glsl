@@ -74,12 +74,12 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 736 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 768 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
     vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
-    vec4 specular_color; // rgb KHR_materials_specular colour factor, w unused
+    vec4 specular_color; // rgb KHR_materials_specular colour factor, w KHR_materials_diffuse_roughness factor
     vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), z
                          // KHR_materials_dispersion's 20 / Abbe number (0 when thin-walled), w unused
     vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused

@@ -93,6 +93,9 @@ Material material_at(Material m, uint tri, vec2 b) {
         m.anisotropy.x *= a.b;
         if (dot(d, d) > 1e-12) m.anisotropy.yz = normalize(d);
     }
+    if (scene_has(FEATURE_DIFFUSE_ROUGHNESS) && slot_used(m.textures[TEX_DIFFUSE_ROUGHNESS])) {
+        m.specular_color.w *= sample_slot(m.textures[TEX_DIFFUSE_ROUGHNESS], tri, b, false).r;
+    }
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) {
         if (slot_used(m.textures[TEX_DIFFUSE_TRANSMISSION])) {
             m.diffuse_transmission.w *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION], tri, b, false).a;

@@ -78,6 +78,10 @@ pub struct Material {
     pub iridescence: Iridescence,
     /// KHR_materials_diffuse_transmission (factor 0: none).
     pub diffuse_transmission: DiffuseTransmission,
+    /// KHR_materials_diffuse_roughness: the roughness r in [0, 1] of the energy-preserving Oren-Nayar (EON) diffuse
+    /// lobe (0: Lambertian), and a texture whose R multiplies it.
+    pub diffuse_roughness: f32,
+    pub diffuse_roughness_texture: Option<TextureRef>,
     /// KHR_materials_unlit: the surface shows its base colour (times texture and vertex colour) to every ray that
     /// reaches it, camera or bounce, and reflects nothing. It is not a light: next-event estimation never aims at it.
     pub unlit: bool,
@@ -222,6 +226,7 @@ impl Material {
             self.iridescence.thickness_texture,
             self.diffuse_transmission.texture,
             self.diffuse_transmission.color_texture,
+            self.diffuse_roughness_texture,
         ]
     }
 
@@ -277,6 +282,8 @@ impl Default for Material {
             anisotropy: Anisotropy::default(),
             iridescence: Iridescence::default(),
             diffuse_transmission: DiffuseTransmission::default(),
+            diffuse_roughness: 0.0,
+            diffuse_roughness_texture: None,
             unlit: false,
             dispersion: 0.0,
         }

@@ -94,6 +94,9 @@ impl PackedScene {
         if any(|m| m.diffuse_transmission[3] != 0.0) {
             bits |= FEATURE_DIFFUSE_TRANSMISSION;
         }
+        if any(|m| m.specular_color[3] != 0.0) {
+            bits |= FEATURE_DIFFUSE_ROUGHNESS;
+        }
         if any(|m| m.alpha[3].to_bits() & MATERIAL_UNLIT != 0) {
             bits |= FEATURE_UNLIT;
         }
@@ -153,7 +156,7 @@ fn gpu_material(m: &Material) -> GpuMaterial {
         base_color: v4(m.base_color, m.alpha),
         emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
         params: [m.metallic, m.roughness, m.ior, m.specular],
-        specular_color: v4(m.specular_color, 0.0),
+        specular_color: v4(m.specular_color, m.diffuse_roughness),
         // Dispersion bends light only through a volume (KHR_materials_dispersion needs KHR_materials_volume).
         transmission: [
             m.transmission,

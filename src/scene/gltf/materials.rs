@@ -115,6 +115,7 @@ impl Loader<'_> {
         let anisotropy = self.anisotropy(&name, m)?;
         let iridescence = self.iridescence(&name, m)?;
         let diffuse_transmission = self.diffuse_transmission(&name, m)?;
+        let (diffuse_roughness, diffuse_roughness_texture) = self.diffuse_roughness(&name, m)?;
         let dispersion = self.dispersion(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
         let mut pbr_metallic = metallic;
@@ -161,6 +162,8 @@ impl Loader<'_> {
             } else {
                 diffuse_transmission
             },
+            diffuse_roughness: if unlit { 0.0 } else { diffuse_roughness },
+            diffuse_roughness_texture: if unlit { None } else { diffuse_roughness_texture },
             unlit,
         });
         Ok(())
@@ -322,6 +325,20 @@ impl Loader<'_> {
             texture: self.json_texture(name, what, ext, "diffuseTransmissionTexture")?,
             color_texture: self.json_texture(name, what, ext, "diffuseTransmissionColorTexture")?,
         })
+    }
+
+    /// KHR_materials_diffuse_roughness, read from its JSON: the factor (0 by default, Lambertian) and the texture whose R
+    /// multiplies it. The factor is EON's roughness r as it is (Babylon.js and OpenPBR's base_diffuse_roughness read
+    /// it so too).
+    fn diffuse_roughness(&mut self, name: &str, m: &gltf::Material) -> Result<(f32, Option<TextureRef>), Error> {
+        let what = "KHR_materials_diffuse_roughness";
+        let Some(ext) = m.extension_value(what) else {
+            return Ok((0.0, None));
+        };
+        Ok((
+            self.json_factor(name, what, ext, "diffuseRoughnessFactor", 0.0)?,
+            self.json_texture(name, what, ext, "diffuseRoughnessTexture")?,
+        ))
     }
 
     /// KHR_materials_pbrSpecularGlossiness's factors and textures, when the material has the extension.

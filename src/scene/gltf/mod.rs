@@ -29,6 +29,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
     "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_roughness",
     "KHR_materials_diffuse_transmission",
     // Rendered by spectral transport, which a scene using it gets by default (Scene::wants_spectral).
     "KHR_materials_dispersion",
