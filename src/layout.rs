@@ -124,12 +124,14 @@ pub struct MotionKey {
 
 /// 128 bytes: one instance of a mesh kept in object space: its object-to-world and world-to-object transforms as
 /// three rows each (x, y, z of a 3x4 affine map), `info` = (its BLAS root node, 1 when the transform mirrors, its
-/// index in `Scene::instances`, the record of its key 1 when it moves over the shutter, else 0), and `light` = (where
+/// index in `Scene::instances`, the record of its key 0 when it moves over the shutter, else 0), and `light` = (where
 /// its mesh's emitters' table starts in the light buffer, how many it holds, this instance's entry in light
 /// selection's table, the root of its mesh's light subtree in the light tree); all 0 for a mesh that does not emit. Record 0 is the header: `info` =
 /// (the TLAS root node, the instance count, the first BLAS triangle, 0). The instances' records follow in the TLAS's
-/// order, then each moving instance's keys 1 ..= MOTION_SEGMENTS, whole records at those times. 128 bytes a still
-/// instance, 640 a moving one. See `Instance` in layout.glsl.
+/// order, then each moving instance's keys 0 ..= MOTION_SEGMENTS, whole records at those times whose object rows
+/// hold the key's decomposition instead of its inverse (object0 = translation and 1, object1 = the rotation's
+/// quaternion, object2 = scale; object0.w = 0 when the keys do not decompose). 128 bytes a still instance, 768 a
+/// moving one. See `Instance` in layout.glsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuInstance {

@@ -51,10 +51,10 @@ struct MotionKey {
 
 // 128 bytes: an instance of a mesh kept in object space: object-to-world and world-to-object as three rows each of a
 // 3x4 affine map; info = (its BLAS root node, 1 when it mirrors, its index among the scene's instances, the record of
-// its key 1 when it moves over the shutter, else 0); light = (the first entry of its mesh's emitter table in the
+// its key 0 when it moves over the shutter, else 0); light = (the first entry of its mesh's emitter table in the
 // light buffer, their count, the instance's entry in light selection's table, the root of its mesh's light subtree),
 // zero for a mesh that does not emit. Record 0 is the header: info = (the TLAS root node, the instance count, the first BLAS
-// triangle, 0). A moving instance's keys 1 ..= MOTION_SEGMENTS are whole records after the instances' (see
+// triangle, 0). A moving instance's keys 0 ..= MOTION_SEGMENTS are whole records after the instances' (see
 // instance_at).
 struct Instance {
     vec4 world0;
@@ -541,21 +541,46 @@ TriVerts tri_to_world(Instance I, TriVerts tv) {
     return tv;
 }
 
-// Instance record i placed at motion_time. A moving one's object-to-world rows go linearly between its keys on either
-// side, which moves each point of its mesh linearly between its places at the keys, as a flattened triangle's
-// vertices move; world-to-object is the inverse of that map (interpolating the keys' inverses would not undo it).
+// Spherical linear interpolation from a to b (dot(a, b) >= 0, as the host stores consecutive keys): a turn about one
+// axis at a constant rate; the normalised blend where the angle is too small for 1/sin (src/bvh/motion.rs's slerp).
+const float SLERP_LINEAR = 0.9995;
+vec4 slerp(vec4 a, vec4 b, float f) {
+    float c = min(dot(a, b), 1.0);
+    if (c > SLERP_LINEAR) return normalize(mix(a, b, f));
+    float theta = acos(c);
+    return (a * sin((1.0 - f) * theta) + b * sin(f * theta)) / sin(theta);
+}
+
+// Instance record i placed at motion_time: a moving one's keys on either side (records info.w + k and + k + 1)
+// interpolated. Keys that decompose (object0.w = 1: translation in object0, the rotation's quaternion (x, y, z, w)
+// in object1, scale in object2) go as pbrt-v4's and Cycles' do, translation and scale linearly and rotation by
+// slerp, so a turning instance keeps its size; other keys (shear) have their object-to-world rows interpolated,
+// which moves each point linearly between its places at the keys. World-to-object is the inverse of the map so
+// made (interpolating the keys' inverses would not undo it).
 Instance instance_at(uint i) {
     Instance I = instances[i];
     if (scene_has(FEATURE_MOTION) && I.info.w != 0u) {
         uint k;
         float f;
         motion_segment(k, f);
-        // (Records picked by index: glslang stores a ternary of a local and a buffer struct as invalid SPIR-V.)
-        Instance a = instances[k == 0u ? i : I.info.w + k - 1u];
-        Instance b = instances[I.info.w + k];
-        I.world0 = a.world0 + (b.world0 - a.world0) * f;
-        I.world1 = a.world1 + (b.world1 - a.world1) * f;
-        I.world2 = a.world2 + (b.world2 - a.world2) * f;
+        Instance a = instances[I.info.w + k];
+        Instance b = instances[I.info.w + k + 1u];
+        if (a.object0.w != 0.0) {
+            vec3 t = toward(a.object0.xyz, b.object0.xyz, f);
+            vec4 q = slerp(a.object1, b.object1, f);
+            vec3 s = toward(a.object2.xyz, b.object2.xyz, f);
+            // Rows of T R S: the rotation matrix's rows with each column scaled by s.
+            float xx = q.x * q.x, yy = q.y * q.y, zz = q.z * q.z;
+            float xy = q.x * q.y, xz = q.x * q.z, yz = q.y * q.z;
+            float wx = q.w * q.x, wy = q.w * q.y, wz = q.w * q.z;
+            I.world0 = vec4(vec3(1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)) * s, t.x);
+            I.world1 = vec4(vec3(2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)) * s, t.y);
+            I.world2 = vec4(vec3(2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)) * s, t.z);
+        } else {
+            I.world0 = a.world0 + (b.world0 - a.world0) * f;
+            I.world1 = a.world1 + (b.world1 - a.world1) * f;
+            I.world2 = a.world2 + (b.world2 - a.world2) * f;
+        }
         inverse_rows(I.world0, I.world1, I.world2, I.object0, I.object1, I.object2);
     }
     return I;

@@ -7,6 +7,7 @@
 //! Estevez and Kulla 2018). The importance is a bound, so a node it calls zero cannot light the point; where it
 //! misjudges, MIS with BSDF sampling still gives the right mean, since the pdf twin returns exactly the probability
 //! the descent picks with.
+use super::motion::{largest_turn, Pose};
 use crate::constants::{LIGHT_FRESH_NUMBER_BELOW, LIGHT_NODE_LEAF, LIGHT_NODE_TWO_SIDED, LIGHT_TREE_MAX_DEPTH};
 use crate::layout::GpuLightNode;
 use glam::{Mat3, Vec3};
@@ -91,8 +92,10 @@ impl LightBounds {
 
     /// These bounds under an affine map (an instance's transform at each of its keys): the box's corners mapped,
     /// the cone's axis mapped as a normal. A map that is not a similarity does not keep angles, so the cone then
-    /// opens to the sphere.
-    pub fn transformed(&self, keys: &[glam::Mat4], phi: f32) -> LightBounds {
+    /// opens to the sphere. Keys interpolated as `poses` (motion::Pose::toward) sweep the box along its arc
+    /// (motion::swept_box), and a direction between two keys is within half their turn of one of them, so each
+    /// key's cone opens by half the largest turn; keys interpolated as matrices move points linearly between keys.
+    pub fn transformed(&self, keys: &[glam::Mat4], poses: Option<&[Pose]>, phi: f32) -> LightBounds {
         let mut out: Option<LightBounds> = None;
         for w in keys {
             let mut lo = Vec3::splat(f32::INFINITY);
@@ -123,7 +126,16 @@ impl LightBounds {
                 Some(prev) => LightBounds { phi, ..prev.union(&b) },
             });
         }
-        out.unwrap_or(*self)
+        let (Some(mut out), Some(poses)) = (out, poses) else {
+            return out.unwrap_or(*self);
+        };
+        (out.lo, out.hi) = super::motion::swept_box(self.lo, self.hi, poses);
+        if out.cos_o > -1.0 {
+            out.cos_o = (out.cos_o.clamp(-1.0, 1.0).acos() + 0.5 * largest_turn(poses))
+                .min(PI)
+                .cos();
+        }
+        out
     }
 
     /// Both groups: the box around both, the powers added, a cone holding both cones.
@@ -930,7 +942,7 @@ mod tests {
         let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
         let t = LightBounds::triangle(&[tri], 1.0, false)
             .unwrap()
-            .transformed(&keys, 1.0);
+            .transformed(&keys, None, 1.0);
         for w in keys {
             let [a, b, c] = tri.map(|v| w.transform_point3(v));
             // The device's front of a mirrored instance is the mesh's: the mapped normal, not the mapped winding.
@@ -940,9 +952,11 @@ mod tests {
                 assert!(t.lo.cmple(q + 1e-5).all() && t.hi.cmpge(q - 1e-5).all());
             }
         }
-        let stretched = LightBounds::triangle(&[tri], 1.0, false)
-            .unwrap()
-            .transformed(&[glam::Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0))], 1.0);
+        let stretched = LightBounds::triangle(&[tri], 1.0, false).unwrap().transformed(
+            &[glam::Mat4::from_scale(Vec3::new(1.0, 3.0, 1.0))],
+            None,
+            1.0,
+        );
         assert_eq!(stretched.cos_o, -1.0);
     }
 

@@ -1,6 +1,7 @@
 //! Binned-SAH BVH build, widened to BVH_WIDTH children per node and flattened into the GPU node layout
 //! (`layout::BvhNode`), with triangles reordered to match.
 pub mod lights;
+pub mod motion;
 mod traverse;
 
 pub use traverse::{

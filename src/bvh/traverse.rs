@@ -211,8 +211,8 @@ pub fn to_object(inst: &GpuInstance, ray: &Ray) -> Ray {
 }
 
 /// Instance record `i` placed at `time` (the fraction of the shutter), as layout.glsl's instance_at: a moving
-/// record's object-to-world rows linearly between its keys on either side, and their inverse, by the same cross
-/// products.
+/// record's keys on either side interpolated (as motion::Pose::toward when they decompose, their rows linearly when
+/// they do not), and the inverse of that map, by the same cross products.
 pub fn instance_at(instances: &[GpuInstance], i: u32, time: f32) -> GpuInstance {
     let mut inst = instances[i as usize];
     let first_key = inst.info[3];
@@ -222,16 +222,22 @@ pub fn instance_at(instances: &[GpuInstance], i: u32, time: f32) -> GpuInstance 
     let x = time * MOTION_SEGMENTS as f32;
     let k = (x as u32).min(MOTION_SEGMENTS - 1);
     let f = x - k as f32;
-    let a = if k == 0 {
-        inst
+    let a = instances[(first_key + k) as usize];
+    let b = instances[(first_key + k + 1) as usize];
+    if a.object0[3] != 0.0 {
+        let pose = |r: &GpuInstance| super::motion::Pose {
+            translation: v3(r.object0),
+            rotation: glam::Quat::from_array(r.object1),
+            scale: v3(r.object2),
+        };
+        let m = pose(&a).toward(&pose(&b), f).matrix();
+        (inst.world0, inst.world1, inst.world2) = (m.row(0).into(), m.row(1).into(), m.row(2).into());
     } else {
-        instances[(first_key + k - 1) as usize]
-    };
-    let b = instances[(first_key + k) as usize];
-    let lerp = |a: [f32; 4], b: [f32; 4]| std::array::from_fn(|j| a[j] + (b[j] - a[j]) * f);
-    inst.world0 = lerp(a.world0, b.world0);
-    inst.world1 = lerp(a.world1, b.world1);
-    inst.world2 = lerp(a.world2, b.world2);
+        let lerp = |a: [f32; 4], b: [f32; 4]| std::array::from_fn(|j| a[j] + (b[j] - a[j]) * f);
+        inst.world0 = lerp(a.world0, b.world0);
+        inst.world1 = lerp(a.world1, b.world1);
+        inst.world2 = lerp(a.world2, b.world2);
+    }
     let r = [inst.world0, inst.world1, inst.world2].map(v3);
     let c = [r[1].cross(r[2]), r[2].cross(r[0]), r[0].cross(r[1])];
     let inv_det = 1.0 / r[0].dot(c[0]);

@@ -37,7 +37,9 @@ impl Scene {
     /// own table). In a scene that
     /// moves over the shutter, the mesh must also be one of the file's own (not a skinned or morphed copy, whose
     /// vertices move), and each of its instances invertible at every key with the same handedness: its instances
-    /// then move as rigid transforms interpolated per ray. Every other mesh is flattened. Normal maps are instanced
+    /// then move as rigid transforms interpolated per ray. A rigid mesh that turns or scales over the shutter is
+    /// instanced however often it is placed (under Instancing::Never it is flattened, and its vertices move
+    /// linearly between keys). Every other mesh is flattened. Normal maps are instanced
     /// too: tangents are generated once in the mesh's space and taken into the world per instance.
     pub fn instanced_meshes(&self, rule: Instancing) -> Vec<bool> {
         let none = vec![false; self.meshes.len()];
@@ -46,6 +48,7 @@ impl Scene {
         }
         let mut uses = vec![0u64; self.meshes.len()];
         let mut rigid = vec![true; self.meshes.len()];
+        let mut turning = vec![false; self.meshes.len()];
         for (k, i) in self.instances.iter().enumerate() {
             let still = invertible(&i.world_from_object);
             if let Some(motion) = &self.motion {
@@ -56,15 +59,22 @@ impl Scene {
                     at.mesh == i.mesh && invertible(&at.world_from_object) && handedness(&at.world_from_object) == hand
                 };
                 rigid[i.mesh] &= still && i.mesh < self.rig.file_meshes && motion.keys.iter().all(keeps);
+                let at = |key: &super::rig::Placed| Mat3::from_mat4(key.instances[k].world_from_object);
+                turning[i.mesh] |= motion
+                    .keys
+                    .iter()
+                    .any(|key| at(key) != Mat3::from_mat4(i.world_from_object));
             }
             if still {
                 uses[i.mesh] += 1;
             }
         }
-        (self.meshes.iter().zip(uses.iter().zip(&rigid)))
-            .map(|(mesh, (&n, &rigid))| {
+        (self.meshes.iter().zip(uses.iter().zip(rigid.iter().zip(&turning))))
+            .map(|(mesh, (&n, (&rigid, &turning)))| {
                 let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
-                n >= 2 && big && rigid && mesh.triangles() > 0
+                // A mesh that turns (or scales) rigidly is instanced even when placed once: its flattened vertices
+                // would move on straight lines between keys and shrink a turn between them.
+                (n >= 2 && big || n >= 1 && turning) && rigid && mesh.triangles() > 0
             })
             .collect()
     }

@@ -119,6 +119,27 @@ pub fn write_temp(b: &gltf_builder::GltfBuilder, name: &str) -> (tempfile::TempD
     (dir, path)
 }
 
+/// The scene's triangles where its animation places them at `time` (a fraction of its shutter), posed at that very
+/// time: the exact placement, independent of how the renderer interpolates between the shutter's keys.
+pub fn exact_tri_verts(scene: &pathwave::scene::Scene, time: f32) -> Vec<pathwave::layout::TriVerts> {
+    let shutter = scene.motion.as_ref().expect("the scene moves").shutter;
+    let opening = scene.rig.posed;
+    let mut at = scene.clone();
+    at.pose(pathwave::scene::PoseTime {
+        time: opening.time + time * shutter,
+        ..opening
+    })
+    .unwrap();
+    let (soup, _) = at.try_flatten_motion().unwrap();
+    (soup.positions().iter())
+        .map(|t| pathwave::layout::TriVerts {
+            v0: t[0].extend(0.0).to_array(),
+            e1: (t[1] - t[0]).extend(0.0).to_array(),
+            e2: (t[2] - t[0]).extend(0.0).to_array(),
+        })
+        .collect()
+}
+
 /// Every triangle of a moving scene, flattened, at shutter position `x` (in segments) as the device should place it:
 /// its keys on either side, linearly between (the reference moving traversals are checked against by brute force).
 pub fn posed_tri_verts(scene: &pathwave::scene::Scene, x: f32) -> Vec<pathwave::layout::TriVerts> {

@@ -425,11 +425,23 @@ fn pack_instances(
             Some((part_of(i.mesh)?, keys, k as u32))
         })
         .collect();
-    // A moving instance's box holds its mesh at every key, so it holds it at every time: the device interpolates the
-    // transform linearly between keys, which moves each point linearly between its places at those keys.
-    let boxes: Vec<(Vec3, Vec3)> = (placed.iter())
-        .map(|(p, keys, _)| {
+    // Each moving instance's keys as poses (None for a still one, or keys with shear, which the device interpolates
+    // as matrices).
+    let poses: Vec<Option<Vec<crate::bvh::motion::Pose>>> = (placed.iter())
+        .map(|(_, keys, _)| {
+            (keys.len() > 1)
+                .then(|| crate::bvh::motion::decompose_keys(keys))
+                .flatten()
+        })
+        .collect();
+    // A moving instance's box holds its mesh all along its arc (see swept_box); keys interpolated as matrices move
+    // each point linearly between its places at the keys, so there the keys' boxes hold it.
+    let boxes: Vec<(Vec3, Vec3)> = (placed.iter().zip(&poses))
+        .map(|((p, keys, _), poses)| {
             let (lo, hi) = parts[*p].3;
+            if let Some(poses) = poses {
+                return crate::bvh::motion::swept_box(lo, hi, poses);
+            }
             let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
             for (w, corner) in keys
                 .iter()
@@ -523,21 +535,23 @@ fn pack_instances(
     let moving = placed.iter().filter(|p| p.1.len() > 1).count();
     let mut records = Vec::new();
     records
-        .try_reserve_exact(1 + placed.len() + moving * MOTION_SEGMENTS as usize)
+        .try_reserve_exact(1 + placed.len() + moving * (MOTION_SEGMENTS as usize + 1))
         .ok()?;
     records.push(GpuInstance {
         info: [tlas_root, placed.len() as u32, first_blas_triangle, 0],
         ..Default::default()
     });
-    // The TLAS's leaves in its order, then each moving instance's later keys (MOTION_SEGMENTS records, which its
+    // The TLAS's leaves in its order, then each moving instance's keys (MOTION_SEGMENTS + 1 records from the one its
     // own record's info.w names).
     let mut later_keys = 1 + placed.len() as u32;
     let mut key_records = Vec::new();
     for &i in &tlas.order {
         let (p, keys, k) = &placed[i as usize];
+        let poses = poses[i as usize].as_deref();
         let mirrored = crate::scene::handedness(&keys[0]);
-        let first_key = if keys.len() > 1 { later_keys } else { 0 };
-        later_keys += keys.len() as u32 - 1;
+        let moves = keys.len() > 1;
+        let first_key = if moves { later_keys } else { 0 };
+        later_keys += if moves { keys.len() as u32 } else { 0 };
         let info = [roots[*p], mirrored as u32, *k, first_key];
         let (first_light, light_count, power, cone) = part_lights[*p];
         let light = [first_light, light_count, 0, 0];
@@ -548,12 +562,18 @@ fn pack_instances(
                 id: LIGHT_KIND_INSTANCE << LIGHT_KIND_SHIFT | records.len() as u32,
                 power: power * stretch,
                 area: 0.0,
-                bounds: cone.map(|c| c.transformed(keys, (power * stretch) as f32)),
+                bounds: cone.map(|c| c.transformed(keys, poses, (power * stretch) as f32)),
             });
         }
         records.push(instance_record(&keys[0], info, light));
-        // Only a key record's transforms are read (instance_at keeps the instance's own info and light).
-        key_records.extend(keys[1..].iter().map(|w| instance_record(w, info, [0; 4])));
+        if moves {
+            // Only a key record's transforms are read (instance_at keeps the instance's own info and light).
+            key_records.extend(
+                keys.iter()
+                    .enumerate()
+                    .map(|(j, w)| key_record(w, poses.map(|p| p[j]), info)),
+            );
+        }
     }
     records.append(&mut key_records);
     Some((records, mesh_lights, mesh_emitters))
@@ -575,6 +595,30 @@ fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4], light: [u32; 
         object2: o.row(2).to_array(),
         info,
         light,
+    }
+}
+
+/// One key of a moving instance: `world_from_object` as rows (interpolated when the keys do not decompose), and in
+/// place of the inverse, which instance_at computes, the key's pose (see GpuInstance).
+fn key_record(world_from_object: &glam::Mat4, pose: Option<crate::bvh::motion::Pose>, info: [u32; 4]) -> GpuInstance {
+    let w = world_from_object;
+    let (object0, object1, object2) = match pose {
+        Some(p) => (
+            p.translation.extend(1.0).to_array(),
+            p.rotation.to_array(),
+            p.scale.extend(0.0).to_array(),
+        ),
+        None => ([0.0; 4], [0.0; 4], [0.0; 4]),
+    };
+    GpuInstance {
+        world0: w.row(0).to_array(),
+        world1: w.row(1).to_array(),
+        world2: w.row(2).to_array(),
+        object0,
+        object1,
+        object2,
+        info,
+        light: [0; 4],
     }
 }
 
