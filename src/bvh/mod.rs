@@ -109,6 +109,8 @@ struct Inputs<'a> {
     centroids: &'a [Vec3],
     boxes: &'a [Aabb],
     root_area: f32,
+    /// The most primitives a leaf may hold: BVH_MAX_LEAF_TRIS for triangles, 1 for instances (build_boxes).
+    max_leaf: usize,
 }
 
 impl Inputs<'_> {
@@ -129,7 +131,12 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
 
 /// `build` on at most `threads` threads (the result does not depend on it; tests check that).
 pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
-    build_over(triangles.len(), |i| triangles[i].into_iter(), threads)
+    build_over(
+        triangles.len(),
+        |i| triangles[i].into_iter(),
+        threads,
+        BVH_MAX_LEAF_TRIS as usize,
+    )
 }
 
 /// Builds over moving triangles: triangle i is `keys[k][i]` at key k and moves linearly between keys, so it stays
@@ -138,17 +145,25 @@ pub fn build_with_threads(triangles: &[[Vec3; 3]], threads: usize) -> Bvh {
 pub fn build_moving(keys: &[&[[Vec3; 3]]]) -> Bvh {
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
     let n = keys.first().map_or(0, |k| k.len());
-    build_over(n, |i| keys.iter().flat_map(move |k| k[i]), threads)
+    build_over(
+        n,
+        |i| keys.iter().flat_map(move |k| k[i]),
+        threads,
+        BVH_MAX_LEAF_TRIS as usize,
+    )
 }
 
-/// Builds over boxes (lo, hi), e.g. instances in the world: a leaf's "triangles" are then indices into `boxes`.
+/// Builds over boxes (lo, hi), e.g. instances in the world: a leaf's "triangles" are then indices into `boxes`, one
+/// per leaf. An instance costs far more than a triangle to test (a moving one is placed at the ray's time, and each
+/// has a BVH below it), so each is reached only by rays through its own box; leaves of several made a turning cube's
+/// six faces each pay for the others' rays.
 pub fn build_boxes(boxes: &[(Vec3, Vec3)]) -> Bvh {
     let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-    build_over(boxes.len(), |i| [boxes[i].0, boxes[i].1].into_iter(), threads)
+    build_over(boxes.len(), |i| [boxes[i].0, boxes[i].1].into_iter(), threads, 1)
 }
 
 /// The build over `n` triangles, triangle i bounded by the points `points(i)` yields.
-fn build_over<I: Iterator<Item = Vec3>>(n: usize, points: impl Fn(usize) -> I, threads: usize) -> Bvh {
+fn build_over<I: Iterator<Item = Vec3>>(n: usize, points: impl Fn(usize) -> I, threads: usize, max_leaf: usize) -> Bvh {
     let mut boxes = Vec::with_capacity(n);
     let mut centroids = Vec::with_capacity(n);
     for i in 0..n {
@@ -174,6 +189,7 @@ fn build_over<I: Iterator<Item = Vec3>>(n: usize, points: impl Fn(usize) -> I, t
         centroids: &centroids,
         boxes: &boxes,
         root_area: 0.0,
+        max_leaf,
     };
     let root_box = inputs.bounds_of(&order);
     let inputs = Inputs {
@@ -201,7 +217,7 @@ fn build_range(
     if order.len() < PARALLEL_MIN_TRIS {
         return build_sequential(inputs, order, start, bounds, depth);
     }
-    let Some(mid) = choose_split(order, inputs.centroids, inputs.boxes, &bounds, depth) else {
+    let Some(mid) = choose_split(order, inputs, &bounds, depth) else {
         return build_sequential(inputs, order, start, bounds, depth);
     };
     let (lo, hi) = order.split_at_mut(mid);
@@ -264,7 +280,7 @@ fn build_sequential(
         let split = if count <= 1 {
             None
         } else {
-            choose_split(&mut order[s..e], inputs.centroids, inputs.boxes, &bounds, depth)
+            choose_split(&mut order[s..e], inputs, &bounds, depth)
         };
         match split {
             None => {
@@ -290,8 +306,8 @@ fn build_sequential(
 }
 
 /// A leaf when few enough triangles remain, otherwise the halves by centroid along `axis`.
-fn median_split(idx: &mut [u32], centroids: &[Vec3], axis: usize) -> Option<usize> {
-    if idx.len() <= BVH_MAX_LEAF_TRIS as usize {
+fn median_split(idx: &mut [u32], centroids: &[Vec3], axis: usize, max_leaf: usize) -> Option<usize> {
+    if idx.len() <= max_leaf {
         return None;
     }
     let mid = idx.len() / 2;
@@ -302,7 +318,8 @@ fn median_split(idx: &mut [u32], centroids: &[Vec3], axis: usize) -> Option<usiz
 }
 
 /// Partitions `idx` and returns the size of the left part, or None to make a leaf.
-fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aabb, depth: u32) -> Option<usize> {
+fn choose_split(idx: &mut [u32], inputs: &Inputs, bounds: &Aabb, depth: u32) -> Option<usize> {
+    let (centroids, boxes) = (inputs.centroids, inputs.boxes);
     let count = idx.len();
     let mut cb = Aabb::EMPTY;
     idx.iter().for_each(|&i| cb.grow(centroids[i as usize]));
@@ -316,7 +333,7 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
     };
     if extent[axis] <= 0.0 || depth >= SAH_DEPTH_LIMIT {
         // Coincident centroids (or too deep for SAH): halve by position so leaves stay small and depth stays bounded.
-        return median_split(idx, centroids, axis);
+        return median_split(idx, centroids, axis, inputs.max_leaf);
     }
     // SAH over bins on every axis with a non-zero extent.
     let mut best = (f32::INFINITY, 0usize, 0usize);
@@ -359,8 +376,8 @@ fn choose_split(idx: &mut [u32], centroids: &[Vec3], boxes: &[Aabb], bounds: &Aa
     }
     let leaf_cost = bounds.area() * count as f32;
     let split_cost = TRAVERSAL_COST * bounds.area() + best.0;
-    if best.0 == f32::INFINITY || (split_cost >= leaf_cost && count <= BVH_MAX_LEAF_TRIS as usize) {
-        return median_split(idx, centroids, axis);
+    if best.0 == f32::INFINITY || (split_cost >= leaf_cost && count <= inputs.max_leaf) {
+        return median_split(idx, centroids, axis, inputs.max_leaf);
     }
     let (_, ax, split_bin) = best;
     let scale = BINS as f32 / extent[ax];

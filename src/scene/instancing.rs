@@ -37,9 +37,10 @@ impl Scene {
     /// own table). In a scene that
     /// moves over the shutter, the mesh must also be one of the file's own (not a skinned or morphed copy, whose
     /// vertices move), and each of its instances invertible at every key with the same handedness: its instances
-    /// then move as rigid transforms interpolated per ray. A rigid mesh that turns or scales over the shutter is
-    /// instanced however often it is placed (under Instancing::Never it is flattened, and its vertices move
-    /// linearly between keys). Every other mesh is flattened. Normal maps are instanced
+    /// then move as rigid transforms interpolated per ray. A rigid mesh that turns over the shutter by more than
+    /// `motion::FLATTENED_TURN_MAX` in a segment (by any angle under Instancing::Always) is instanced however often
+    /// it is placed; flattened, its vertices move linearly between keys. Every other mesh is flattened. Normal maps
+    /// are instanced
     /// too: tangents are generated once in the mesh's space and taken into the world per instance.
     pub fn instanced_meshes(&self, rule: Instancing) -> Vec<bool> {
         let none = vec![false; self.meshes.len()];
@@ -59,11 +60,17 @@ impl Scene {
                     at.mesh == i.mesh && invertible(&at.world_from_object) && handedness(&at.world_from_object) == hand
                 };
                 rigid[i.mesh] &= still && i.mesh < self.rig.file_meshes && motion.keys.iter().all(keeps);
-                let at = |key: &super::rig::Placed| Mat3::from_mat4(key.instances[k].world_from_object);
-                turning[i.mesh] |= motion
-                    .keys
-                    .iter()
-                    .any(|key| at(key) != Mat3::from_mat4(i.world_from_object));
+                let keys: Vec<Mat4> = std::iter::once(i.world_from_object)
+                    .chain(motion.keys.iter().map(|key| key.instances[k].world_from_object))
+                    .collect();
+                let turn =
+                    crate::bvh::motion::decompose_keys(&keys).map_or(0.0, |p| crate::bvh::motion::largest_turn(&p));
+                let least = if rule == Instancing::Always {
+                    0.0
+                } else {
+                    crate::bvh::motion::FLATTENED_TURN_MAX
+                };
+                turning[i.mesh] |= turn > least;
             }
             if still {
                 uses[i.mesh] += 1;
@@ -72,8 +79,8 @@ impl Scene {
         (self.meshes.iter().zip(uses.iter().zip(rigid.iter().zip(&turning))))
             .map(|(mesh, (&n, (&rigid, &turning)))| {
                 let big = rule == Instancing::Always || n.saturating_mul(mesh.triangles()) >= INSTANCING_MIN_TRIANGLES;
-                // A mesh that turns (or scales) rigidly is instanced even when placed once: its flattened vertices
-                // would move on straight lines between keys and shrink a turn between them.
+                // A mesh that turns rigidly faster than FLATTENED_TURN_MAX is instanced even when placed once: its
+                // flattened vertices would move on straight lines between keys and shrink the turn between them.
                 (n >= 2 && big || n >= 1 && turning) && rigid && mesh.triangles() > 0
             })
             .collect()
