@@ -583,3 +583,182 @@ fn a_sparse_morph_target_displaces_only_the_vertices_it_lists() {
         Err(e) => assert!(e.to_string().contains("sparse index 2"), "{e}"),
     }
 }
+
+/// KHR_animation_pointer against values worked out by hand at and between keys, one channel per kind of target:
+/// a material's base colour (LINEAR, vec4 blended per component, alpha included) and emission (its factor by STEP
+/// and KHR_materials_emissive_strength by LINEAR, multiplied), a node's translation through the pointer, a spot
+/// light's intensity and outer cone, a camera's yfov, a texture transform's offset (its rotation kept) and
+/// KHR_node_visibility's `visible` as unsigned bytes.
+/// Catches: pointers read under other spellings or not at all (the values would stay the file's), the emission's
+/// parts not kept apart, visibility not hiding the node's mesh or not coming back, an unsupported pointer dropped
+/// without naming it, and a shutter over a visibility key placing keys with different instances.
+#[test]
+fn pointer_channels_drive_materials_lights_cameras_and_visibility() {
+    let mut b = lit_quad();
+    b.punctual(
+        json!({ "type": "spot", "spot": { "innerConeAngle": 0.1, "outerConeAngle": 0.5 } }),
+        [1.0, 0.5, 0.25],
+        10.0,
+        [0.0, 2.0, 0.0],
+        Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2).to_array(),
+    );
+    b.camera([0.0, 1.0, 4.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 40.0);
+    let ptr = |b: &mut GltfBuilder, pointer: &str, interp: &str, times: &[f32], values: &[f32], width: usize| {
+        b.animate_pointer("a", pointer, interp, times, values, width, false)
+    };
+    let base = [0.2, 0.4, 0.6, 1.0, 0.6, 0.2, 0.0, 0.5];
+    ptr(
+        &mut b,
+        "/materials/1/pbrMetallicRoughness/baseColorFactor",
+        "LINEAR",
+        &[0.0, 2.0],
+        &base,
+        4,
+    );
+    ptr(
+        &mut b,
+        "/materials/0/emissiveFactor",
+        "STEP",
+        &[0.0, 1.0],
+        &[1.0, 1.0, 1.0, 0.5, 0.25, 0.0],
+        3,
+    );
+    let strength = "/materials/0/extensions/KHR_materials_emissive_strength/emissiveStrength";
+    ptr(&mut b, strength, "LINEAR", &[0.0, 2.0], &[2.0, 4.0], 1);
+    ptr(
+        &mut b,
+        "/nodes/1/translation",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 0.0, 0.0, 2.0, 0.0, 0.0],
+        3,
+    );
+    ptr(
+        &mut b,
+        "/extensions/KHR_lights_punctual/lights/0/intensity",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[10.0, 30.0],
+        1,
+    );
+    let outer = "/extensions/KHR_lights_punctual/lights/0/spot/outerConeAngle";
+    ptr(&mut b, outer, "LINEAR", &[0.0, 2.0], &[0.5, 0.9], 1);
+    ptr(
+        &mut b,
+        "/cameras/0/perspective/yfov",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.5, 1.0],
+        1,
+    );
+    ptr(
+        &mut b,
+        "/materials/1/occlusionTexture/strength",
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 1.0],
+        1,
+    );
+    // A texture transform's offset moves while its rotation stays the file's.
+    let image = b.png_image(2, 1, &[[255, 0, 0, 255], [0, 255, 0, 255]]);
+    let texture = b.texture(image, json!({}));
+    b.material_json(1)["pbrMetallicRoughness"]["baseColorTexture"] =
+        json!({ "index": texture, "extensions": { "KHR_texture_transform": { "rotation": 0.3 } } });
+    b.use_extension("KHR_texture_transform");
+    let offset = "/materials/1/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform/offset";
+    ptr(&mut b, offset, "LINEAR", &[0.0, 2.0], &[0.0, 0.0, 1.0, 0.5], 2);
+    let visible = "/nodes/1/extensions/KHR_node_visibility/visible";
+    b.animate_pointer("a", visible, "STEP", &[0.0, 1.0], &[1.0, 0.0], 1, true);
+    b.use_extension("KHR_materials_emissive_strength");
+    b.use_extension("KHR_node_visibility");
+    let (_dir, path) = common::write_temp(&b, "pointer.gltf");
+
+    let scene = posed(&path, 0.5, None);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("/materials/1/occlusionTexture/strength")),
+        "{:?}",
+        scene.warnings
+    );
+    assert_eq!(
+        scene.rig.animations[0].channels.len(),
+        9,
+        "every supported pointer is read: {:?}",
+        scene.warnings
+    );
+    let transform = scene.materials[1]
+        .base_color_texture
+        .expect("the quad's texture")
+        .transform;
+    let (s, c) = 0.3f32.sin_cos();
+    let want = [[c, s, 0.25], [-s, c, 0.125]];
+    assert!(
+        transform
+            .iter()
+            .flatten()
+            .zip(want.iter().flatten())
+            .all(|(a, b)| (a - b).abs() < 1e-6),
+        "{transform:?}"
+    );
+    let white = &scene.materials[1];
+    assert!(
+        close(white.base_color, Vec3::new(0.3, 0.35, 0.45)),
+        "{}",
+        white.base_color
+    );
+    assert!((white.alpha - 0.875).abs() < 1e-6, "{}", white.alpha);
+    assert!(
+        close(scene.materials[0].emission, Vec3::splat(2.5)),
+        "{}",
+        scene.materials[0].emission
+    );
+    assert!(close(translation_of(&scene, 1), Vec3::new(0.5, 0.0, 0.0)));
+    let light = scene.punctual[0];
+    assert!(
+        close(light.intensity, Vec3::new(1.0, 0.5, 0.25) * 15.0),
+        "{}",
+        light.intensity
+    );
+    match light.kind {
+        pathwave::scene::PunctualKind::Spot { inner, outer } => {
+            assert!(
+                (inner - 0.1).abs() < 1e-6 && (outer - 0.6).abs() < 1e-6,
+                "{inner} {outer}"
+            )
+        }
+        k => panic!("{k:?}"),
+    }
+    match scene.camera.unwrap().projection {
+        pathwave::scene::Projection::Perspective { yfov } => assert!((yfov - 0.625).abs() < 1e-6, "{yfov}"),
+        p => panic!("{p:?}"),
+    }
+    assert_eq!(scene.instances.len(), 2, "the quad is shown before its visibility key");
+
+    let scene = posed(&path, 1.5, None);
+    assert!(
+        close(scene.materials[0].emission, Vec3::new(0.5, 0.25, 0.0) * 3.5),
+        "{}",
+        scene.materials[0].emission
+    );
+    assert_eq!(scene.instances.len(), 1, "the quad is hidden after it");
+    let scene = posed(&path, 3.0, None);
+    assert!(close(scene.materials[1].base_color, Vec3::new(0.6, 0.2, 0.0)));
+    assert!((scene.materials[1].alpha - 0.5).abs() < 1e-6);
+
+    // A shutter over the visibility key: the frame's time decides, and every key places the same instances.
+    let mut scene = load(&path, None).unwrap();
+    scene
+        .pose_shutter(
+            PoseTime {
+                time: 0.9,
+                animation: None,
+            },
+            0.2,
+        )
+        .unwrap();
+    let motion = scene.motion.as_ref().expect("the quad moves over the shutter");
+    assert_eq!(scene.instances.len(), 2);
+    assert!(motion.keys.iter().all(|k| k.instances.len() == 2));
+}

@@ -313,3 +313,27 @@ fn opens_object(between: &str) -> bool {
     let t = t.strip_prefix("json!(").unwrap_or(t);
     t.trim().is_empty()
 }
+
+/// Every material pointer KHR_animation_pointer may name under an extension (scene::pointer::MATERIAL_POINTERS)
+/// names a property of that extension's schema. Catches: a pointer spelled as the loader once misspelled a property
+/// (iridescenceIOR), which files would never use, so its animation would be dropped with a warning.
+#[test]
+fn animation_pointers_name_the_schemas_properties() {
+    let mut checked = 0;
+    let schemas = schemas("material.");
+    for (pointer, _) in pathwave::scene::pointer::MATERIAL_POINTERS {
+        let Some(rest) = pointer.strip_prefix("extensions/") else {
+            continue;
+        };
+        let (ext, property) = rest.split_once('/').unwrap();
+        let Some((_, props)) = schemas.iter().find(|(e, _)| e == ext) else {
+            panic!("{pointer}: no schema of {ext} is kept in tests/data/khronos-gltf-schemas");
+        };
+        assert!(
+            props.contains_key(property),
+            "{pointer}: {ext}'s schema has no property {property}"
+        );
+        checked += 1;
+    }
+    assert!(checked >= 15, "only {checked} pointers checked");
+}

@@ -1,5 +1,5 @@
 //! glTF animation: keyframe samplers (STEP, LINEAR with slerp for rotations, CUBICSPLINE) and the channels that
-//! drive node translations, rotations, scales and morph-target weights.
+//! drive node translations, rotations, scales and morph-target weights, and what KHR_animation_pointer points to.
 use glam::{Quat, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,11 +125,11 @@ pub fn slerp(a: Quat, b: Quat, u: f32) -> Quat {
     (a * (((1.0 - u) * theta).sin() / s) + b * ((u * theta).sin() / s)).normalize()
 }
 
-/// One channel: a sampler driving one property of one node (an index into `Rig::nodes`).
+/// One channel: a sampler driving one property of a node (an index into `Rig::nodes`), a material, a light or a
+/// camera (KHR_animation_pointer).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channel {
-    pub node: usize,
-    pub property: Property,
+    pub target: super::pointer::Target,
     pub sampler: Sampler,
 }
 

@@ -4,6 +4,7 @@ mod environment;
 pub mod framing;
 mod gltf;
 pub mod instancing;
+pub mod pointer;
 pub mod rig;
 mod soup;
 mod tangent;

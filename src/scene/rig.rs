@@ -1,15 +1,16 @@
 //! The file's node hierarchy with its animations, skins and morph targets, and `Scene::pose`, which places the
 //! scene at a time: instances, deformed meshes, cameras and lights.
 use super::animation::{Animation, Property, Trs};
-use super::{Camera, Instance, Mesh, Primitive, Projection, PunctualKind, PunctualLight, Scene};
+use super::pointer::{self, LightParts, MaterialParts, Target};
+use super::{Camera, Instance, Mesh, Primitive, Projection, PunctualLight, Scene};
 use crate::error::Error;
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
-/// A light as its node carries it; `pose` places it.
+/// A light as its node carries it (its glTF index, colour, intensity and cone); `pose` places it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightSpec {
-    pub kind: PunctualKind,
-    pub intensity: Vec3,
+    pub light: usize,
+    pub parts: LightParts,
 }
 
 /// One glTF node, as the loader took it in.
@@ -25,6 +26,9 @@ pub struct Node {
     pub trs: Trs,
     /// Whether the node is part of the rendered scene (otherwise it is only reachable as a joint).
     pub placed: bool,
+    /// KHR_node_visibility's `visible` of this node alone: false hides its mesh and light and every node's below
+    /// it (cameras stay). Animated through KHR_animation_pointer.
+    pub visible: bool,
     /// Index into `Scene::meshes`.
     pub mesh: Option<usize>,
     pub skin: Option<usize>,
@@ -70,6 +74,9 @@ pub struct Rig {
     pub camera_override: Option<super::CameraOverride>,
     /// What the scene is posed with now.
     pub posed: PoseTime,
+    /// The file's materials and their emission's parts, kept when an animation drives materials
+    /// (KHR_animation_pointer): each pose starts from them.
+    pub materials: Option<(Vec<super::Material>, Vec<MaterialParts>)>,
 }
 
 impl Rig {
@@ -126,7 +133,10 @@ impl Scene {
         if self.rig.nodes.is_empty() {
             return Ok(());
         }
-        let placed = self.place(pose)?;
+        let mut placed = self.place(pose, pose.time)?;
+        if let Some(materials) = placed.materials.take() {
+            self.materials = materials;
+        }
         self.meshes.truncate(self.rig.file_meshes);
         self.meshes.extend(placed.meshes);
         self.instances = placed.instances;
@@ -149,7 +159,7 @@ impl Scene {
         let mut keys = Vec::with_capacity(segments as usize);
         for k in 1..=segments {
             let time = pose.time + shutter * k as f32 / segments as f32;
-            keys.push(self.place(PoseTime { time, ..pose })?);
+            keys.push(self.place(PoseTime { time, ..pose }, pose.time)?);
         }
         let moves = keys.iter().any(|key| {
             key.instances != self.instances
@@ -170,8 +180,9 @@ impl Scene {
         }
     }
 
-    /// The scene as `pose` places it, without changing it.
-    fn place(&self, pose: PoseTime) -> Result<Placed, Error> {
+    /// The scene as `pose` places it, without changing it; visibility, materials, lights and projections as they
+    /// are at time `still`.
+    fn place(&self, pose: PoseTime, still: f32) -> Result<Placed, Error> {
         let rig = &self.rig;
         let mut trs: Vec<Option<Trs>> = vec![None; rig.nodes.len()];
         let mut weights: Vec<Option<Vec<f32>>> = vec![None; rig.nodes.len()];
@@ -179,17 +190,42 @@ impl Scene {
             Some(a) => vec![&rig.animations[a]],
             None => rig.animations.iter().collect(),
         };
+        let mut visible: Vec<bool> = rig.nodes.iter().map(|n| n.visible).collect();
+        let mut materials = rig.materials.clone();
+        let mut lights: std::collections::HashMap<usize, LightParts> = Default::default();
+        let mut projections: Vec<(usize, pointer::CameraValue, f32)> = Vec::new();
         let mut value = Vec::new();
         // In file order: where two animations drive the same property, the later one wins.
         for channel in playing.iter().flat_map(|a| &a.channels) {
             value.resize(channel.sampler.width, 0.0);
-            channel
-                .sampler
-                .sample(pose.time, channel.property == Property::Rotation, &mut value);
-            let node = &rig.nodes[channel.node];
-            match channel.property {
-                Property::Weights => weights[channel.node] = Some(value.clone()),
-                p => trs[channel.node].get_or_insert(node.trs).set(p, &value),
+            // Over the shutter, only transforms and weights move: what else a channel drives holds its value at
+            // the frame's time (`still`), so every key places the same instances.
+            let time = if let Target::Node(..) = channel.target {
+                pose.time
+            } else {
+                still
+            };
+            channel.sampler.sample(time, channel.target.rotation(), &mut value);
+            match channel.target {
+                Target::Node(n, Property::Weights) => weights[n] = Some(value.clone()),
+                Target::Node(n, p) => trs[n].get_or_insert(rig.nodes[n].trs).set(p, &value),
+                Target::Visible(n) => visible[n] = value[0] != 0.0,
+                Target::Material(m, v) => {
+                    if let Some((materials, parts)) = materials.as_mut() {
+                        pointer::set_material(&mut materials[m], &mut parts[m], v, &value);
+                    }
+                }
+                Target::Light(l, v) => {
+                    if let Some(spec) = rig.nodes.iter().find_map(|n| n.light.filter(|s| s.light == l)) {
+                        lights.entry(l).or_insert(spec.parts).set(v, &value);
+                    }
+                }
+                Target::Camera(c, v) => projections.push((c, v, value[0])),
+            }
+        }
+        if let Some((materials, parts)) = materials.as_mut() {
+            for (m, p) in materials.iter_mut().zip(parts.iter()) {
+                p.apply(m);
             }
         }
         let mut world = vec![Mat4::IDENTITY; rig.nodes.len()];
@@ -198,6 +234,8 @@ impl Scene {
             let local = trs[i].map_or(node.rest, |t| t.matrix());
             let parent = node.parent.map_or(Mat4::IDENTITY, |p| world[p]);
             world[i] = parent * local;
+            // Parents come first: a node is shown when it and every node above it are.
+            visible[i] &= node.parent.is_none_or(|p| visible[p]);
         }
 
         let mut instances = Vec::new();
@@ -211,15 +249,28 @@ impl Scene {
             if !w.is_finite() {
                 return Err(self.pose_err(pose, format!("node {i} has a non-finite transform")));
             }
-            if let Some(light) = node.light {
+            if let Some(light) = node.light.filter(|_| visible[i]) {
+                let (kind, intensity) = lights.get(&light.light).unwrap_or(&light.parts).resolved();
                 punctual.push(PunctualLight {
-                    kind: light.kind,
+                    kind,
                     position: w.transform_point3(Vec3::ZERO),
                     direction: w.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
-                    intensity: light.intensity,
+                    intensity,
                 });
             }
-            if let Some((index, projection)) = node.camera {
+            if let Some((index, mut projection)) = node.camera {
+                for &(_, v, x) in projections.iter().filter(|p| p.0 == index) {
+                    projection = match (projection, v) {
+                        // The loader's range: a view narrower than 0 or wider than pi forms no image.
+                        (Projection::Perspective { .. }, pointer::CameraValue::Yfov) => Projection::Perspective {
+                            yfov: x.clamp(1e-4, std::f32::consts::PI - 1e-4),
+                        },
+                        (Projection::Orthographic { .. }, pointer::CameraValue::Ymag) => Projection::Orthographic {
+                            ymag: x.abs().max(1e-6),
+                        },
+                        (p, _) => p,
+                    };
+                }
                 if let Err(why) = Camera::check_transform(&w) {
                     return Err(self.pose_err(
                         pose,
@@ -231,7 +282,9 @@ impl Scene {
                     projection,
                 });
             }
-            let Some(m) = node.mesh else { continue };
+            let Some(m) = node.mesh.filter(|_| visible[i]) else {
+                continue;
+            };
             let mesh = &self.meshes[m];
             let node_weights = weights[i].as_deref().unwrap_or(&node.weights);
             let morphing =
@@ -292,6 +345,7 @@ impl Scene {
             camera,
             camera_count: cameras.len(),
             punctual,
+            materials: materials.map(|(m, _)| m),
         })
     }
 
@@ -395,6 +449,8 @@ pub struct Placed {
     pub camera: Option<Camera>,
     pub camera_count: usize,
     pub punctual: Vec<PunctualLight>,
+    /// The materials as animations set them (KHR_animation_pointer), when any do.
+    pub materials: Option<Vec<super::Material>>,
 }
 
 /// The scene while the shutter is open: placed again at MOTION_SEGMENTS evenly spaced times after the scene's own

@@ -342,6 +342,63 @@ impl GltfBuilder {
         channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
     }
 
+    /// A KHR_animation_pointer channel: `values` (`width` floats a key: SCALAR, VEC2, VEC3 or VEC4) drive `pointer`;
+    /// `as_bytes` writes them as unsigned bytes (a boolean's type). Marks the extension used.
+    #[allow(clippy::too_many_arguments)]
+    pub fn animate_pointer(
+        &mut self,
+        animation: &str,
+        pointer: &str,
+        interpolation: &str,
+        times: &[f32],
+        values: &[f32],
+        width: usize,
+        as_bytes: bool,
+    ) {
+        self.use_extension("KHR_animation_pointer");
+        let input: Vec<[f32; 1]> = times.iter().map(|&t| [t]).collect();
+        let input = self.float_accessor(&input, "SCALAR");
+        let lo = times.iter().copied().fold(f32::INFINITY, f32::min);
+        let hi = times.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        self.accessors[input]["min"] = json!([lo]);
+        self.accessors[input]["max"] = json!([hi]);
+        let output = if as_bytes {
+            let bytes: Vec<u8> = values.iter().map(|&v| v as u8).collect();
+            let v = self.push_view(&bytes, 34962);
+            self.accessors
+                .push(json!({ "bufferView": v, "componentType": 5121, "count": values.len(), "type": "SCALAR" }));
+            self.accessors.len() - 1
+        } else {
+            match width {
+                2 => self.float_accessor(&values.chunks(2).map(|c| [c[0], c[1]]).collect::<Vec<_>>(), "VEC2"),
+                3 => self.float_accessor(
+                    &values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>(),
+                    "VEC3",
+                ),
+                4 => self.float_accessor(
+                    &values.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect::<Vec<_>>(),
+                    "VEC4",
+                ),
+                _ => self.float_accessor(&values.iter().map(|&v| [v]).collect::<Vec<_>>(), "SCALAR"),
+            }
+        };
+        let a = match self.animations.iter().position(|(n, _, _)| n == animation) {
+            Some(a) => a,
+            None => {
+                self.animations.push((animation.to_string(), Vec::new(), Vec::new()));
+                self.animations.len() - 1
+            }
+        };
+        self.untarget(input);
+        self.untarget(output);
+        let (_, samplers, channels) = &mut self.animations[a];
+        samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+        channels.push(json!({
+            "sampler": samplers.len() - 1,
+            "target": { "path": "pointer", "extensions": { "KHR_animation_pointer": { "pointer": pointer } } },
+        }));
+    }
+
     /// Drops the `target` of `accessor`'s bufferView: for data that is not vertex attributes (animation samplers,
     /// inverse bind matrices).
     fn untarget(&mut self, accessor: usize) {

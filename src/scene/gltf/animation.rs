@@ -4,6 +4,7 @@ use super::meshes::Contents;
 use super::{scene_err, Loader};
 use crate::error::Error;
 use crate::scene::animation::{Animation, Channel, Interpolation, Property, Sampler};
+use crate::scene::pointer::{self, Target};
 use crate::scene::rig::Skin;
 use crate::scene::{JointSet, MorphTarget, Primitive};
 use glam::{Mat4, Vec3, Vec4};
@@ -13,35 +14,56 @@ const NORMALIZED_INTS: [DataType; 5] = [DataType::F32, DataType::I8, DataType::U
 
 impl Loader<'_> {
     pub(super) fn animations(&mut self, doc: &gltf::Document) -> Result<Vec<Animation>, Error> {
+        let counts = [
+            doc.nodes().len(),
+            doc.materials().len(),
+            doc.lights().map_or(0, |l| l.len()),
+            doc.cameras().len(),
+        ];
         let mut animations = Vec::new();
         for a in doc.animations() {
             let name = a.name().unwrap_or_default().to_string();
-            let mut channels = Vec::new();
+            // (channel index, what it drives or why it cannot, its sampler), in the file's channel order.
+            let mut found: Vec<(usize, Result<Target, String>, gltf::animation::Sampler)> = Vec::new();
             for c in a.channels() {
-                // gltf's Target unwraps both: a file may name a node that does not exist or a path it cannot read
-                // (KHR_animation_pointer's "pointer").
+                // gltf's Target unwraps both: a file may name a node that does not exist or a path it cannot read.
                 let target = &doc.as_json().animations[a.index()].channels[c.index()].target;
-                let problem = if target.node.value() >= doc.nodes().len() {
-                    Some(format!("its target node {} does not exist", target.node.value()))
-                } else if !matches!(target.path, gltf::json::validation::Checked::Valid(_)) {
-                    Some("its target path is not translation, rotation, scale or weights".to_string())
-                } else {
-                    None
+                let node = target.node.value();
+                let property = match target.path {
+                    _ if node >= doc.nodes().len() => Err(format!("its target node {node} does not exist")),
+                    gltf::json::validation::Checked::Valid(p) => Ok(match p {
+                        gltf::json::animation::Property::Translation => Property::Translation,
+                        gltf::json::animation::Property::Rotation => Property::Rotation,
+                        gltf::json::animation::Property::Scale => Property::Scale,
+                        gltf::json::animation::Property::MorphTargetWeights => Property::Weights,
+                    }),
+                    _ => Err("its target path is not translation, rotation, scale, weights or pointer".to_string()),
                 };
-                if let Some(why) = problem {
-                    self.warn(format!(
-                        "animation {} channel {}: {why}; the channel is ignored",
-                        a.index(),
-                        c.index()
-                    ));
+                found.push((c.index(), property.map(|p| Target::Node(node, p)), c.sampler()));
+            }
+            // Channels without a node were taken out before parsing; KHR_animation_pointer's come back here.
+            for u in self.untargeted.iter().filter(|u| u.animation == a.index()) {
+                let Some(sampler) = a.samplers().nth(u.sampler) else {
                     continue;
-                }
-                match self.channel(&c)? {
+                };
+                let target = match &u.pointer {
+                    Some(p) => pointer::parse(p, counts).map_err(|why| format!("its pointer {p}: {why}")),
+                    None => Err("it has no target node or pointer".to_string()),
+                };
+                found.push((u.channel, target, sampler));
+            }
+            found.sort_by_key(|f| f.0);
+            let mut channels = Vec::new();
+            for (c, target, sampler) in found {
+                let channel = match target {
+                    Ok(target) => self.channel(target, &sampler)?,
+                    Err(why) => Err(why),
+                };
+                match channel {
                     Ok(channel) => channels.push(channel),
                     Err(why) => self.warn(format!(
-                        "animation {} channel {}: {why}; the channel is ignored",
-                        a.index(),
-                        c.index()
+                        "animation {} channel {c}: {why}; the channel is ignored",
+                        a.index()
                     )),
                 }
             }
@@ -51,34 +73,51 @@ impl Loader<'_> {
     }
 
     /// One channel, an error for a malformed accessor, or why its keys cannot play (the inner Err).
-    fn channel(&self, c: &gltf::animation::Channel) -> Result<Result<Channel, String>, Error> {
-        use gltf::animation::util::ReadOutputs;
-        let node = c.target().node().index();
-        let property = match c.target().property() {
-            gltf::animation::Property::Translation => Property::Translation,
-            gltf::animation::Property::Rotation => Property::Rotation,
-            gltf::animation::Property::Scale => Property::Scale,
-            gltf::animation::Property::MorphTargetWeights => Property::Weights,
-        };
-        let interpolation = match c.sampler().interpolation() {
+    fn channel(&self, target: Target, sampler: &gltf::animation::Sampler) -> Result<Result<Channel, String>, Error> {
+        let mut interpolation = match sampler.interpolation() {
             gltf::animation::Interpolation::Step => Interpolation::Step,
             gltf::animation::Interpolation::Linear => Interpolation::Linear,
             gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
         };
-        let (input, output) = (c.sampler().input(), c.sampler().output());
+        if let Target::Visible(_) = target {
+            // Visibility is on or off: its keys hold until the next, whatever the sampler says.
+            if interpolation == Interpolation::CubicSpline {
+                return Ok(Err(
+                    "its visibility keys are a cubic spline, which a boolean cannot follow".into(),
+                ));
+            }
+            interpolation = Interpolation::Step;
+        }
+        let (input, output) = (sampler.input(), sampler.output());
         let inputs = self.check_accessor(&input, "animation input", &[DataType::F32], Dimensions::Scalar, false)?;
-        let (types, dims): (&[DataType], Dimensions) = match property {
-            Property::Translation | Property::Scale => (&[DataType::F32], Dimensions::Vec3),
-            Property::Rotation => (&NORMALIZED_INTS, Dimensions::Vec4),
-            Property::Weights => (&NORMALIZED_INTS, Dimensions::Scalar),
+        let (types, dims): (&[DataType], Dimensions) = match target.width() {
+            Some(2) => (&[DataType::F32], Dimensions::Vec2),
+            Some(3) => (&[DataType::F32], Dimensions::Vec3),
+            Some(4) if target.rotation() => (&NORMALIZED_INTS, Dimensions::Vec4),
+            Some(4) => (&[DataType::F32], Dimensions::Vec4),
+            None => (&NORMALIZED_INTS, Dimensions::Scalar),
+            _ if matches!(target, Target::Visible(_)) => (&[DataType::F32, DataType::U8], Dimensions::Scalar),
+            _ => (&[DataType::F32], Dimensions::Scalar),
         };
-        let outputs = self.check_accessor(&output, "animation output", types, dims, true)?;
+        let outputs = if matches!(target, Target::Node(..)) {
+            self.check_accessor(&output, "animation output", types, dims, true)?
+        } else if !types.contains(&output.data_type()) || output.dimensions() != dims {
+            // A pointer's type is its property's; another is the file's mistake, dropped as its channel.
+            return Ok(Err(format!(
+                "its output is {:?} of {:?}, where its property takes {dims:?} of {types:?}",
+                output.dimensions(),
+                output.data_type()
+            )));
+        } else {
+            self.check_accessor(&output, "animation output", types, dims, output.normalized())?
+        };
         if inputs == Contents::Zeros {
             return Ok(Err("its input accessor has no data".into()));
         }
-        let buffers = self.buffers;
-        let reader = c.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
-        let times: Vec<f32> = reader.read_inputs().map(|i| i.collect()).unwrap_or_default();
+        let times: Vec<f32> = self.read_scalars(&input).unwrap_or_default();
+        if times.len() != input.count() {
+            return Ok(Err("its input accessor cannot be read".into()));
+        }
         if times.iter().any(|t| !t.is_finite()) || times.windows(2).any(|w| w[0] >= w[1]) {
             return Ok(Err("its key times are not finite and strictly increasing".into()));
         }
@@ -87,11 +126,10 @@ impl Loader<'_> {
         } else {
             1
         };
-        let width = match property {
-            Property::Translation | Property::Scale => 3,
-            Property::Rotation => 4,
+        let width = match target.width() {
+            Some(w) => w,
             // One weight per target: the output holds keys times targets of them.
-            Property::Weights => {
+            None => {
                 let elements = times.len() * per_key;
                 if output.count() % elements != 0 {
                     return Ok(Err(format!(
@@ -106,10 +144,14 @@ impl Loader<'_> {
         let values: Vec<f32> = if outputs == Contents::Zeros {
             vec![0.0; output.count() * dims.multiplicity()]
         } else {
-            match reader.read_outputs() {
-                Some(ReadOutputs::Translations(v)) | Some(ReadOutputs::Scales(v)) => v.flatten().collect(),
-                Some(ReadOutputs::Rotations(v)) => v.into_f32().flatten().collect(),
-                Some(ReadOutputs::MorphTargetWeights(v)) => v.into_f32().collect(),
+            let read = match dims {
+                Dimensions::Vec2 => self.read_floats::<2>(&output).map(|v| v.concat()),
+                Dimensions::Vec3 => self.read_floats::<3>(&output).map(|v| v.concat()),
+                Dimensions::Vec4 => self.read_floats::<4>(&output).map(|v| v.concat()),
+                _ => self.read_scalars(&output),
+            };
+            match read {
+                Some(v) => v,
                 None => return Ok(Err("its output accessor cannot be read".into())),
             }
         };
@@ -124,15 +166,16 @@ impl Loader<'_> {
         if values.iter().any(|v| !v.is_finite()) {
             return Ok(Err("an output value is not finite".into()));
         }
-        let targets = self.scene.rig.nodes[node].weights.len();
-        if property == Property::Weights && width != targets {
-            return Ok(Err(format!(
-                "it drives {width} morph weights, but node {node}'s mesh has {targets} morph targets"
-            )));
+        if let Target::Node(node, Property::Weights) = target {
+            let targets = self.scene.rig.nodes[node].weights.len();
+            if width != targets {
+                return Ok(Err(format!(
+                    "it drives {width} morph weights, but node {node}'s mesh has {targets} morph targets"
+                )));
+            }
         }
         Ok(Ok(Channel {
-            node,
-            property,
+            target,
             sampler: Sampler {
                 interpolation,
                 times,

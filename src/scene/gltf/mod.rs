@@ -9,6 +9,7 @@ mod uri;
 mod validate;
 
 use super::animation::Trs;
+use super::pointer::{LightParts, MaterialParts, Target};
 use super::rig::{LightSpec, Node};
 use super::{Material, PoseTime, Projection, PunctualKind, Scene};
 use crate::error::Error;
@@ -25,6 +26,9 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_meshopt_compression",
     "EXT_texture_webp",
+    // Node transforms, weights and visibility, material factors, lights' colour, intensity and cones, cameras' yfov
+    // and ymag (scene::pointer); other pointers are dropped with a warning naming them.
+    "KHR_animation_pointer",
     "KHR_draco_mesh_compression",
     "KHR_lights_punctual",
     "KHR_materials_anisotropy",
@@ -46,7 +50,7 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_mesh_quantization",
     "KHR_meshopt_compression",
-    // Read as the file states it; what KHR_animation_pointer would animate of it is not (that extension is not read).
+    // Animated through KHR_animation_pointer too.
     "KHR_node_visibility",
     "KHR_texture_basisu",
     "KHR_texture_transform",
@@ -136,7 +140,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
             ));
         }
     }
-    let (json, blob) = parse(path, &bytes)?;
+    let (json, blob, untargeted) = parse(path, &bytes)?;
     drop(bytes);
     pre_validate(path, &json)?;
     let tolerated = validate(path, &json)?;
@@ -186,6 +190,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
         strict: options.strict,
         missing_textures: Default::default(),
         skipped_primitives: 0,
+        untargeted,
     }
     .run(&document, options.camera, options.variant.as_deref())?;
     Ok(scene)
@@ -217,6 +222,8 @@ struct Loader<'a> {
     missing_textures: HashSet<usize>,
     /// Primitives skipped for their mode (points, lines), for the error when nothing else is left.
     skipped_primitives: usize,
+    /// Animation channels without a node (KHR_animation_pointer's among them), taken out before parsing.
+    untargeted: Vec<validate::Untargeted>,
 }
 
 impl Loader<'_> {
@@ -278,6 +285,18 @@ impl Loader<'_> {
         self.scene.rig.skins = doc.skins().map(|s| self.skin(&s)).collect::<Result<_, _>>()?;
         self.check_skins(&visited)?;
         self.scene.rig.animations = self.animations(doc)?;
+        let animated_materials = (self.scene.rig.animations.iter())
+            .flat_map(|a| &a.channels)
+            .any(|c| matches!(c.target, Target::Material(..)));
+        if animated_materials {
+            // Each pose starts from the file's materials; the parts of their emission and texture transforms are
+            // kept apart so that a channel may drive each.
+            let parts = (doc.as_json().materials.iter())
+                .map(|m| MaterialParts::from_json(&serde_json::to_value(m).unwrap_or_default()))
+                .chain(std::iter::once(MaterialParts::from_json(&serde_json::Value::Null)))
+                .collect();
+            self.scene.rig.materials = Some((self.scene.materials.clone(), parts));
+        }
         self.scene.rig.file_meshes = self.scene.meshes.len();
         self.scene.rig.camera_choice = camera;
         // With animations, at their start (time 0, every channel), as viewers show a file before it plays.
@@ -314,10 +333,8 @@ impl Loader<'_> {
         default_material: u32,
         visited: &mut HashSet<usize>,
     ) -> Result<(), Error> {
-        // Each with its parent and whether every node above it is visible (KHR_node_visibility hides whole trees).
-        let mut stack: Vec<(gltf::Node, Option<usize>, bool)> =
-            roots.into_iter().rev().map(|n| (n, None, true)).collect();
-        while let Some((node, parent, shown)) = stack.pop() {
+        let mut stack: Vec<(gltf::Node, Option<usize>)> = roots.into_iter().rev().map(|n| (n, None)).collect();
+        while let Some((node, parent)) = stack.pop() {
             if !visited.insert(node.index()) {
                 return Err(scene_err(
                     self.path,
@@ -329,12 +346,13 @@ impl Loader<'_> {
             }
             self.scene.rig.nodes[node.index()].parent = parent;
             self.scene.rig.order.push(node.index());
-            let shown = shown && self.visible(&node)?;
+            // KHR_node_visibility hides whole trees: `pose` hides what is below a hidden node.
+            self.scene.rig.nodes[node.index()].visible = self.visible(&node)?;
             if placed {
-                self.node(&node, default_material, shown)?;
+                self.node(&node, default_material)?;
             }
             let children: Vec<gltf::Node> = node.children().collect();
-            stack.extend(children.into_iter().rev().map(|c| (c, Some(node.index()), shown)));
+            stack.extend(children.into_iter().rev().map(|c| (c, Some(node.index()))));
         }
         Ok(())
     }
@@ -390,16 +408,13 @@ impl Loader<'_> {
         }
     }
 
-    /// Takes in one placed node's light, camera, mesh and skin; `pose` places them. A node `shown` false
-    /// (KHR_node_visibility, here or above) keeps its camera, as the extension says, and nothing else.
-    fn node(&mut self, node: &gltf::Node, default_material: u32, shown: bool) -> Result<(), Error> {
+    /// Takes in one placed node's light, camera, mesh and skin; `pose` places them (those of a hidden node too:
+    /// an animation may show it).
+    fn node(&mut self, node: &gltf::Node, default_material: u32) -> Result<(), Error> {
         let i = node.index();
         self.scene.rig.nodes[i].placed = true;
         if let Some(cam) = node.camera() {
             self.scene.rig.nodes[i].camera = self.camera(&cam);
-        }
-        if !shown {
-            return Ok(());
         }
         if let Some(light) = node.light() {
             self.scene.rig.nodes[i].light = Some(self.punctual(&light)?);
@@ -489,6 +504,7 @@ impl Loader<'_> {
                 "light '{name}': range is ignored; light falls off with the inverse square of distance"
             ));
         }
+        let color = Vec3::from(light.color());
         let kind = match light.kind() {
             Kind::Point => PunctualKind::Point,
             Kind::Directional => PunctualKind::Directional,
@@ -504,8 +520,12 @@ impl Loader<'_> {
             }
         };
         Ok(LightSpec {
-            kind,
-            intensity: intensity.max(Vec3::ZERO),
+            light: light.index(),
+            parts: LightParts {
+                color,
+                intensity: light.intensity(),
+                kind,
+            },
         })
     }
 }
@@ -538,6 +558,7 @@ fn rest_node(node: &gltf::Node) -> Node {
         rest,
         trs,
         placed: false,
+        visible: true,
         mesh: None,
         skin: None,
         camera: None,

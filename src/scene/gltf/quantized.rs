@@ -74,6 +74,25 @@ impl Loader<'_> {
         }
     }
 
+    /// `read_floats` for SCALAR accessors (gltf reads them as plain components, not one-element arrays).
+    pub(super) fn read_scalars(&self, acc: &gltf::Accessor) -> Option<Vec<f32>> {
+        let normalized = acc.normalized();
+        match acc.data_type() {
+            F32 => self.read_scalars_as::<f32>(acc, normalized),
+            I8 => self.read_scalars_as::<i8>(acc, normalized),
+            U8 => self.read_scalars_as::<u8>(acc, normalized),
+            I16 => self.read_scalars_as::<i16>(acc, normalized),
+            U16 => self.read_scalars_as::<u16>(acc, normalized),
+            DataType::U32 => None,
+        }
+    }
+
+    fn read_scalars_as<T: Component>(&self, acc: &gltf::Accessor, normalized: bool) -> Option<Vec<f32>> {
+        let buffers = self.buffers;
+        let iter: Iter<'_, T> = Iter::new(acc.clone(), |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d[..]))?;
+        Some(iter.map(|c| c.to_f32(normalized)).collect())
+    }
+
     fn read_as<T: Component, const N: usize>(&self, acc: &gltf::Accessor, normalized: bool) -> Option<Vec<[f32; N]>>
     where
         [T; N]: Item,

@@ -8,8 +8,9 @@ use std::path::Path;
 ///
 /// An animation channel whose target has no `node` is valid glTF (the channel is ignored, e.g. under
 /// KHR_animation_pointer), but gltf 1.4's schema requires `node`: such channels are dropped before parsing.
-/// pathwave ignores animations anyway; a dropped channel's sampler index is still checked.
-pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Option<Vec<u8>>), Error> {
+/// A dropped channel's sampler index is still checked, and the dropped channels are returned: those with
+/// KHR_animation_pointer's pointer are read from them (`Loader::animations`).
+pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<Parsed, Error> {
     use gltf::json::deserialize::{from_slice, from_value};
     let invalid = |e: &dyn std::fmt::Display| scene_err(path, format!("not a valid glTF file: {e}"));
     let (json, blob) = if bytes.starts_with(b"glTF") {
@@ -19,8 +20,12 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Opti
         (std::borrow::Cow::Borrowed(bytes), None)
     };
     let mut value: Option<gltf::json::Value> = from_slice(&json).ok();
+    let mut untargeted = Vec::new();
     let dropped = match value.as_mut() {
-        Some(v) => drop_untargeted_channels(path, v)? + give_scenes_nodes(v),
+        Some(v) => {
+            untargeted = drop_untargeted_channels(path, v)?;
+            untargeted.len() + give_scenes_nodes(v)
+        }
         None => 0,
     };
     let root = match value {
@@ -29,7 +34,21 @@ pub(super) fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::json::Root, Opti
         _ => from_slice(&json),
     }
     .map_err(|e| invalid(&e))?;
-    Ok((root, blob))
+    Ok((root, blob, untargeted))
+}
+
+/// The JSON root, the GLB's binary chunk, and the channels taken out before parsing.
+pub(super) type Parsed = (gltf::json::Root, Option<Vec<u8>>, Vec<Untargeted>);
+
+/// An animation channel without a node, taken out before parsing: where it was, its sampler, and its
+/// KHR_animation_pointer pointer when it has one (the extension's `target.extensions.KHR_animation_pointer.pointer`
+/// under `target.path` "pointer").
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Untargeted {
+    pub animation: usize,
+    pub channel: usize,
+    pub sampler: usize,
+    pub pointer: Option<String>,
 }
 
 /// Gives every scene object without `nodes` (glTF 2.0 allows it: an empty scene) an empty list, which gltf 1.4's
@@ -48,8 +67,8 @@ fn give_scenes_nodes(root: &mut gltf::json::Value) -> usize {
     changed
 }
 
-/// Removes the animation channels whose target has no `node` and which are otherwise well-formed; returns how many.
-fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result<usize, Error> {
+/// Removes the animation channels whose target has no `node` and which are otherwise well-formed, and returns them.
+fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result<Vec<Untargeted>, Error> {
     use gltf::json::Value;
     let untargeted = |channel: &Value| {
         let Some(target) = channel.get("target").and_then(Value::as_object) else {
@@ -64,9 +83,9 @@ fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result
         gltf::json::deserialize::from_value::<gltf::json::animation::Channel>(with_node).is_ok()
     };
     let Some(animations) = root.get_mut("animations").and_then(Value::as_array_mut) else {
-        return Ok(0);
+        return Ok(Vec::new());
     };
-    let mut dropped = 0;
+    let mut dropped = Vec::new();
     for (a, animation) in animations.iter_mut().enumerate() {
         let samplers = animation.get("samplers").and_then(Value::as_array).map_or(0, Vec::len);
         let Some(channels) = animation.get_mut("channels").and_then(Value::as_array_mut) else {
@@ -79,13 +98,24 @@ fn drop_untargeted_channels(path: &Path, root: &mut gltf::json::Value) -> Result
                 continue;
             }
             let sampler = channel.get("sampler").and_then(Value::as_u64);
-            if sampler.is_none_or(|s| s >= samplers as u64) {
+            let Some(sampler) = sampler.filter(|&s| s < samplers as u64) else {
                 return Err(scene_err(
                     path,
                     format!("not a valid glTF file: invalid glTF: animations[{a}].channels[{c}].sampler: Index out of bounds"),
                 ));
-            }
-            dropped += 1;
+            };
+            let target = &channel["target"];
+            let pointer = (target.get("path").and_then(Value::as_str) == Some("pointer"))
+                .then(|| target.pointer("/extensions/KHR_animation_pointer/pointer"))
+                .flatten()
+                .and_then(Value::as_str)
+                .map(str::to_string);
+            dropped.push(Untargeted {
+                animation: a,
+                channel: c,
+                sampler: sampler as usize,
+                pointer,
+            });
         }
         *channels = kept;
     }
