@@ -310,36 +310,13 @@ impl GltfBuilder {
         times: &[f32],
         values: &[f32],
     ) {
-        let input: Vec<[f32; 1]> = times.iter().map(|&t| [t]).collect();
-        let input = self.float_accessor(&input, "SCALAR");
-        let lo = times.iter().copied().fold(f32::INFINITY, f32::min);
-        let hi = times.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        self.accessors[input]["min"] = json!([lo]);
-        self.accessors[input]["max"] = json!([hi]);
-        let output = match path {
-            "translation" | "scale" => self.float_accessor(
-                &values.chunks(3).map(|c| [c[0], c[1], c[2]]).collect::<Vec<_>>(),
-                "VEC3",
-            ),
-            "rotation" => self.float_accessor(
-                &values.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect::<Vec<_>>(),
-                "VEC4",
-            ),
-            _ => self.float_accessor(&values.iter().map(|&v| [v]).collect::<Vec<_>>(), "SCALAR"),
+        let width = match path {
+            "translation" | "scale" => 3,
+            "rotation" => 4,
+            _ => 1,
         };
-        let a = match self.animations.iter().position(|(n, _, _)| n == animation) {
-            Some(a) => a,
-            None => {
-                self.animations.push((animation.to_string(), Vec::new(), Vec::new()));
-                self.animations.len() - 1
-            }
-        };
-        // Animation data is no vertex buffer: a view target there is an error to the Khronos validator.
-        self.untarget(input);
-        self.untarget(output);
-        let (_, samplers, channels) = &mut self.animations[a];
-        samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
-        channels.push(json!({ "sampler": samplers.len() - 1, "target": { "node": node, "path": path } }));
+        let target = json!({ "node": node, "path": path });
+        self.channel(animation, target, interpolation, times, values, width, false);
     }
 
     /// A KHR_animation_pointer channel: `values` (`width` floats a key: SCALAR, VEC2, VEC3 or VEC4) drive `pointer`;
@@ -356,6 +333,23 @@ impl GltfBuilder {
         as_bytes: bool,
     ) {
         self.use_extension("KHR_animation_pointer");
+        let target = json!({ "path": "pointer", "extensions": { "KHR_animation_pointer": { "pointer": pointer } } });
+        self.channel(animation, target, interpolation, times, values, width, as_bytes);
+    }
+
+    /// A sampler over `times` and `values` (`width` floats a key, or unsigned bytes) and a channel of it on `target`,
+    /// in animation `animation` (created, by name, at first use).
+    #[allow(clippy::too_many_arguments)]
+    fn channel(
+        &mut self,
+        animation: &str,
+        target: Value,
+        interpolation: &str,
+        times: &[f32],
+        values: &[f32],
+        width: usize,
+        as_bytes: bool,
+    ) {
         let input: Vec<[f32; 1]> = times.iter().map(|&t| [t]).collect();
         let input = self.float_accessor(&input, "SCALAR");
         let lo = times.iter().copied().fold(f32::INFINITY, f32::min);
@@ -389,14 +383,12 @@ impl GltfBuilder {
                 self.animations.len() - 1
             }
         };
+        // Animation data is no vertex buffer: a view target there is an error to the Khronos validator.
         self.untarget(input);
         self.untarget(output);
         let (_, samplers, channels) = &mut self.animations[a];
         samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
-        channels.push(json!({
-            "sampler": samplers.len() - 1,
-            "target": { "path": "pointer", "extensions": { "KHR_animation_pointer": { "pointer": pointer } } },
-        }));
+        channels.push(json!({ "sampler": samplers.len() - 1, "target": target }));
     }
 
     /// Drops the `target` of `accessor`'s bufferView: for data that is not vertex attributes (animation samplers,
