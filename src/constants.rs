@@ -168,7 +168,17 @@ pub const SPECTRUM_CIE: u32 = SPECTRUM_MATRIX + 12;
 pub const SPECTRUM_Z: u32 = SPECTRUM_CIE + 4 * CIE_ROWS;
 pub const SPECTRUM_COEFFS: u32 = SPECTRUM_Z + RGB2SPEC_RES;
 pub const SPECTRUM_FLOATS: u32 = 12 + 4 * CIE_ROWS + RGB2SPEC_RES + 9 * RGB2SPEC_RES * RGB2SPEC_RES * RGB2SPEC_RES;
-pub const ENERGY_BUFFER_FLOATS: u32 = ENERGY_TABLE_FLOATS + ANISO_TABLE_FLOATS + SPECTRUM_FLOATS;
+/// The multiple scattering of the dielectric layer (microsurface.rs, data/dielectric_ms.bin): its albedo E_ms over
+/// MS_RES_MU cosines x MS_RES_ROUGH perceptual roughnesses x MS_RES_F0 normal reflectances (square-root spaced), F0-major
+/// then roughness, each cell the mean of MS_WALKS random walks; then 2 int E_ms mu dmu per (F0, roughness). After the
+/// spectral tables in the table buffer.
+pub const MS_RES_MU: u32 = 32;
+pub const MS_RES_ROUGH: u32 = 32;
+pub const MS_RES_F0: u32 = 10;
+pub const MS_WALKS: u32 = 16384;
+pub const DIELECTRIC_MS: u32 = SPECTRUM_MATRIX + SPECTRUM_FLOATS;
+pub const DIELECTRIC_MS_FLOATS: u32 = MS_RES_MU * MS_RES_ROUGH * MS_RES_F0 + MS_RES_ROUGH * MS_RES_F0;
+pub const ENERGY_BUFFER_FLOATS: u32 = ENERGY_TABLE_FLOATS + ANISO_TABLE_FLOATS + SPECTRUM_FLOATS + DIELECTRIC_MS_FLOATS;
 
 /// Frame.flags bits.
 pub const FLAG_ENERGY_COMPENSATION: u32 = 1;

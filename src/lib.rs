@@ -7,6 +7,7 @@ pub mod diff;
 pub mod error;
 pub mod layout;
 pub mod memory;
+pub mod microsurface;
 pub mod output;
 pub mod render;
 pub mod scene;

@@ -1,6 +1,6 @@
 //! The microfacet and sheen energy tables energy compensation and layering read: the grid from the device (the BSDF's
-//! own sampling), the hemispherical averages from the host; and after them the spectral tables (SPECTRUM_*), from
-//! the host.
+//! own sampling), the hemispherical averages from the host; and after them the spectral tables (SPECTRUM_*) and the
+//! dielectric layer's multiple scattering (DIELECTRIC_MS, walked once by examples/dielectric_ms.rs), from the host.
 use super::kernels::{Kernel, Stage};
 use super::Renderer;
 use crate::constants::*;
@@ -26,6 +26,7 @@ impl Renderer {
         // tables come from the host.
         let mut floats_in = vec![0f32; SPECTRUM_MATRIX as usize];
         floats_in.extend(crate::spectrum::tables().device_floats());
+        floats_in.extend(crate::microsurface::shipped_table());
         debug_assert_eq!(floats_in.len(), floats);
         energy.upload(&self.ctx, bytemuck::cast_slice(&floats_in))?;
         self.run_energy_pass(&mut energy, Stage::EnergyTables)?;
