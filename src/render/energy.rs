@@ -10,6 +10,10 @@ use crate::vk::Buffer;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+/// The tables are one storage buffer bound whole on every device: Vulkan requires every device's storage range to
+/// hold 2^27 bytes, so a device (or a test) with a smaller range for scene data still reads all of them.
+const _: () = assert!(ENERGY_BUFFER_FLOATS as u64 * 4 <= 1 << 27);
+
 impl Renderer {
     /// Builds the GGX tables once per renderer, at start-up; the sheen and anisotropic grids wait for a scene that
     /// needs them (`ensure_layer_tables`).

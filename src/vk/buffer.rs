@@ -9,6 +9,9 @@ use std::sync::{Arc, Mutex};
 pub struct Buffer {
     pub raw: vk::Buffer,
     pub size: u64,
+    /// Also read through texel views (UNIFORM_TEXEL_BUFFER): only such a buffer may outgrow the storage range, and
+    /// its storage binding is then clipped to it (`DescriptorSet::bind_buffers`).
+    pub viewed: bool,
     allocation: Option<Allocation>,
     device: ash::Device,
     allocator: Arc<Mutex<Allocator>>,
@@ -57,6 +60,7 @@ impl Buffer {
         Ok(Buffer {
             raw,
             size,
+            viewed: usage.contains(vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER),
             allocation: Some(allocation),
             device: ctx.device.clone(),
             allocator: (*ctx.allocator).clone(),

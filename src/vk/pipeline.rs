@@ -117,8 +117,10 @@ impl Pipelines {
         unsafe { self.device.destroy_pipeline(pipeline, None) };
     }
 
-    /// Points storage bindings at buffers. A buffer larger than the device's storage range (only the BVH and
-    /// per-triangle ones, which the TEXEL_READS stages read through views) is bound up to that range.
+    /// Points storage bindings at buffers. A buffer larger than the device's storage range that is also read through
+    /// texel views (the BVH, per-triangle and texel ones the TEXEL_READS stages read so) is bound up to that range.
+    /// Every other buffer is bound whole: its size was checked against the range where it was made, or, for the
+    /// fixed energy tables, fits the 2^27 bytes every Vulkan device's range holds (constants::ENERGY_BUFFER_FLOATS).
     pub fn bind_buffers(&self, ctx: &Context, buffers: &[(u32, &Buffer)]) {
         let range = ctx.properties.limits.max_storage_buffer_range as u64;
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
@@ -127,7 +129,11 @@ impl Pipelines {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.raw)
                     .offset(0)
-                    .range(if b.size > range { range } else { vk::WHOLE_SIZE })]
+                    .range(if b.viewed && b.size > range {
+                        range
+                    } else {
+                        vk::WHOLE_SIZE
+                    })]
             })
             .collect();
         let writes: Vec<_> = buffers
