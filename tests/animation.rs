@@ -762,3 +762,80 @@ fn pointer_channels_drive_materials_lights_cameras_and_visibility() {
     assert_eq!(scene.instances.len(), 2);
     assert!(motion.keys.iter().all(|k| k.instances.len() == 2));
 }
+
+/// The pointer channels as Khronos' sample models write them (a census of AnimatedColorsCube, AnimationPointerUVs,
+/// PotOfCoalsAnimationPointer, CubeVisibility, LightVisibility and MarblesForever): a texture transform animated
+/// on a slot that has no KHR_texture_transform object (AnimationPointerUVs) starts from the identity, an empty one
+/// (`{}`) too; a target animated by two channels (AnimationPointerUVs repeats four in one animation,
+/// MarblesForever one across two animations) takes the later channel's value when every channel plays, and its own
+/// animation's when one is chosen. Catches: a missing transform object dropping the channel or leaving the
+/// texture untransformed, an empty one read as zero scale, the first of two channels winning in one pose and not
+/// another.
+#[test]
+fn pointer_channels_read_as_the_sample_models_write_them() {
+    let mut b = lit_quad();
+    let image = b.png_image(2, 1, &[[255, 0, 0, 255], [0, 255, 0, 255]]);
+    let texture = b.texture(image, json!({}));
+    b.material_json(1)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": texture });
+    b.material_json(1)["emissiveTexture"] = json!({ "index": texture, "extensions": { "KHR_texture_transform": {} } });
+    b.material_json(1)["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    b.use_extension("KHR_texture_transform");
+    let slot = |name: &str, part: &str| format!("/materials/1/{name}/extensions/KHR_texture_transform/{part}");
+    let base = "pbrMetallicRoughness/baseColorTexture";
+    b.animate_pointer(
+        "a",
+        &slot(base, "rotation"),
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 1.0],
+        1,
+        false,
+    );
+    b.animate_pointer(
+        "a",
+        &slot("emissiveTexture", "offset"),
+        "LINEAR",
+        &[0.0, 2.0],
+        &[0.0, 0.0, 0.5, 1.0],
+        2,
+        false,
+    );
+    // The same target twice in one animation, then again in a second one.
+    let color = "/materials/1/pbrMetallicRoughness/baseColorFactor";
+    b.animate_pointer("a", color, "STEP", &[0.0], &[0.1, 0.1, 0.1, 1.0], 4, false);
+    b.animate_pointer("a", color, "STEP", &[0.0], &[0.2, 0.2, 0.2, 1.0], 4, false);
+    b.animate_pointer("b", color, "STEP", &[0.0], &[0.3, 0.3, 0.3, 1.0], 4, false);
+    let (_dir, path) = common::write_temp(&b, "sample-pointers.gltf");
+
+    let scene = posed(&path, 1.0, Some(0));
+    let m = &scene.materials[1];
+    let rotation = m.base_color_texture.expect("the quad's texture").transform;
+    let (s, c) = 0.5f32.sin_cos();
+    let want = [[c, s, 0.0], [-s, c, 0.0]];
+    let near = |a: [[f32; 3]; 2], b: [[f32; 3]; 2]| {
+        a.iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .all(|(x, y)| (x - y).abs() < 1e-6)
+    };
+    assert!(near(rotation, want), "{rotation:?}");
+    let offset = m.emissive_texture.expect("the emissive texture").transform;
+    assert!(near(offset, [[1.0, 0.0, 0.25], [0.0, 1.0, 0.5]]), "{offset:?}");
+    assert!(
+        close(m.base_color, Vec3::splat(0.2)),
+        "one animation: its later channel, {}",
+        m.base_color
+    );
+    let scene = posed(&path, 1.0, Some(1));
+    assert!(
+        close(scene.materials[1].base_color, Vec3::splat(0.3)),
+        "{}",
+        scene.materials[1].base_color
+    );
+    let scene = posed(&path, 1.0, None);
+    assert!(
+        close(scene.materials[1].base_color, Vec3::splat(0.3)),
+        "every channel: the last, {}",
+        scene.materials[1].base_color
+    );
+}
