@@ -56,7 +56,7 @@ fn main() {
     for (name, stage, define) in builds {
         let spv = out.join(format!("{name}.spv"));
         let result = Command::new(&glslang)
-            .args(["-V", "--target-env", "vulkan1.1"])
+            .args(["-V", "--target-env", target_env(define)])
             .args(
                 define
                     .into_iter()

@@ -49,3 +49,7 @@ if [ ! -f "$OIDN_VENV/.installed-2.5.1.0" ]; then
   "$OIDN_VENV/bin/pip" install -q --disable-pip-version-check --no-deps pyoidn==2.5.1.0
   touch "$OIDN_VENV/.installed-2.5.1.0"
 fi
+
+# A second lavapipe, Mesa 25 from the backports suite, beside the system's: tests/ray_query.rs runs ray-query
+# traversal on it while everything else keeps the system's driver.
+bash "$(dirname "$0")/lavapipe-rt.sh" >/dev/null

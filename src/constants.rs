@@ -70,6 +70,9 @@ pub const BINDING_MOTION_TEXELS: u32 = 35;
 /// The light BVH (BINDING_LIGHT_TREE) as RGBA32UI texels, four per node, for the TEXEL_READS stages.
 pub const BINDING_LIGHT_TREE_TEXELS: u32 = 36;
 pub const BINDING_COUNT: u32 = 37;
+/// The top-level acceleration structure ray-query traversal walks (the RAY_QUERY stage variants): in the shared
+/// layout only on devices with ray queries, after the buffers and views.
+pub const BINDING_TLAS: u32 = 37;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;

@@ -160,6 +160,11 @@ struct SceneArgs {
     /// Vulkan device by index or by part of its name (see `pathwave info --devices`).
     #[arg(long)]
     device: Option<DeviceChoice>,
+    /// How rays find surfaces: `compute` (pathwave's BVH, every device), `ray-query` (the device's acceleration
+    /// structures, where `info --devices` says it has ray queries) or `auto` (ray queries on GPUs that have them).
+    /// Default: PATHWAVE_TRAVERSAL, else auto.
+    #[arg(long, value_enum)]
+    traversal: Option<pathwave::render::Traversal>,
     /// Longest path in bounces (default: unbounded, ended by Russian roulette).
     #[arg(long, value_parser = parse_max_depth, allow_hyphen_values = true)]
     max_depth: Option<u32>,
@@ -650,9 +655,11 @@ fn render(args: RenderArgs) -> Result<()> {
     interrupt::install()?;
     let start = Instant::now();
     let mut scene = args.common.load_at(shots[0].time)?;
+    let from_env = pathwave::render::RendererOptions::from_env()?;
     let options = pathwave::render::RendererOptions {
         fingerprint: args.film_stats(),
-        ..pathwave::render::RendererOptions::from_env()?
+        traversal: args.common.traversal.unwrap_or(from_env.traversal),
+        ..from_env
     };
     let device = args.common.device.clone().unwrap_or_default();
     let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
@@ -788,7 +795,10 @@ fn render_and_write(
         ))
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let device = renderer.context().device_name();
+    let device = match renderer.traversal() {
+        pathwave::render::Traversal::RayQuery => format!("{} (ray queries)", renderer.context().device_name()),
+        _ => renderer.context().device_name(),
+    };
     let warned = renderer.warnings.len();
     // Until the files are in place, a signal stops the render after its pass rather than the process.
     let _busy = interrupt::Busy::begin();
@@ -983,6 +993,7 @@ fn view(args: ViewArgs) -> Result<()> {
         exposure: args.exposure,
         tonemap: args.tonemap,
         shader_dir: args.shader_dir,
+        traversal: args.common.traversal,
         frames: args.frames,
         screenshot: args.screenshot,
         budget: std::time::Duration::from_millis(args.frame_budget_ms as u64),
@@ -1164,12 +1175,14 @@ fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     if devices {
         for d in pathwave::vk::list_devices()? {
             println!(
-                "{}: {} ({}, Vulkan {}, maxStorageBufferRange {} MiB)",
+                "{}: {} ({}, Vulkan {}, {}, maxStorageBufferRange {} MiB, ray queries: {})",
                 d.index,
                 d.name,
                 d.kind,
                 d.api_version,
-                d.max_storage_buffer_range >> 20
+                d.driver,
+                d.max_storage_buffer_range >> 20,
+                if d.ray_query { "yes" } else { "no" }
             );
         }
         return Ok(());

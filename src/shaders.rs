@@ -138,8 +138,8 @@ impl ShaderDir {
         }
         let out = self.generated.path().join(format!("{stage}.spv"));
         let mut cmd = Command::new(glslang());
-        // Vulkan 1.1 / SPIR-V 1.3 like build.rs: the same compiler flags as the built-in stages.
-        cmd.args(["-V", "--target-env", "vulkan1.1"]);
+        // The same compiler flags as build.rs gives the built-in stages.
+        cmd.args(["-V", "--target-env", crate::variants::target_env(define)]);
         for d in define.into_iter().flat_map(|d| d.split_whitespace()) {
             cmd.arg(format!("-D{d}"));
         }

@@ -11,6 +11,15 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("connect", "texel", "TEXEL_READS"),
     ("connect", "alpha_texel", "ALPHA_TEST TEXEL_READS"),
     ("probe_trace", "texel", "TEXEL_READS"),
+    // Ray-query traversal through the device's acceleration structures (src/render/accel.rs), storage reads only.
+    ("extend", "rq", "RAY_QUERY"),
+    ("extend", "alpha_rq", "ALPHA_TEST RAY_QUERY"),
+    ("connect", "rq", "RAY_QUERY"),
+    ("connect", "alpha_rq", "ALPHA_TEST RAY_QUERY"),
+    ("follow", "rq", "RAY_QUERY"),
+    ("follow", "textured_rq", "TEXTURED RAY_QUERY"),
+    ("follow", "alpha_rq", "ALPHA_TEST TEXTURED RAY_QUERY"),
+    ("probe_trace", "rq", "RAY_QUERY"),
     // Material textures and alpha coverage when shading and sampling emitters.
     ("shade", "textured", "TEXTURED"),
     ("shade", "texel", "TEXEL_READS"),
@@ -28,3 +37,12 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("survey", "textured_texel", "TEXTURED TEXEL_READS"),
     ("survey", "alpha_texel", "ALPHA_TEST TEXTURED TEXEL_READS"),
 ];
+
+/// The Vulkan version glslang targets for a variant's defines: 1.1 (SPIR-V 1.3) for every stage, but 1.2 for ray
+/// queries, whose SPIR-V needs 1.4.
+pub fn target_env(defines: Option<&str>) -> &'static str {
+    match defines.is_some_and(|d| d.split_whitespace().any(|d| d == "RAY_QUERY")) {
+        true => "vulkan1.2",
+        false => "vulkan1.1",
+    }
+}

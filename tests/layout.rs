@@ -76,11 +76,16 @@ fn mirrors() -> Vec<Mirror> {
 }
 
 fn parse_all_stages() -> Vec<(&'static str, naga::Module)> {
-    // naga 30's spv-in has no SampledBuffer capability, so the TEXEL_READS variants cannot be read. They are the same
-    // sources as their storage-buffer twins (parsed here) with texel fetches added, so their structs are the same.
-    let names: Vec<&str> = builtin_stage_names().filter(|n| !n.ends_with("_texel")).collect();
-    assert!(builtin_stage_names().filter(|n| n.ends_with("_texel")).all(|n| {
-        let twin = n.trim_end_matches("_texel").trim_end_matches('_');
+    // naga 30's spv-in has neither the SampledBuffer nor the RayQueryKHR capability, so the TEXEL_READS and
+    // RAY_QUERY variants cannot be read. They are the same sources as their storage-buffer, compute-BVH twins
+    // (parsed here) with texel fetches or ray queries added, so their structs are the same.
+    let unreadable = |n: &str| n.ends_with("_texel") || n.ends_with("_rq");
+    let names: Vec<&str> = builtin_stage_names().filter(|n| !unreadable(n)).collect();
+    assert!(builtin_stage_names().filter(|n| unreadable(n)).all(|n| {
+        let twin = n
+            .trim_end_matches("_texel")
+            .trim_end_matches("_rq")
+            .trim_end_matches('_');
         builtin_stage_names().any(|m| m == twin)
     }));
     assert!(!names.is_empty(), "no built-in shader stages");

@@ -14,8 +14,16 @@ const CONSTANT: [f32; 3] = [0.25, 0.5, 0.75];
 use common::{cornell, pathwave_cli as pathwave};
 
 /// Every built-in stage and variant, sorted as `--shader-dir` reports them.
+/// Every built-in stage the test device can build: ray-query variants only where it has ray queries.
 fn every_stage() -> Vec<&'static str> {
-    let mut all: Vec<&str> = pathwave::render::builtin_stage_names().collect();
+    let ray_queries = pathwave::vk::list_devices().unwrap()[0].ray_query;
+    let usable = |n: &&str| {
+        ray_queries
+            || !pathwave::render::kernels::Kernel::from_name(n)
+                .unwrap()
+                .needs_ray_query()
+    };
+    let mut all: Vec<&str> = pathwave::render::builtin_stage_names().filter(usable).collect();
     all.sort();
     all
 }
@@ -148,9 +156,12 @@ fn includes_decide_which_stages_are_stale() {
             "energy_tables",
             "follow",
             "follow_alpha",
+            "follow_alpha_rq",
             "follow_alpha_texel",
+            "follow_rq",
             "follow_texel",
             "follow_textured",
+            "follow_textured_rq",
             "follow_textured_texel",
             "probe_bsdf",
             "shade",
@@ -170,7 +181,7 @@ fn includes_decide_which_stages_are_stale() {
     let want = ["connect", "extend", "follow", "probe_trace", "survey"];
     let twins = |s: &&String| want.iter().any(|w| s.as_str() == *w || s.starts_with(&format!("{w}_")));
     assert!(
-        traverse.len() == 22 && traverse.iter().all(|s| twins(&s)),
+        traverse.len() == 30 && traverse.iter().all(|s| twins(&s)),
         "{traverse:?}"
     );
     assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);

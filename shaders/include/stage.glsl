@@ -2,6 +2,9 @@
 #ifndef STAGE_GLSL
 #define STAGE_GLSL
 #extension GL_GOOGLE_include_directive : require
+#ifdef RAY_QUERY
+#extension GL_EXT_ray_query : require
+#endif
 #include "layout.glsl"
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = 1, local_size_z = 1) in;
 

@@ -310,6 +310,48 @@ Hit trace_instances(vec3 o, vec3 d, float tmin, Hit hit, bool any_hit, uint alph
     return hit;
 }
 
+#ifdef RAY_QUERY
+// The same hits through the device's own acceleration structures (src/render/accel.rs): instance 0 of the top level
+// holds the world's triangles, instance i > 0 is instance record i; an instance's custom index is its mesh's first
+// triangle, so a hit's triangle is that plus the primitive index. Triangles of alpha-tested materials are the only
+// candidates the query hands back (their geometry is not opaque); the rest are committed by the device.
+layout(set = 0, binding = BINDING_TLAS) uniform accelerationStructureEXT tlas;
+
+Hit trace_all(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+    rayQueryEXT q;
+    uint flags = any_hit ? gl_RayFlagsTerminateOnFirstHitEXT : gl_RayFlagsNoneEXT;
+    rayQueryInitializeEXT(q, tlas, flags, 0xFFu, o, tmin, d, tmax);
+    while (rayQueryProceedEXT(q)) {
+        uint tri = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, false)) +
+                   uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, false));
+#ifdef ALPHA_TEST
+        vec2 uv = rayQueryGetIntersectionBarycentricsEXT(q, false);
+        if (load_tri_verts(tri).e1.w == 0.0 || alpha_stops(tri, uv, alpha_key)) rayQueryConfirmIntersectionEXT(q);
+#else
+        rayQueryConfirmIntersectionEXT(q);
+#endif
+    }
+    Hit h;
+    h.t = tmax;
+    h.tri = NO_HIT;
+    h.uv = vec2(0.0);
+    h.inst = NO_INSTANCE;
+    if (rayQueryGetIntersectionTypeEXT(q, true) == gl_RayQueryCommittedIntersectionTriangleEXT) {
+        h.t = rayQueryGetIntersectionTEXT(q, true);
+        h.tri = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(q, true)) +
+                uint(rayQueryGetIntersectionPrimitiveIndexEXT(q, true));
+        h.uv = rayQueryGetIntersectionBarycentricsEXT(q, true);
+        uint id = uint(rayQueryGetIntersectionInstanceIdEXT(q, true));
+        h.inst = id == 0u ? NO_INSTANCE : id;
+    }
+    return h;
+}
+
+// The query gives the barycentrics of its own arithmetic: they are kept rather than found again.
+Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
+    return trace_all(o, d, tmin, tmax, any_hit, alpha_key);
+}
+#else
 // The closest (or any) hit in the world BVH and then, where the scene has them, among the instances.
 Hit trace_all(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
 #ifdef TRAVERSE_COUNT_NODES
@@ -326,6 +368,7 @@ Hit trace_all(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_k
 Hit trace(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, uint alpha_key) {
     return with_barycentrics(trace_all(o, d, tmin, tmax, any_hit, alpha_key), o, d, tmin);
 }
+#endif
 
 // Whether anything blocks the segment: a shadow ray, which skips the barycentrics' triangle test.
 bool occluded(vec3 o, vec3 d, float tmin, float tmax, uint alpha_key) {

@@ -147,6 +147,7 @@ const SCENE_OWNED: u32 = FEATURE_DEEP_STACK | FEATURE_MOTION | FEATURE_INSTANCES
 const ALPHA_TEST: u8 = 1;
 const TEXTURED: u8 = 2;
 const TEXEL_READS: u8 = 4;
+const RAY_QUERY: u8 = 8;
 
 fn define_bits(defines: &str) -> u8 {
     defines
@@ -155,6 +156,7 @@ fn define_bits(defines: &str) -> u8 {
             "ALPHA_TEST" => ALPHA_TEST,
             "TEXTURED" => TEXTURED,
             "TEXEL_READS" => TEXEL_READS,
+            "RAY_QUERY" => RAY_QUERY,
             other => panic!("src/variants.rs names an unknown define {other}"),
         })
         .fold(0, |a, b| a | b)
@@ -169,6 +171,9 @@ pub struct SceneVariant {
     pub textured: bool,
     /// Traversal and shading read the scene through texel views (BvhReads::Texel).
     pub texel: bool,
+    /// Traversal walks the device's acceleration structures (Traversal::RayQuery); its variants read storage
+    /// buffers only, so `texel` is not asked of them.
+    pub ray_query: bool,
 }
 
 /// One compiled variant of a stage: the stage as written (`variant` 0) or `{stage}_{suffix}` of STAGE_VARIANTS
@@ -195,8 +200,13 @@ impl Kernel {
         // variant for are not its business (extend never shades).
         let alpha = if scene.alpha { ALPHA_TEST | TEXTURED } else { 0 };
         let textured = if scene.textured { TEXTURED } else { 0 };
-        let texel = if scene.texel { TEXEL_READS } else { 0 };
-        let wanted = (alpha | textured | texel) & known;
+        let texel = if scene.texel && !scene.ray_query {
+            TEXEL_READS
+        } else {
+            0
+        };
+        let ray_query = if scene.ray_query { RAY_QUERY } else { 0 };
+        let wanted = (alpha | textured | texel | ray_query) & known;
         match variants().find(|(_, v)| define_bits(v.2) == wanted) {
             Some((i, _)) => Kernel {
                 stage,
@@ -204,6 +214,11 @@ impl Kernel {
             },
             None => Kernel::of(stage),
         }
+    }
+
+    /// Compiled with ray queries: only a device that has them can build it.
+    pub fn needs_ray_query(self) -> bool {
+        self.variant > 0 && define_bits(STAGE_VARIANTS[self.variant as usize - 1].2) & RAY_QUERY != 0
     }
 
     /// The name build.rs and shader folders give its SPIR-V: "extend_alpha_texel".
@@ -495,6 +510,7 @@ mod tests {
                     alpha,
                     textured: textured || alpha,
                     texel,
+                    ray_query: false,
                 },
             )
             .name()

@@ -1,5 +1,6 @@
 //! The renderer: a scene on one device and the passes that render it. `Renderer` is a thin facade; each job lives in
 //! the module that owns it (see docs/ARCHITECTURE.md).
+pub mod accel;
 pub mod aovs;
 mod energy;
 pub mod film;
@@ -18,7 +19,7 @@ pub use gpu_scene::BvhReads;
 pub use probes::{BsdfProbe, BsdfQuery};
 pub use schedule::Schedule;
 pub use session::Session;
-pub use settings::{Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, DEPTH_SAFETY_CAP};
+pub use settings::{Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, Traversal, DEPTH_SAFETY_CAP};
 
 use crate::constants::*;
 use crate::error::Error;
@@ -202,6 +203,9 @@ impl Renderer {
         if let Some(views) = self.scene.texel_views() {
             self.kernels.pipelines.bind_texel_views(&self.ctx, views);
         }
+        if let Some(accel) = &self.scene.accel {
+            self.kernels.pipelines.bind_tlas(&self.ctx, accel.tlas);
+        }
         self.kernels
             .pipelines
             .bind_texel_views(&self.ctx, &self.stand_ins.path_view.views);
@@ -216,11 +220,20 @@ impl Renderer {
         dir: &crate::shaders::ShaderDir,
         stages: Option<&[String]>,
     ) -> Result<Vec<String>, Error> {
-        let names = stages.map(<[String]>::to_vec).unwrap_or_else(|| dir.stages());
-        let mut compiled = Vec::with_capacity(names.len());
+        let mut names = stages.map(<[String]>::to_vec).unwrap_or_else(|| dir.stages());
+        let mut kernels = Vec::with_capacity(names.len());
         for name in &names {
-            let kernel = Kernel::from_name(name)
-                .ok_or_else(|| Error::Shader(format!("{name}: no built-in stage or variant has this name")))?;
+            kernels.push(
+                Kernel::from_name(name)
+                    .ok_or_else(|| Error::Shader(format!("{name}: no built-in stage or variant has this name")))?,
+            );
+        }
+        // Ray-query variants can neither be built nor run on a device without ray queries.
+        let usable = |k: &Kernel| self.ctx.accel.is_some() || !k.needs_ray_query();
+        names.retain(|n| Kernel::from_name(n).is_some_and(|k| usable(&k)));
+        kernels.retain(usable);
+        let mut compiled = Vec::with_capacity(names.len());
+        for (name, kernel) in names.iter().zip(kernels) {
             compiled.push((kernel, dir.compile(name)?));
         }
         for (kernel, spv) in &compiled {
@@ -313,6 +326,15 @@ impl Renderer {
             alpha: self.scene.alpha_tested,
             textured: self.scene.textured,
             texel: self.bvh_reads == BvhReads::Texel,
+            ray_query: self.scene.accel.is_some(),
+        }
+    }
+
+    /// Whether rays are traced with the device's ray queries (else the compute BVH).
+    pub fn traversal(&self) -> Traversal {
+        match self.scene.accel {
+            Some(_) => Traversal::RayQuery,
+            None => Traversal::Compute,
         }
     }
 
@@ -419,6 +441,7 @@ impl Uploaded {
         let mut gpu = GpuScene::upload(ctx, &packed, device_budget)?;
         gpu.fingerprint = options.fingerprint.then(|| packed.fingerprint());
         let bvh_reads = options.bvh_reads(gpu.texel_views().is_some(), gpu.storage_ok)?;
+        gpu.accel = ray_query_structures(ctx, &packed, options.traversal, &gpu, device_budget, &mut warnings)?;
         // From the packed bounds: the scene's own walk would place every instance again.
         let camera = scene.camera.unwrap_or_else(|| scene.default_camera(packed.bounds));
         Ok(Uploaded {
@@ -429,6 +452,45 @@ impl Uploaded {
             warnings,
         })
     }
+}
+
+/// The acceleration structures for ray-query traversal when `traversal` asks for it and the device and scene allow
+/// it; otherwise None (the compute BVH), with a warning when ray queries were asked for by name.
+fn ray_query_structures(
+    ctx: &Context,
+    packed: &gpu_scene::PackedScene,
+    traversal: Traversal,
+    gpu: &GpuScene,
+    device_budget: u64,
+    warnings: &mut Vec<String>,
+) -> Result<Option<accel::AccelStructures>, Error> {
+    let gpu_device = matches!(
+        ctx.properties.device_type,
+        vk::PhysicalDeviceType::DISCRETE_GPU | vk::PhysicalDeviceType::INTEGRATED_GPU
+    );
+    let wanted = match traversal {
+        Traversal::Compute => false,
+        Traversal::RayQuery => true,
+        // On lavapipe the compute BVH is the faster (README, "Traversal").
+        Traversal::Auto => gpu_device && ctx.accel.is_some(),
+    };
+    if !wanted {
+        return Ok(None);
+    }
+    let why = accel::unsupported(ctx, packed).or_else(|| {
+        (!gpu.storage_ok)
+            .then(|| "the scene outgrows this device's storage-buffer range, which ray queries' stages read".into())
+    });
+    if let Some(why) = why {
+        if traversal == Traversal::RayQuery {
+            warnings.push(format!(
+                "ray queries asked for, but {why}: tracing with the compute BVH"
+            ));
+        }
+        return Ok(None);
+    }
+    let left = device_budget.saturating_sub(gpu.bytes());
+    accel::AccelStructures::build(ctx, packed, left).map(Some)
 }
 
 /// The camera's distance to the scene's centre along its view direction, at least 1 mm.

@@ -82,6 +82,7 @@ impl Renderer {
             Stage::ProbeTrace,
             SceneVariant {
                 texel: self.bvh_reads == BvhReads::Texel,
+                ray_query: self.scene.accel.is_some(),
                 ..Default::default()
             },
         );

@@ -26,6 +26,21 @@ impl Estimator {
     }
 }
 
+/// How rays find what they hit (--traversal): pathwave's own BVH in compute shaders everywhere, or the device's
+/// acceleration structures through VK_KHR_ray_query where it has them (src/render/accel.rs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Traversal {
+    /// Ray queries on a GPU that has them; the compute BVH on CPU devices (on lavapipe the compute BVH is faster,
+    /// see README) and wherever a scene needs what ray queries lack (motion blur).
+    #[default]
+    Auto,
+    /// The compute BVH (traverse.glsl), on every device.
+    Compute,
+    /// Ray queries; a device without them, or a scene they cannot trace, keeps the compute BVH with a warning
+    /// saying why.
+    RayQuery,
+}
+
 /// How next-event estimation picks a light (--light-sampler); the three converge to the same image
 /// (tests/light_tree.rs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -132,7 +147,7 @@ impl Default for RenderSettings {
 }
 
 /// How the renderer may be steered past its own choices; `from_env` is the one place that reads the environment for
-/// it (PATHWAVE_SCHEDULE, PATHWAVE_BVH_READS, PATHWAVE_INSTANCING), so the library below takes typed options.
+/// it (PATHWAVE_SCHEDULE, PATHWAVE_BVH_READS, PATHWAVE_INSTANCING, PATHWAVE_TRAVERSAL), so the library below takes typed options.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RendererOptions {
     /// Fix the schedule instead of choosing (a trial on CPU devices, the wavefront on GPUs).
@@ -147,6 +162,8 @@ pub struct RendererOptions {
     /// Keep the scene's fingerprint (`PackedScene::fingerprint`) for film files: hashing every buffer takes a few
     /// milliseconds per 10 MB, which renders that write none need not spend.
     pub fingerprint: bool,
+    /// Compute BVH or ray queries (PATHWAVE_TRAVERSAL=auto|compute|ray-query, or --traversal).
+    pub traversal: Traversal,
 }
 
 impl RendererOptions {
@@ -185,12 +202,24 @@ impl RendererOptions {
             }
             Err(_) => return Err(Error::Settings("PATHWAVE_INSTANCING is not valid Unicode".into())),
         };
+        let traversal = match std::env::var("PATHWAVE_TRAVERSAL").as_deref() {
+            Ok("auto") | Err(std::env::VarError::NotPresent) => Traversal::Auto,
+            Ok("compute") => Traversal::Compute,
+            Ok("ray-query") => Traversal::RayQuery,
+            Ok(other) => {
+                return Err(Error::Settings(format!(
+                    "PATHWAVE_TRAVERSAL={other}: expected auto, compute or ray-query"
+                )))
+            }
+            Err(_) => return Err(Error::Settings("PATHWAVE_TRAVERSAL is not valid Unicode".into())),
+        };
         Ok(RendererOptions {
             schedule,
             storage_reads,
             max_device_memory: None,
             instancing,
             fingerprint: false,
+            traversal,
         })
     }
 

@@ -29,6 +29,8 @@ pub struct ViewOptions {
     pub exposure: f32,
     pub tonemap: ToneCurve,
     pub shader_dir: Option<PathBuf>,
+    /// Compute BVH or ray queries (--traversal); None: PATHWAVE_TRAVERSAL, else auto.
+    pub traversal: Option<crate::render::Traversal>,
     /// Stop after this many frames (writing `screenshot` first, if given).
     pub frames: Option<u32>,
     pub screenshot: Option<PathBuf>,
@@ -320,7 +322,11 @@ impl State {
             window: window.window_handle().map_err(handle_err)?.as_raw(),
         };
         let ctx = Context::for_window(&options.device, Validation::from_env()?, handles)?;
-        let mut renderer = Renderer::with_context(&scene, ctx)?;
+        let mut renderer_options = crate::RendererOptions::from_env()?;
+        if let Some(t) = options.traversal {
+            renderer_options.traversal = t;
+        }
+        let mut renderer = Renderer::with_options(&scene, ctx, renderer_options)?;
         for w in &renderer.warnings {
             eprintln!("warning: {}: {w}", scene.path.display());
         }

@@ -85,6 +85,15 @@ impl Buffer {
         Ok(b)
     }
 
+    /// Where the buffer starts in the device's address space (made with SHADER_DEVICE_ADDRESS usage, on a context
+    /// with ray queries, which enables buffer device addresses).
+    pub fn address(&self, ctx: &Context) -> u64 {
+        unsafe {
+            ctx.device
+                .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.raw))
+        }
+    }
+
     /// Writes bytes at offset 0, through a staging buffer when this memory is not mappable.
     pub fn upload(&mut self, ctx: &Context, bytes: &[u8]) -> Result<(), Error> {
         if bytes.is_empty() {

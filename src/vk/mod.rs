@@ -97,7 +97,44 @@ pub struct DeviceInfo {
     pub name: String,
     pub kind: String,
     pub api_version: String,
+    /// The driver's own name and version (VkPhysicalDeviceDriverProperties), e.g. "llvmpipe: Mesa 25.0.7".
+    pub driver: String,
     pub max_storage_buffer_range: u32,
+    /// The device can trace rays through acceleration structures from compute shaders (`ray_query_support`).
+    pub ray_query: bool,
+}
+
+/// Device extensions ray-query traversal enables: the query itself, the structures it walks, and what building
+/// them needs (deferred host operations is required by the acceleration-structure extension).
+pub const RAY_QUERY_EXTENSIONS: [&CStr; 3] = [
+    ash::khr::ray_query::NAME,
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+/// Whether `pd` has every ray-query extension and the features they rest on: rayQuery, accelerationStructure and
+/// (core in Vulkan 1.2) bufferDeviceAddress, which is how a build is given its geometry.
+pub fn ray_query_support(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    let Ok(available) = (unsafe { instance.enumerate_device_extension_properties(pd) }) else {
+        return false;
+    };
+    let has = |name: &CStr| {
+        available
+            .iter()
+            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
+    };
+    if !RAY_QUERY_EXTENSIONS.iter().all(|n| has(n)) {
+        return false;
+    }
+    let mut rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+    let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+    let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut features = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut rq)
+        .push_next(&mut accel)
+        .push_next(&mut v12);
+    unsafe { instance.get_physical_device_features2(pd, &mut features) };
+    rq.ray_query == vk::TRUE && accel.acceleration_structure == vk::TRUE && v12.buffer_device_address == vk::TRUE
 }
 
 /// Messages the validation layer reported, kept so a render can fail on any error.
@@ -166,6 +203,9 @@ pub struct Context {
     log: Box<ValidationLog>,
     /// The window surface this device presents to (the viewer), if any; its queue can present to it.
     pub surface: Option<Surface>,
+    /// The acceleration-structure functions, when the device has ray queries (`ray_query_support`): their
+    /// extensions and buffer device addresses are then enabled, whichever traversal a renderer chooses.
+    pub accel: Option<ash::khr::acceleration_structure::Device>,
     pub entry: ash::Entry,
 }
 
@@ -235,6 +275,13 @@ fn create_instance(
 
 fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> DeviceInfo {
     let p = unsafe { instance.get_physical_device_properties(pd) };
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    if p.api_version >= vk::API_VERSION_1_2 {
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        unsafe { instance.get_physical_device_properties2(pd, &mut p2) };
+    }
+    let text = |s: Result<&CStr, _>| s.map(|c: &CStr| c.to_string_lossy().into_owned()).unwrap_or_default();
+    let (driver_name, driver_info) = (text(driver.driver_name_as_c_str()), text(driver.driver_info_as_c_str()));
     DeviceInfo {
         index,
         name: p
@@ -248,7 +295,13 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
             vk::api_version_minor(p.api_version),
             vk::api_version_patch(p.api_version)
         ),
+        driver: match (driver_name.is_empty(), driver_info.is_empty()) {
+            (true, _) => "unknown driver".into(),
+            (false, true) => driver_name,
+            (false, false) => format!("{driver_name}: {driver_info}"),
+        },
         max_storage_buffer_range: p.limits.max_storage_buffer_range,
+        ray_query: p.api_version >= vk::API_VERSION_1_2 && ray_query_support(instance, pd),
     }
 }
 
@@ -311,18 +364,36 @@ impl Context {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let device_extensions = [ash::khr::swapchain::NAME.as_ptr()];
-        let device_info = vk::DeviceCreateInfo::default()
+        let ray_query = properties.api_version >= vk::API_VERSION_1_2 && ray_query_support(&instance, physical);
+        let mut device_extensions = Vec::new();
+        if surface.is_some() {
+            device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
+        }
+        if ray_query {
+            device_extensions.extend(RAY_QUERY_EXTENSIONS.iter().map(|n| n.as_ptr()));
+        }
+        let mut rq_features = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let mut accel_features =
+            vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut address_features = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+        let mut device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
-            .enabled_extension_names(if surface.is_some() { &device_extensions[..] } else { &[] });
+            .enabled_extension_names(&device_extensions);
+        if ray_query {
+            device_info = device_info
+                .push_next(&mut rq_features)
+                .push_next(&mut accel_features)
+                .push_next(&mut address_features);
+        }
         let device = unsafe { instance.create_device(physical, &device_info, None) }?;
+        let accel = ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.clone(),
             device: device.clone(),
             physical_device: physical,
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            buffer_device_address: ray_query,
             allocation_sizes: Default::default(),
         })
         .map_err(|e| Error::Vulkan(format!("allocator: {e}")))?;
@@ -353,6 +424,7 @@ impl Context {
             debug_device,
             log,
             surface,
+            accel,
             entry,
         })
     }

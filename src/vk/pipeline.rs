@@ -1,6 +1,6 @@
 //! Compute pipelines that share one descriptor set layout and one push-constant range, and per-stage GPU timers.
 use super::{Buffer, Context};
-use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, SPEC_SCENE_FEATURES};
+use crate::constants::{BINDING_COUNT, BINDING_FIRST_TEXEL, BINDING_TLAS, SPEC_SCENE_FEATURES};
 use crate::error::Error;
 use ash::vk;
 
@@ -28,15 +28,19 @@ impl Pipelines {
     /// `push_bytes`: the shared push-constant range every stage's block must fit in.
     pub fn new(ctx: &Context, push_bytes: u32) -> Result<Self, Error> {
         let d = &ctx.device;
-        let bindings: Vec<_> = (0..BINDING_COUNT)
-            .map(|b| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
-                    .descriptor_type(descriptor_type(b))
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            })
-            .collect();
+        let binding = |b: u32, ty: vk::DescriptorType| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(b)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        };
+        let mut bindings: Vec<_> = (0..BINDING_COUNT).map(|b| binding(b, descriptor_type(b))).collect();
+        // The top-level structure ray queries walk, on devices that have them (the descriptor type needs the
+        // extension).
+        if ctx.accel.is_some() {
+            bindings.push(binding(BINDING_TLAS, vk::DescriptorType::ACCELERATION_STRUCTURE_KHR));
+        }
         let set_layout = unsafe {
             d.create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
         }?;
@@ -53,7 +57,7 @@ impl Pipelines {
                 None,
             )
         }?;
-        let sizes = [
+        let mut sizes = vec![
             vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
                 .descriptor_count(BINDING_FIRST_TEXEL),
@@ -61,6 +65,13 @@ impl Pipelines {
                 .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
                 .descriptor_count(BINDING_COUNT - BINDING_FIRST_TEXEL),
         ];
+        if ctx.accel.is_some() {
+            sizes.push(
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+                    .descriptor_count(1),
+            );
+        }
         let pool = unsafe {
             d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes),
@@ -148,6 +159,19 @@ impl Pipelines {
             })
             .collect();
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    /// Points BINDING_TLAS at a top-level acceleration structure.
+    pub fn bind_tlas(&self, ctx: &Context, tlas: vk::AccelerationStructureKHR) {
+        let structures = [tlas];
+        let mut info = vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(self.set)
+            .dst_binding(BINDING_TLAS)
+            .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+            .descriptor_count(1)
+            .push_next(&mut info);
+        unsafe { ctx.device.update_descriptor_sets(&[write], &[]) };
     }
 
     /// Points texel-buffer bindings at buffer views.

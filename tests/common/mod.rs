@@ -3,6 +3,7 @@
 pub mod gltf_builder;
 pub mod mutate;
 pub mod rng;
+pub mod rt;
 pub mod scenes;
 pub mod stats;
 

@@ -201,6 +201,8 @@ pub struct GpuScene {
     pub bvh_build: std::time::Duration,
     /// `PackedScene::fingerprint`, when the renderer was asked to keep it (`RendererOptions::fingerprint`).
     pub fingerprint: Option<String>,
+    /// The device's acceleration structures, when rays are traced with ray queries (render::accel).
+    pub accel: Option<crate::render::accel::AccelStructures>,
 }
 
 impl GpuScene {
@@ -290,6 +292,7 @@ impl GpuScene {
             camera_moves: packed.camera_moves,
             bvh_build: packed.bvh_build,
             fingerprint: None,
+            accel: None,
         })
     }
 
@@ -299,6 +302,11 @@ impl GpuScene {
     }
 
     /// The texel views by binding, when the device holds the scene that way.
+    /// Device bytes of the scene's buffers.
+    pub fn bytes(&self) -> u64 {
+        self.buffers.iter().map(|(_, b)| b.size).sum()
+    }
+
     pub fn texel_views(&self) -> Option<&[(u32, vk::BufferView)]> {
         self.views.as_ref().map(|v| &v.views[..])
     }

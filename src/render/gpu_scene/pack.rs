@@ -55,6 +55,17 @@ pub struct PackedScene {
     pub camera_moves: bool,
     /// The instance records (the header first); empty when no mesh is instanced.
     pub instances: Vec<GpuInstance>,
+    /// Each instanced mesh's triangles after the world's: (its BVH's root node, first triangle, count), which an
+    /// instance record's info.x names. Ray-query traversal builds one bottom-level structure from each.
+    pub meshes: Vec<MeshTriangles>,
+}
+
+/// An instanced mesh's place in the packed triangles (see `PackedScene::meshes`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshTriangles {
+    pub root: u32,
+    pub first: u32,
+    pub count: u32,
 }
 
 impl PackedScene {
@@ -284,13 +295,13 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             message: format!("out of host memory packing its {} triangles", soup.len()),
         })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
-    let (mut instances, mesh_lights, mesh_emitters) = if instanced.contains(&true) {
+    let (mut instances, mesh_lights, mesh_emitters, meshes) = if instanced.contains(&true) {
         pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds, &mut emission).ok_or_else(|| Error::Scene {
             path: scene.path.clone(),
             message: "out of host memory packing its instanced meshes".into(),
         })?
     } else {
-        (Vec::new(), Vec::new(), Vec::new())
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new())
     };
     let bvh_build = if instances.is_empty() {
         bvh_build
@@ -374,6 +385,7 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         motion,
         camera_moves,
         instances,
+        meshes,
     })
 }
 
@@ -396,7 +408,7 @@ fn pack_instances(
     t: &mut PackedTriangles,
     bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
     emission: &mut Emission,
-) -> Option<(Vec<GpuInstance>, Vec<GpuLight>, Vec<MeshEmitters>)> {
+) -> Option<(Vec<GpuInstance>, Vec<GpuLight>, Vec<MeshEmitters>, Vec<MeshTriangles>)> {
     use glam::Vec3;
     // Each instanced mesh's BVH and packed triangles, and where they start.
     let mut parts: Vec<(usize, Bvh, PackedTriangles, (Vec3, Vec3))> = Vec::new();
@@ -475,6 +487,7 @@ fn pack_instances(
     }
     let first_blas_triangle = t.tri_verts.len() as u32;
     let mut roots = Vec::with_capacity(parts.len());
+    let mut meshes = Vec::with_capacity(parts.len());
     // Per part: (where its emitter table starts, its length, its power in the mesh's space).
     let mut part_lights = Vec::with_capacity(parts.len());
     let mut mesh_lights: Vec<GpuLight> = Vec::new();
@@ -517,6 +530,11 @@ fn pack_instances(
         }));
         roots.push(root);
         let n = packed.tri_verts.len();
+        meshes.push(MeshTriangles {
+            root,
+            first: tri_base,
+            count: n as u32,
+        });
         t.tri_verts.try_reserve(n).ok()?;
         t.tri_verts.append(&mut packed.tri_verts);
         t.tri_shading.append(&mut packed.tri_shading);
@@ -576,7 +594,7 @@ fn pack_instances(
         }
     }
     records.append(&mut key_records);
-    Some((records, mesh_lights, mesh_emitters))
+    Some((records, mesh_lights, mesh_emitters, meshes))
 }
 
 /// An instanced mesh's emitters for its light subtree: where its table starts among the instanced meshes' tables,
