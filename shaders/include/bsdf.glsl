@@ -424,8 +424,11 @@ float ms_roughness(Bsdf b) {
     return b.roughness;
 }
 
+// Only a layer over an opaque base has it (glass and metals have no base under a layer); FEATURE_DIELECTRIC_MS folds
+// it out of scenes with none.
 bool coat_ms_on(Bsdf b) {
-    return b.compensate && !bsdf_is_delta(b) && b.specular > 0.0;
+    return scene_has(FEATURE_DIELECTRIC_MS) && b.compensate && !bsdf_is_delta(b) && b.specular > 0.0 &&
+           b.metallic < 1.0 && b.transmission < 1.0;
 }
 
 // E_ms per channel at cos theta mu (or its average, mu < 0), times the layer's weight; a grey F0 (the common case)

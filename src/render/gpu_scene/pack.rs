@@ -108,6 +108,16 @@ impl PackedScene {
         if any(|m| m.specular_color[3] != 0.0) {
             bits |= FEATURE_DIFFUSE_ROUGHNESS;
         }
+        fn dielectric_layer(m: &GpuMaterial) -> bool {
+            let textured = |slot: u32| m.textures[slot as usize].u[3].to_bits() != TEXTURE_NONE;
+            m.params[3] != 0.0
+                && (m.params[1] > 0.0 || m.anisotropy[0] != 0.0)
+                && (m.params[0] < 1.0 || textured(TEX_METALLIC_ROUGHNESS))
+                && (m.transmission[0] < 1.0 || textured(TEX_TRANSMISSION))
+        }
+        if any(dielectric_layer) {
+            bits |= FEATURE_DIELECTRIC_MS;
+        }
         if any(|m| m.alpha[3].to_bits() & MATERIAL_UNLIT != 0) {
             bits |= FEATURE_UNLIT;
         }
