@@ -13,13 +13,14 @@ void main() {
     if (k >= frame.path_count) return;
     BsdfRecord r = records[k];
     Bsdf b = bsdf_from_material(materials[r.material], r.front != 0u);
+    bsdf_at(b, r.wo);
     BsdfSample s;
     bool ok = true;
     if (probe_mode() == PROBE_SAMPLE) {
-        ok = bsdf_sample(b, r.wo, r.x, s);
+        ok = bsdf_sample(b, r.x, s);
     } else {
         s.wi = r.x;
-        s.pdf = bsdf_pdf(b, r.wo, r.x);
+        s.pdf = bsdf_pdf(b, r.x);
         s.weight = Spectrum(0.0);
         s.delta = false;
     }
@@ -27,7 +28,10 @@ void main() {
     records[k].pdf = s.pdf;
     records[k].weight = s.weight.rgb;
     records[k].flags = (s.delta ? PROBE_DELTA : 0u) | (ok ? PROBE_OK : 0u);
-    records[k].eval = bsdf_eval(b, r.wo, s.wi).rgb;
-    records[k].pdf_wi = bsdf_pdf(b, r.wo, s.wi);
-    records[k].eval_reverse = bsdf_eval(b, s.wi, r.wo).rgb;
+    records[k].eval = bsdf_eval(b, s.wi).rgb;
+    records[k].pdf_wi = bsdf_pdf(b, s.wi);
+    // Seen from wi: the same material readied there.
+    Bsdf back = bsdf_from_material(materials[r.material], r.front != 0u);
+    bsdf_at(back, s.wi);
+    records[k].eval_reverse = bsdf_eval(back, r.wo).rgb;
 }

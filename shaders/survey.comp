@@ -13,8 +13,8 @@
 
 // Whether the lobe bsdf_sample chose with lobe-choice number u_lobe is a specular one (the glass, the coat and metal,
 // or the clear coat) with a GGX alpha below AOV_SPECULAR_ALPHA: the AOVs look through it like through a mirror.
-bool near_specular(Bsdf b, vec3 wo, float u_lobe) {
-    vec4 p = lobe_probabilities(b, wo);
+bool near_specular(Bsdf b, float u_lobe) {
+    vec4 p = b.lobe_p;
     if (u_lobe < p.x + p.y) return b.alpha < AOV_SPECULAR_ALPHA;
     if (u_lobe < p.x + p.y + p.z) return b.coat_alpha < AOV_SPECULAR_ALPHA;
     return false;
@@ -75,12 +75,12 @@ void main() {
         Bsdf bsdf = bsdf_from_material(sf.m, sf.front);
         vec3 tx, ty;
         shading_frame(sf, h.tri, h.uv, h.inst, bsdf, tx, ty);
-        vec3 wo = vec3(dot(-v.dir, tx), dot(-v.dir, ty), dot(-v.dir, sf.ns));
+        bsdf_at(bsdf, vec3(dot(-v.dir, tx), dot(-v.dir, ty), dot(-v.dir, sf.ns)));
         // The beauty path's own choice at this bounce: the AOVs follow the prefix of the path the image adds.
         vec3 u = vec3(rand2(pixel, s, bounce, DIM_BSDF), rand2(pixel, s, bounce, DIM_BSDF_LOBE).x);
         BsdfSample bs;
-        bool ok = bsdf_sample(bsdf, wo, u, bs);
-        bool specular = ok && (bs.delta || near_specular(bsdf, wo, u.z));
+        bool ok = bsdf_sample(bsdf, u, bs);
+        bool specular = ok && (bs.delta || near_specular(bsdf, u.z));
         bool emits = (sf.front || sf.m.emission.w > 0.5) && any(greaterThan(sf.m.emission.rgb, vec3(0.0)));
         if (emits) {
             // A light shows what it emits, within [0, 1], like the environment: its edge is then an edge of the

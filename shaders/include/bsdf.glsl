@@ -46,6 +46,17 @@ struct Bsdf {
     Spectrum coat_avg;
     float metal_e_avg;
     Spectrum metal_f_avg;
+    // What every evaluation at the hit's wo shares, computed once by bsdf_at: eval, pdf and sample all see from wo,
+    // and lavapipe runs each table lookup for every lane wherever it stands in the code, taken or not (the dielectric
+    // layer's multiple scattering, read up to fourteen times a hit, made layers.gltf's shade stage 2.4x slower).
+    vec3 wo;
+    vec4 lobe_p;          // lobe_probabilities at wo
+    float under;          // base_weight_under at wo: what the sheen and clear coat leave of the base
+    Spectrum coat_albedo_o; // the dielectric layer's directional albedo at wo
+    Spectrum coat_ms_o;   // its multiple scattering at wo, and the hemispherical average of that
+    Spectrum coat_ms_avg;
+    float metal_e_o;      // the metal lobe's single-scattering albedo at wo
+    float clearcoat_o;    // the clear coat's albedo at wo
 };
 
 Spectrum coat_average(Bsdf b);
@@ -62,8 +73,10 @@ void bsdf_averages(inout Bsdf b) {
     b.coat_avg = Spectrum(0.0);
     b.metal_e_avg = 0.0;
     b.metal_f_avg = Spectrum(0.0);
+    // The layer's average is read by every evaluation of a diffuse lobe (twice a hit): kept once here when the
+    // multiple scattering adds a trilinear lookup to it.
+    if ((bsdf_needs_averages() || scene_has(FEATURE_DIELECTRIC_MS)) && b.specular > 0.0) b.coat_avg = coat_average(b);
     if (!bsdf_needs_averages()) return;
-    if (b.specular > 0.0) b.coat_avg = coat_average(b);
     if (b.metallic > 0.0) {
         b.metal_e_avg = spec_energy_average(b, 0u);
         b.metal_f_avg = b.base_color + (Spectrum(1.0) - b.base_color) / 21.0;
@@ -119,7 +132,6 @@ Bsdf bsdf_from_material(Material m, bool front) {
         // A stretched lobe is a mirror only when both of its axes are; its energy has tables of its own.
         b.alpha = b.aniso_alpha.x;
     }
-    bsdf_averages(b);
     return b;
 }
 
@@ -431,34 +443,51 @@ bool coat_ms_on(Bsdf b) {
            b.metallic < 1.0 && b.transmission < 1.0;
 }
 
-// E_ms per channel at cos theta mu (or its average, mu < 0), times the layer's weight; a grey F0 (the common case)
-// reads the table once. The thin film tints single scattering only: the walk's F0 is the layer's own.
+// F0 differs across the channels (a tinted KHR_materials_specular): each channel reads the table; a grey F0, the
+// common case, reads it once.
+bool coat_ms_tinted(Bsdf b) {
+    Spectrum f0 = b.specular_f0;
+    return f0.y != f0.x || f0.z != f0.x || (spectral() && f0.w != f0.x);
+}
+
+// E_ms per channel at cos theta mu, times the layer's weight. The thin film tints single scattering only: the walk's
+// F0 is the layer's own.
 Spectrum coat_ms(Bsdf b, float mu) {
     if (!coat_ms_on(b)) return Spectrum(0.0);
-    Spectrum f0 = b.specular_f0;
     float r = ms_roughness(b);
-    Spectrum e = Spectrum(mu < 0.0 ? dielectric_ms_average(r, f0.x) : dielectric_ms_lookup(mu, r, f0.x));
-    if (f0.y != f0.x || f0.z != f0.x || (spectral() && f0.w != f0.x)) {
-        for (int c = 1; c < (spectral() ? 4 : 3); ++c) {
-            e[c] = mu < 0.0 ? dielectric_ms_average(r, f0[c]) : dielectric_ms_lookup(mu, r, f0[c]);
-        }
+    Spectrum e = Spectrum(dielectric_ms_lookup(mu, r, b.specular_f0.x));
+    if (coat_ms_tinted(b)) {
+        for (int c = 1; c < (spectral() ? 4 : 3); ++c) e[c] = dielectric_ms_lookup(mu, r, b.specular_f0[c]);
     }
     if (!spectral()) e.w = 0.0;
     return b.specular * e;
 }
 
-// The layer's multiple-scattering lobe, reciprocal, with albedo coat_ms(mu_o).
-Spectrum coat_ms_eval(Bsdf b, vec3 wo, vec3 wi) {
+// coat_ms's hemispherical average 2 int E_ms mu dmu.
+Spectrum coat_ms_average(Bsdf b) {
     if (!coat_ms_on(b)) return Spectrum(0.0);
-    return coat_ms(b, wo.z) * coat_ms(b, wi.z) / max(PI * coat_ms(b, -1.0), Spectrum(1e-12));
+    float r = ms_roughness(b);
+    Spectrum e = Spectrum(dielectric_ms_average(r, b.specular_f0.x));
+    if (coat_ms_tinted(b)) {
+        for (int c = 1; c < (spectral() ? 4 : 3); ++c) e[c] = dielectric_ms_average(r, b.specular_f0[c]);
+    }
+    if (!spectral()) e.w = 0.0;
+    return b.specular * e;
 }
 
-// The layer's directional albedo seen from w: single scattering, then what its microsurface returns after more bounces.
-Spectrum coat_albedo(Bsdf b, vec3 w) {
+// The layer's multiple-scattering lobe from wo to wi, reciprocal, with albedo coat_ms(mu_o); ms_i = coat_ms at wi.
+Spectrum coat_ms_eval(Bsdf b, Spectrum ms_i) {
+    if (!coat_ms_on(b)) return Spectrum(0.0);
+    return b.coat_ms_o * ms_i / max(PI * b.coat_ms_avg, Spectrum(1e-12));
+}
+
+// The layer's directional albedo seen from w: single scattering, then ms = coat_ms at w, what its microsurface returns
+// after more bounces.
+Spectrum coat_albedo(Bsdf b, vec3 w, Spectrum ms) {
     if (bsdf_is_delta(b)) return b.specular * dielectric_fresnel(b, w.z);
     Spectrum a = b.specular_f0 * spec_energy(b, 0u, w) + (Spectrum(1.0) - b.specular_f0) * spec_energy(b, 1u, w);
     if (film_weight(b) > 0.0) a = mix(a, film_albedo(b, b.specular_f0, w), film_weight(b));
-    return b.specular * a + coat_ms(b, w.z);
+    return b.specular * a + ms;
 }
 
 Spectrum coat_average(Bsdf b) {
@@ -470,29 +499,29 @@ Spectrum coat_average(Bsdf b) {
         a = b.specular_f0 * spec_energy_average(b, 0u) + (Spectrum(1.0) - b.specular_f0) * spec_energy_average(b, 1u);
     }
     if (film_weight(b) > 0.0) a = mix(a, film_average(b, b.specular_f0, true), film_weight(b));
-    return b.specular * a + coat_ms(b, -1.0);
+    return b.specular * a + b.coat_ms_avg;
 }
 
 // The diffuse base under the coat: light enters through the coat along wi and leaves along wo, and is scaled so a white
 // base returns exactly what the coat does not reflect. glTF's reference weights the base by 1 - F(VdotH), which can
 // reflect more than arrives (1.025 for a white, nearly smooth plastic at 60 degrees); this form is reciprocal and
 // conserves energy.
-Spectrum coat_transmittance(Bsdf b, vec3 wo, vec3 wi) {
+Spectrum coat_transmittance(Bsdf b, vec3 wi, Spectrum ms_i) {
     // No coat (KHR_materials_specular weight 0, as in a pure Lambertian): nothing to look up.
     if (b.specular == 0.0) return Spectrum(1.0);
-    Spectrum avg = bsdf_needs_averages() ? b.coat_avg : coat_average(b);
-    return (Spectrum(1.0) - coat_albedo(b, wo)) * (Spectrum(1.0) - coat_albedo(b, wi)) / max(Spectrum(1.0) - avg, Spectrum(1e-6));
+    Spectrum avg = bsdf_needs_averages() || scene_has(FEATURE_DIELECTRIC_MS) ? b.coat_avg : coat_average(b);
+    return (Spectrum(1.0) - b.coat_albedo_o) * (Spectrum(1.0) - coat_albedo(b, wi, ms_i)) / max(Spectrum(1.0) - avg, Spectrum(1e-6));
 }
 
 // Kulla-Conty multiple scattering of the metal lobe: the energy single scattering loses, returned in a diffuse-like
 // lobe coloured by the average Fresnel. Zero for a mirror (it loses nothing).
-Spectrum metal_multiple_scattering(Bsdf b, vec3 wo, vec3 wi) {
+Spectrum metal_multiple_scattering(Bsdf b, vec3 wi) {
     if (!b.compensate || bsdf_is_delta(b)) return Spectrum(0.0);
     float e_avg = bsdf_needs_averages() ? b.metal_e_avg : spec_energy_average(b, 0u);
     if (e_avg >= 1.0) return Spectrum(0.0);
     Spectrum f_avg = bsdf_needs_averages() ? b.metal_f_avg : b.base_color + (Spectrum(1.0) - b.base_color) / 21.0;
     Spectrum f_ms = f_avg * f_avg * e_avg / (Spectrum(1.0) - f_avg * (1.0 - e_avg));
-    float lobe = (1.0 - spec_energy(b, 0u, wo)) * (1.0 - spec_energy(b, 0u, wi)) / (PI * (1.0 - e_avg));
+    float lobe = (1.0 - b.metal_e_o) * (1.0 - spec_energy(b, 0u, wi)) / (PI * (1.0 - e_avg));
     return f_ms * lobe;
 }
 
@@ -577,10 +606,6 @@ float base_weight_under(Bsdf b, vec3 wo, float coat) {
     return w;
 }
 
-float base_weight(Bsdf b, vec3 wo) {
-    return base_weight_under(b, wo, coat_albedo_at(b, wo));
-}
-
 // The coat lobe's f, for the integrator's cosine about the shading normal: the coat's own cosine replaces it, so the
 // lobe keeps exactly the albedo its table gives even under its own normal map.
 float clearcoat_eval(Bsdf b, vec3 wo, vec3 wi) {
@@ -628,16 +653,16 @@ vec4 lobe_probabilities(Bsdf b, vec3 wo) {
     Spectrum tint = b.base_color;
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) tint = mix(b.base_color, b.dt_color, b.diffuse_transmission);
     float diff = opaque * (1.0 - b.specular * spectrum_max(fd)) * spectrum_luminance(tint);
-    if (scene_has(FEATURE_COAT)) diff += opaque * spectrum_luminance(coat_ms(b, wo.z));
+    if (scene_has(FEATURE_COAT)) diff += opaque * spectrum_luminance(b.coat_ms_o);
     if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
-        diff += b.metallic * (1.0 - spec_energy(b, 0u, wo)) * spectrum_luminance(b.base_color);
+        diff += b.metallic * (1.0 - b.metal_e_o) * spectrum_luminance(b.base_color);
     }
     float glass = (1.0 - b.metallic) * b.transmission;
     float coat = 0.0;
     float sheen = 0.0;
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
-        float cc = coat_albedo_at(b, wo);
-        float w = base_weight_under(b, wo, cc);
+        float cc = b.clearcoat_o;
+        float w = b.under;
         spec *= w;
         diff *= w;
         glass *= w;
@@ -752,12 +777,14 @@ Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     float glass_pdf;
     if (glass_w > 0.0) glass_eval_pdf(b, wo, wi, glass_f, glass_pdf);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
+    // The layer's multiple scattering at wi, or at its mirror image for diffuse transmission: one lookup either way.
+    Spectrum ms_i = coat_ms(b, abs(wi.z));
     if (wi.z < 0.0) {
         Spectrum below = glass_w * glass_f;
         // Diffuse transmission: Lambertian on the far side, through the dielectric layer on both ways as the diffuse
         // reflection is (so the two share the energy the layer lets in).
         if (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && b.diffuse_transmission > 0.0) {
-            below += opaque * b.diffuse_transmission * coat_transmittance(b, wo, flip_z(wi)) *
+            below += opaque * b.diffuse_transmission * coat_transmittance(b, flip_z(wi), ms_i) *
                      diffuse_lobe(b, b.dt_color, wo, flip_z(wi));
         }
         return below;
@@ -765,10 +792,10 @@ Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     Spectrum fd = dielectric_fresnel(b, c);
-    Spectrum diffuse = opaque * coat_transmittance(b, wo, wi) * diffuse_lobe(b, b.base_color, wo, wi);
+    Spectrum diffuse = opaque * coat_transmittance(b, wi, ms_i) * diffuse_lobe(b, b.base_color, wo, wi);
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) diffuse *= 1.0 - b.diffuse_transmission;
-    if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wo, wi);
-    if (scene_has(FEATURE_COAT) && opaque > 0.0) diffuse += opaque * coat_ms_eval(b, wo, wi);
+    if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wi);
+    if (scene_has(FEATURE_COAT) && opaque > 0.0) diffuse += opaque * coat_ms_eval(b, ms_i);
     // No specular lobe at all (a mirror's is a delta; a pure Lambertian has neither coat nor metal).
     if (bsdf_is_delta(b) || (opaque * b.specular == 0.0 && b.metallic == 0.0)) return diffuse + glass_w * glass_f;
     float g = 1.0 / (1.0 + spec_lambda(b, wo) + spec_lambda(b, wi));
@@ -776,13 +803,14 @@ Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     return diffuse + spec * (opaque * b.specular * fd + b.metallic * metal_fresnel(b, c)) + glass_w * glass_f;
 }
 
-// f(wo, wi) without the cosine; zero for delta lobes.
-Spectrum bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
+// f(wo, wi) without the cosine, wo the direction bsdf_at readied b for; zero for delta lobes.
+Spectrum bsdf_eval(Bsdf b, vec3 wi) {
+    vec3 wo = b.wo;
     if (wo.z <= 0.0 || wi.z == 0.0) return Spectrum(0.0);
     Spectrum f = base_eval(b, wo, wi);
     if (scene_has(FEATURE_CLEARCOAT | FEATURE_SHEEN)) {
-        float cc = coat_albedo_at(b, wo);
-        Spectrum under = f * base_weight_under(b, wo, cc);
+        float cc = b.clearcoat_o;
+        Spectrum under = f * b.under;
         if (scene_has(FEATURE_SHEEN) && wi.z > 0.0 && spectrum_max(b.sheen_color) > 0.0) {
             under += (1.0 - cc) * b.sheen_color * sheen_lobe(b.sheen_roughness, wo, wi);
         }
@@ -793,9 +821,10 @@ Spectrum bsdf_eval(Bsdf b, vec3 wo, vec3 wi) {
 }
 
 // Solid-angle density with which bsdf_sample returns wi (delta lobes have none).
-float bsdf_pdf(Bsdf b, vec3 wo, vec3 wi) {
+float bsdf_pdf(Bsdf b, vec3 wi) {
+    vec3 wo = b.wo;
     if (wo.z <= 0.0 || wi.z == 0.0) return 0.0;
-    vec4 p = lobe_probabilities(b, wo);
+    vec4 p = b.lobe_p;
     float pdf = 0.0;
     if (p.x > 0.0) {
         Spectrum f;
@@ -852,17 +881,32 @@ struct BsdfSample {
     bool delta;
 };
 
+// Readies b for evaluations and samples seen from wo (in the shading frame, after shading_frame has set the clear
+// coat's normal): the hemispherical averages, and what every evaluation at wo shares.
+void bsdf_at(inout Bsdf b, vec3 wo) {
+    b.wo = wo;
+    b.coat_ms_avg = coat_ms_average(b);
+    bsdf_averages(b);
+    b.coat_ms_o = coat_ms(b, wo.z);
+    b.coat_albedo_o = b.specular > 0.0 ? coat_albedo(b, wo, b.coat_ms_o) : Spectrum(0.0);
+    b.metal_e_o = b.metallic > 0.0 && !bsdf_is_delta(b) ? spec_energy(b, 0u, wo) : 0.0;
+    b.clearcoat_o = coat_albedo_at(b, wo);
+    b.under = base_weight_under(b, wo, b.clearcoat_o);
+    b.lobe_p = lobe_probabilities(b, wo);
+}
+
 // u.z picks the lobe (and, rescaled, reflection or transmission in the glass lobe), u.xy the direction.
 // Returns false when the sample carries no energy.
-bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
+bool bsdf_sample(Bsdf b, vec3 u, out BsdfSample s) {
+    vec3 wo = b.wo;
     s.wi = vec3(0.0, 0.0, 1.0);
     s.weight = Spectrum(0.0);
     s.pdf = 0.0;
     s.delta = false;
     if (wo.z <= 0.0) return false;
-    vec4 p = lobe_probabilities(b, wo);
+    vec4 p = b.lobe_p;
     // What the layers leave of the base, for the base's delta lobes (whose weights are not evaluated).
-    float under = base_weight(b, wo);
+    float under = b.under;
     if (scene_has(FEATURE_TRANSMISSION) && u.z < p.x) {
         // The glass lobe. u_rt reuses u.z, rescaled to [0, 1), to choose reflection or transmission.
         float u_rt = u.z / p.x;
@@ -933,9 +977,9 @@ bool bsdf_sample(Bsdf b, vec3 wo, vec3 u, out BsdfSample s) {
             if (u_t < b.diffuse_transmission) s.wi = flip_z(s.wi);
         }
     }
-    s.pdf = bsdf_pdf(b, wo, s.wi);
+    s.pdf = bsdf_pdf(b, s.wi);
     if (!(s.pdf > 0.0)) return false;
-    s.weight = bsdf_eval(b, wo, s.wi) * (abs(s.wi.z) / s.pdf);
+    s.weight = bsdf_eval(b, s.wi) * (abs(s.wi.z) / s.pdf);
     return true;
 }
 

@@ -209,11 +209,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     vec3 p_off = offset_ray(p, n_in, size);
     vec3 tx, ty;
     shading_frame(sf, tri, uv, inst, bsdf, tx, ty);
-    vec3 wo = vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns));
+    bsdf_at(bsdf, vec3(dot(-ray_d, tx), dot(-ray_d, ty), dot(-ray_d, ns)));
 
     vec2 u_dir = rand2(pixel, s, bounce, DIM_BSDF);
     BsdfSample bs;
-    bool ok = bsdf_sample(bsdf, wo, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
+    bool ok = bsdf_sample(bsdf, vec3(u_dir, rand2(pixel, s, bounce, DIM_BSDF_LOBE).x), bs);
     vec3 wi = bs.wi.x * tx + bs.wi.y * ty + bs.wi.z * ns;
     // The light BVH's receiver normal at this vertex (the geometric one: its side does not matter to importance).
     if (light_tree_on()) v.light_normal = pack_light_normal(ng);
@@ -236,9 +236,9 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         float side = dot(n_in, ls.wi);
         bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
         if (alive && wanted && ls.pdf > 0.0 && wi_local.z * side > 0.0) {
-            Spectrum f = bsdf_eval(bsdf, wo, wi_local);
+            Spectrum f = bsdf_eval(bsdf, wi_local);
             bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
-            float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wo, wi_local)) : 1.0;
+            float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wi_local)) : 1.0;
             Spectrum contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             shadow.wanted = spectrum_positive(contribution);
             // The shadow ray starts off the surface but ends at the light's point itself, just short of it so it
