@@ -44,8 +44,10 @@ pub struct AccelStructures {
     structures: Vec<(vk::AccelerationStructureKHR, Buffer)>,
     /// Device bytes of the structures once compacted.
     pub bytes: u64,
-    /// Device bytes of the bottom levels before compaction.
+    /// Device bytes of the structures had the bottom levels not been compacted.
     pub uncompacted_bytes: u64,
+    /// Host and device time of the builds, compaction included.
+    pub build_time: std::time::Duration,
     loader: ash::khr::acceleration_structure::Device,
 }
 
@@ -88,11 +90,13 @@ impl AccelStructures {
     /// take more than `budget` bytes of device memory.
     pub fn build(ctx: &Context, packed: &PackedScene, budget: u64) -> Result<Self, Error> {
         let loader = ctx.accel.clone().expect("unsupported() checks for ray queries");
+        let start = std::time::Instant::now();
         let mut me = AccelStructures {
             tlas: vk::AccelerationStructureKHR::null(),
             structures: Vec::new(),
             bytes: 0,
             uncompacted_bytes: 0,
+            build_time: std::time::Duration::ZERO,
             loader,
         };
         let world = packed
@@ -189,7 +193,6 @@ impl AccelStructures {
                 budget >> 20
             )));
         }
-        me.uncompacted_bytes = total;
         let structure_usage =
             vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         let scratch_usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
@@ -238,7 +241,7 @@ impl AccelStructures {
         let done = ctx.submit_and_wait(|cmd| unsafe {
             ctx.device.cmd_reset_query_pool(cmd, queries, 0, built.len() as u32);
             me.loader.cmd_build_acceleration_structures(cmd, &infos, &range_refs);
-            build_barrier(ctx, cmd);
+            build_barrier(ctx, cmd, BUILD_THEN_BUILD);
             me.loader.cmd_write_acceleration_structures_properties(
                 cmd,
                 &built,
@@ -265,10 +268,15 @@ impl AccelStructures {
 
         // Compacted copies (where the driver reports a size smaller than the build's), then the top level over them:
         // instance 0 the world (mask 0 when it has no triangles), instance i the instance record i.
+        // The copies live beside their sources until the top level is built: where both would not fit the budget
+        // the structures stay as built.
+        let smaller = |i: usize| compacted[i] > 0 && compacted[i] < sizes[i].acceleration_structure_size;
+        let copy_bytes: u64 = (0..built.len()).filter(|&i| smaller(i)).map(|i| compacted[i]).sum();
+        let compact = total + copy_bytes + vertex_buffer.size <= budget;
         let mut blas = Vec::with_capacity(built.len());
         let mut copies = Vec::new();
         for (i, (&s, &c)) in built.iter().zip(&compacted).enumerate() {
-            if c > 0 && c < sizes[i].acceleration_structure_size {
+            if compact && smaller(i) {
                 let small = me.create(
                     ctx,
                     "compacted bottom-level structure",
@@ -360,22 +368,11 @@ impl AccelStructures {
                         .mode(vk::CopyAccelerationStructureModeKHR::COMPACT),
                 );
             }
-            build_barrier(ctx, cmd);
+            build_barrier(ctx, cmd, BUILD_THEN_BUILD);
             me.loader
                 .cmd_build_acceleration_structures(cmd, &[top], &[&top_range[..]]);
             // Traversal in every later submission reads what the builds wrote.
-            let to_trace = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-                .dst_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR);
-            ctx.device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::DependencyFlags::empty(),
-                &[to_trace],
-                &[],
-                &[],
-            );
+            build_barrier(ctx, cmd, BUILD_THEN_TRACE);
         })?;
         // The uncompacted bottom levels are no longer needed once copied.
         let stale: Vec<vk::AccelerationStructureKHR> = copies.iter().map(|c| c.0).collect();
@@ -389,6 +386,8 @@ impl AccelStructures {
         });
         me.tlas = tlas;
         me.bytes = me.structures.iter().map(|(_, b)| b.size).sum();
+        me.uncompacted_bytes = total + top_size.acceleration_structure_size;
+        me.build_time = start.elapsed();
         Ok(me)
     }
 
@@ -416,18 +415,34 @@ impl AccelStructures {
     }
 }
 
-/// Builds and copies before it are complete, and their writes visible, to the builds, copies and queries after it.
-fn build_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+/// Who waits for the builds and copies before a build_barrier: the stage and the accesses.
+type Waiter = (vk::PipelineStageFlags, vk::AccessFlags);
+
+/// Builds, copies and size queries after the barrier.
+const BUILD_THEN_BUILD: Waiter = (
+    vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+    vk::AccessFlags::from_raw(
+        vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR.as_raw()
+            | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR.as_raw(),
+    ),
+);
+
+/// Traversal in the compute stages of every later submission.
+const BUILD_THEN_TRACE: Waiter = (
+    vk::PipelineStageFlags::COMPUTE_SHADER,
+    vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR,
+);
+
+/// Builds and copies before it are complete, and their writes visible, to `waiter`.
+fn build_barrier(ctx: &Context, cmd: vk::CommandBuffer, (stage, access): Waiter) {
     let barrier = vk::MemoryBarrier::default()
         .src_access_mask(vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR)
-        .dst_access_mask(
-            vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        );
+        .dst_access_mask(access);
     unsafe {
         ctx.device.cmd_pipeline_barrier(
             cmd,
             vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
-            vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR,
+            stage,
             vk::DependencyFlags::empty(),
             &[barrier],
             &[],

@@ -338,6 +338,12 @@ impl Renderer {
         }
     }
 
+    /// The ray-query structures, when rays are traced with them: compacted bytes, bytes before compaction, and the
+    /// build's time.
+    pub fn acceleration_structures(&self) -> Option<(u64, u64, std::time::Duration)> {
+        (self.scene.accel.as_ref()).map(|a| (a.bytes, a.uncompacted_bytes, a.build_time))
+    }
+
     /// The distance along the view direction to the first surface under image position (x, y) in [0, 1]^2 (0, 0 at
     /// the top left), for click-to-focus; None when the ray escapes.
     pub fn focus_distance_at(&mut self, x: f32, y: f32, aspect: f32) -> Result<Option<f32>, Error> {
