@@ -1042,6 +1042,10 @@ struct BenchArgs {
     /// bvh (default), power or uniform.
     #[arg(long, value_enum, default_value = "bvh")]
     light_sampler: LightSampler,
+    /// Which traversals the cases and the Embree comparison measure: `auto` (default) both side by side where the
+    /// device has ray queries, else the compute BVH; `compute` or `ray-query` that one alone.
+    #[arg(long, value_enum, default_value = "auto")]
+    traversal: pathwave::render::Traversal,
 }
 
 fn bench(a: BenchArgs) -> Result<()> {
@@ -1068,6 +1072,7 @@ fn bench(a: BenchArgs) -> Result<()> {
         python: a.python,
         only_compare: a.only_compare,
         light_sampler: a.light_sampler,
+        traversal: a.traversal,
     };
     let report = pathwave::bench::run(&options, &mut |case| eprintln!("bench: {case}"))?;
     print!("{}", report.table());

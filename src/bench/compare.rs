@@ -2,7 +2,7 @@
 use super::terrain;
 use crate::bvh::Ray;
 use crate::error::Error;
-use crate::render::{LightSampler, RenderSettings, Renderer};
+use crate::render::{LightSampler, RenderSettings, Renderer, Traversal};
 use crate::scene::{self, Projection, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use glam::Vec3;
@@ -135,7 +135,7 @@ pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     if v.is_empty() {
         return f64::NAN;
@@ -163,9 +163,45 @@ pub struct EmbreeComparison {
     pub ratio: f64,
     /// Rays where both miss or both hit at the same distance (within 1e-3 relative).
     pub agreement: f64,
+    /// How pathwave traced in `rounds`: "compute" (its BVH) or "ray queries".
+    pub traversal: String,
+    /// Where the device has ray queries and both traversals were asked for: the same rays traced with them in each
+    /// round, right after the compute BVH.
+    pub ray_query: Option<RayQueryRounds>,
 }
 
-pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Result<EmbreeComparison, Error> {
+#[derive(Clone, Debug, Default)]
+pub struct RayQueryRounds {
+    /// Per round, rays per second.
+    pub rays_per_s: Vec<f64>,
+    /// The acceleration structures' build, compaction included.
+    pub build_s: f64,
+    /// Rays whose hits agree with Embree's, as `agreement`.
+    pub agreement: f64,
+}
+
+/// A renderer over `scene` tracing with `traversal`, refused when ray queries were asked for and cannot run.
+fn tracer(scene: &crate::scene::Scene, device: &DeviceChoice, traversal: Traversal) -> Result<Renderer, Error> {
+    let ctx = Context::new(device, Validation::Off)?;
+    let options = crate::render::RendererOptions {
+        traversal,
+        ..crate::render::RendererOptions::from_env()?
+    };
+    let r = Renderer::with_options(scene, ctx, options)?;
+    if traversal == Traversal::RayQuery && r.traversal() != Traversal::RayQuery {
+        return Err(err(format!("cannot trace with ray queries: {}", r.warnings.join("; "))));
+    }
+    Ok(r)
+}
+
+/// `traversals`: what bench measures (the compute BVH first); the first is timed against Embree, a second (ray
+/// queries) beside it.
+pub fn compare_embree(
+    python: &Path,
+    device: &DeviceChoice,
+    quick: bool,
+    traversals: &[Traversal],
+) -> Result<EmbreeComparison, Error> {
     let mut h = Helper::start(python)?;
     let side = if quick { 128 } else { 708 };
     let rays_n = if quick { 1 << 16 } else { 1 << 20 };
@@ -185,24 +221,46 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
         .call(json!({"cmd": "embree_load", "triangles": tri_path}))
         .map_err(|e| err(format!("{e}; install it with `pip install embreex`")))?;
     let embree_build_s = Helper::f64(&loaded, "build_s")?;
-    let ctx = Context::new(device, Validation::Off)?;
-    let device = ctx.device_name();
-    let mut r = Renderer::with_context(&scene, ctx)?;
-    let pathwave_build_s = r.bvh_build_time().as_secs_f64();
+    let first = traversals.first().copied().unwrap_or(Traversal::Compute);
+    let device_choice = device;
+    let mut r = tracer(&scene, device_choice, first)?;
+    let device = r.context().device_name();
+    let pathwave_build_s = match r.acceleration_structures() {
+        Some((_, _, t)) => t.as_secs_f64(),
+        None => r.bvh_build_time().as_secs_f64(),
+    };
     // The first dispatch compiles the pipeline: traced once untimed.
     let (ours, _) = r.trace_timed(&rays, false, 1)?;
+    let mut second = match traversals.get(1) {
+        Some(&t) => {
+            let mut q = tracer(&scene, device_choice, t)?;
+            let (hits, _) = q.trace_timed(&rays, false, 1)?;
+            let build_s = q.acceleration_structures().map_or(0.0, |(_, _, t)| t.as_secs_f64());
+            Some((q, hits, build_s))
+        }
+        None => None,
+    };
     let mut result = EmbreeComparison {
         device,
         triangles: soup.len(),
         rays: rays.len(),
         embree_build_s,
         pathwave_build_s,
+        traversal: match r.traversal() {
+            Traversal::RayQuery => "ray queries".into(),
+            _ => "compute".into(),
+        },
         ..Default::default()
     };
+    let mut second_rates = Vec::new();
     let mut embree_t = Vec::new();
     for _ in 0..rounds {
         let (_, times) = r.trace_timed(&rays, false, 2)?;
         let t_ours = median(times.iter().map(|t| t.as_secs_f64()).collect());
+        if let Some((q, _, _)) = &mut second {
+            let (_, times) = q.trace_timed(&rays, false, 2)?;
+            second_rates.push(rays_n as f64 / median(times.iter().map(|t| t.as_secs_f64()).collect()));
+        }
         let last = embree_t.len() + 1 == rounds;
         let hits = if last { json!(hit_path) } else { Value::Null };
         let traced = h.call(json!({"cmd": "embree_trace", "rays": ray_path, "hits": hits}))?;
@@ -213,16 +271,24 @@ pub fn compare_embree(python: &Path, device: &DeviceChoice, quick: bool) -> Resu
     }
     result.ratio = median(result.rounds.iter().map(|(a, b)| a / b).collect());
     let theirs = read_f32(&hit_path)?;
-    let agree = ours
-        .iter()
-        .zip(&theirs)
-        .filter(|(a, &b)| {
-            let miss_a = a.tri == crate::constants::NO_HIT;
-            let miss_b = !b.is_finite();
-            (miss_a && miss_b) || (!miss_a && !miss_b && (a.t - b).abs() <= 1e-3 * b.abs().max(1e-3))
-        })
-        .count();
-    result.agreement = agree as f64 / rays.len().max(1) as f64;
+    let agreement = |ours: &[crate::bvh::TraceHit]| {
+        let agree = ours
+            .iter()
+            .zip(&theirs)
+            .filter(|(a, &b)| {
+                let miss_a = a.tri == crate::constants::NO_HIT;
+                let miss_b = !b.is_finite();
+                (miss_a && miss_b) || (!miss_a && !miss_b && (a.t - b).abs() <= 1e-3 * b.abs().max(1e-3))
+            })
+            .count();
+        agree as f64 / rays.len().max(1) as f64
+    };
+    result.agreement = agreement(&ours);
+    result.ray_query = second.map(|(_, hits, build_s)| RayQueryRounds {
+        rays_per_s: second_rates,
+        build_s,
+        agreement: agreement(&hits),
+    });
     Ok(result)
 }
 

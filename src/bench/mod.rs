@@ -3,7 +3,7 @@ pub mod adaptive;
 pub mod compare;
 
 use crate::error::Error;
-use crate::render::{BvhReads, LightSampler, RenderSettings, Renderer, Schedule};
+use crate::render::{BvhReads, LightSampler, RenderSettings, Renderer, RendererOptions, Schedule, Traversal};
 use crate::scene::{self, Camera, Environment, Material, Mesh, Primitive, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 pub use compare::{EmbreeComparison, MitsubaComparison};
@@ -39,6 +39,10 @@ pub struct CaseResult {
     /// Device bytes per placed triangle: BVH nodes, triangle vertices, shading data and instance records.
     pub bytes_per_triangle: f64,
     pub image_mean: f64,
+    /// How rays found surfaces: "compute" (pathwave's BVH) or "ray queries".
+    pub traversal: String,
+    /// With ray queries: the structures' compacted bytes, their bytes before compaction, and their build's seconds.
+    pub ray_query_structures: Option<(u64, u64, f64)>,
 }
 
 pub struct BenchOptions {
@@ -57,6 +61,31 @@ pub struct BenchOptions {
     pub only_compare: bool,
     /// Light selection for the fixed cases and the Cornell box comparisons.
     pub light_sampler: LightSampler,
+    /// Which traversals to measure: `Auto` both where the device has ray queries (side by side), else the one named.
+    pub traversal: Traversal,
+}
+
+/// The traversals `o` asks for on its device, the compute BVH first: both under `Auto` where the device has ray
+/// queries; `RayQuery` on a device without them is refused.
+fn traversals(o: &BenchOptions) -> Result<Vec<Traversal>, Error> {
+    let has = Context::new(&o.device, Validation::Off)?.accel.is_some();
+    match (o.traversal, has) {
+        (Traversal::Compute, _) | (Traversal::Auto, false) => Ok(vec![Traversal::Compute]),
+        (Traversal::Auto, true) => Ok(vec![Traversal::Compute, Traversal::RayQuery]),
+        (Traversal::RayQuery, true) => Ok(vec![Traversal::RayQuery]),
+        (Traversal::RayQuery, false) => Err(Error::Settings(
+            "bench --traversal ray-query: the device has no ray queries (`pathwave info --devices` says which do)"
+                .into(),
+        )),
+    }
+}
+
+/// A case's name with its traversal: "+rq" after ray queries' cases.
+fn traced_name(name: &str, traversal: Traversal) -> String {
+    match traversal {
+        Traversal::RayQuery => format!("{name}+rq"),
+        _ => name.to_string(),
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -151,12 +180,13 @@ pub fn terrain(side: usize) -> Scene {
     s
 }
 
-/// How a case departs from the default render: BVH reads, a fixed schedule, spectral transport.
+/// How a case departs from the default render: BVH reads, a fixed schedule, spectral transport, the traversal.
 #[derive(Clone, Copy, Default)]
 struct Variation {
     reads: Option<BvhReads>,
     schedule: Option<Schedule>,
     spectral: bool,
+    traversal: Traversal,
 }
 
 fn measure(
@@ -171,10 +201,21 @@ fn measure(
         reads,
         schedule,
         spectral,
+        traversal,
     } = variation;
     let ctx = Context::new(&o.device, Validation::Off)?;
     let device_name = ctx.device_name();
-    let mut r = Renderer::with_context(scene, ctx)?;
+    let options = RendererOptions {
+        traversal,
+        ..RendererOptions::from_env()?
+    };
+    let mut r = Renderer::with_options(scene, ctx, options)?;
+    if traversal == Traversal::RayQuery && r.traversal() != Traversal::RayQuery {
+        return Err(Error::Settings(format!(
+            "bench: {name} cannot be traced with ray queries here: {}",
+            r.warnings.join("; ")
+        )));
+    }
     let bvh_build_s = r.bvh_build_time().as_secs_f64();
     let bytes = r.traversal_bytes();
     if let Some(reads) = reads {
@@ -230,6 +271,13 @@ fn measure(
         bvh_build_s,
         bytes_per_triangle: bytes as f64 / scene.flattened_triangle_bound().max(1) as f64,
         image_mean: mean.iter().map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0).sum::<f64>() / mean.len().max(1) as f64,
+        traversal: match r.traversal() {
+            Traversal::RayQuery => "ray queries".into(),
+            _ => "compute".into(),
+        },
+        ray_query_structures: r
+            .acceleration_structures()
+            .map(|(bytes, uncompacted, t)| (bytes, uncompacted, t.as_secs_f64())),
     })
 }
 
@@ -320,7 +368,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     }
     if o.compare.contains(&Compare::Embree) {
         progress("Embree comparison");
-        report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick)?);
+        report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick, &traversals(o)?)?);
     }
     if o.compare.contains(&Compare::Mitsuba) {
         progress("Mitsuba comparison");
@@ -390,13 +438,25 @@ fn run_cases(
     // Every full case takes at least two passes (16 spp of 256x256 fit in flight on lavapipe), so its stage times
     // exclude the first, which compiles the pipelines.
     let (spp_cornell, spp_glass, spp_mesh, side) = if o.quick { (4, 2, 1, 128) } else { (64, 32, 32, 708) };
+    let traversals = traversals(o)?;
+    // The main cases once per traversal, each right after the other so the machine's load is shared alike; the
+    // variations of the compute BVH's reads and schedules after the compute case.
+    let traced = |traversal| Variation {
+        traversal,
+        ..Default::default()
+    };
+    let compute_only = traversals.first() == Some(&Traversal::Compute);
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        let mut c = measure(name, &scene, (256, 256), spp, o, Variation::default())?;
-        c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
-        cases.push(c);
-        if name == "cornell-box" {
+        for &t in &traversals {
+            let mut c = measure(&traced_name(name, t), &scene, (256, 256), spp, o, traced(t))?;
+            if t == Traversal::Compute {
+                c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
+            }
+            cases.push(c);
+        }
+        if name == "cornell-box" && compute_only {
             // The same render with the BVH read from storage buffers (the texel path's gain), and with each schedule
             // fixed (the default on a CPU device tries both in its first passes), in this run.
             let storage = Variation {
@@ -425,28 +485,42 @@ fn run_cases(
     progress("terrain");
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangle_count() / 1000);
-    cases.push(measure(&name, &t, (256, 256), spp_mesh, o, Variation::default())?);
-    let storage = Variation {
-        reads: Some(BvhReads::Storage),
-        ..Default::default()
-    };
-    cases.push(measure("terrain-storage", &t, (256, 256), spp_mesh, o, storage)?);
+    for &traversal in &traversals {
+        cases.push(measure(
+            &traced_name(&name, traversal),
+            &t,
+            (256, 256),
+            spp_mesh,
+            o,
+            traced(traversal),
+        )?);
+    }
+    if compute_only {
+        let storage = Variation {
+            reads: Some(BvhReads::Storage),
+            ..Default::default()
+        };
+        cases.push(measure("terrain-storage", &t, (256, 256), spp_mesh, o, storage)?);
+    }
     // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
     progress("instances");
     let (count, mesh_side) = if o.quick { (400, 40) } else { (10_000, 160) };
-    let build = Instant::now();
-    let forest = instanced_terrain(count, mesh_side);
-    let mut c = measure(
-        &format!("instances-{count}x{}k", 2 * mesh_side * mesh_side / 1000),
-        &forest,
-        (256, 256),
-        spp_mesh.min(8),
-        o,
-        Variation::default(),
-    )?;
-    c.process_s = Some(build.elapsed().as_secs_f64());
-    cases.push(c);
-    if !o.quick {
+    let name = format!("instances-{count}x{}k", 2 * mesh_side * mesh_side / 1000);
+    for &traversal in &traversals {
+        let build = Instant::now();
+        let forest = instanced_terrain(count, mesh_side);
+        let mut c = measure(
+            &traced_name(&name, traversal),
+            &forest,
+            (256, 256),
+            spp_mesh.min(8),
+            o,
+            traced(traversal),
+        )?;
+        c.process_s = Some(build.elapsed().as_secs_f64());
+        cases.push(c);
+    }
+    if !o.quick && compute_only {
         // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
         // read through texel views, which is the only way this device can hold the scene.
         progress("terrain past the storage range");
@@ -488,10 +562,27 @@ impl BenchReport {
                 );
             }
             s += &format!(
-                "  median ratio {:.3} (target >= 0.5); hits agree on {:.3} % of rays\n",
+                "  median ratio {:.3} (target >= 0.5); hits agree on {:.3} % of rays{}\n",
                 e.ratio,
-                100.0 * e.agreement
+                100.0 * e.agreement,
+                if e.traversal == "compute" {
+                    ""
+                } else {
+                    " (pathwave with ray queries)"
+                }
             );
+            if let Some(q) = &e.ray_query {
+                let rates: Vec<String> = q.rays_per_s.iter().map(|r| format!("{:.2}", r * 1e-6)).collect();
+                let over: Vec<f64> = q.rays_per_s.iter().zip(&e.rounds).map(|(q, (c, _))| q / c).collect();
+                s += &format!(
+                    "  the same rays with ray queries: {} Mrays/s by round, {:.3} x the compute BVH (median); \
+                     structures built in {:.2} s; hits agree with Embree's on {:.3} %\n",
+                    rates.join(", "),
+                    compare::median(over),
+                    q.build_s,
+                    100.0 * q.agreement
+                );
+            }
         }
         for m in self
             .mitsuba
@@ -518,9 +609,35 @@ impl BenchReport {
         s
     }
 
+    /// Ray queries against the compute BVH, case by case where both ran: samples/s and extension rays/s of the
+    /// extend stage, ray queries over compute (above 1: ray queries are faster).
+    fn traversal_ratios(&self) -> Option<String> {
+        let mut s = String::new();
+        for rq in self.cases.iter().filter(|c| c.traversal == "ray queries") {
+            let Some(base) = rq.name.strip_suffix("+rq") else {
+                continue;
+            };
+            let Some(compute) = self.cases.iter().find(|c| c.name == base) else {
+                continue;
+            };
+            let extend = if rq.extend_stage_rays_per_s > 0.0 && compute.extend_stage_rays_per_s > 0.0 {
+                format!("{:.2}", rq.extend_stage_rays_per_s / compute.extend_stage_rays_per_s)
+            } else {
+                "-".into()
+            };
+            s += &format!(
+                "  {:<22} samples/s {:.2}, extend-stage rays/s {}\n",
+                base,
+                rq.samples_per_s / compute.samples_per_s.max(1e-9),
+                extend
+            );
+        }
+        (!s.is_empty()).then(|| format!("ray queries over the compute BVH (above 1: ray queries faster):\n{s}"))
+    }
+
     fn cases_table(&self) -> String {
         let mut s = format!(
-            "{:<17} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
+            "{:<22} {:>9} {:>9} {:>9} {:>9} {:>10} {:>9} {:>9} {:>10} {:>8} {:>7}\n",
             "case",
             "tris",
             "process",
@@ -535,7 +652,7 @@ impl BenchReport {
         );
         for c in &self.cases {
             s += &format!(
-                "{:<17} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10} {:>8.3} {:>7.1}\n",
+                "{:<22} {:>9} {:>9} {:>9.2} {:>9.2} {:>10.0} {:>9.2} {:>9.2} {:>10} {:>8.3} {:>7.1}\n",
                 c.name,
                 c.triangles,
                 c.process_s.map_or("-".into(), |t| format!("{t:.2}")),
@@ -558,7 +675,24 @@ impl BenchReport {
         for c in &self.cases {
             let stages: Vec<String> = c.stage_ms.iter().map(|(l, ms)| format!("{l} {ms:.1}")).collect();
             let schedule = format!("({})", c.schedule);
-            s += &format!("  {:<17} {:<11} {}\n", c.name, schedule, stages.join(", "));
+            s += &format!("  {:<22} {:<11} {}\n", c.name, schedule, stages.join(", "));
+        }
+        // Ray queries' cases: their structures beside the compute BVH (bvh s and B/tri above are the compute BVH's,
+        // which such a scene uploads too).
+        for c in &self.cases {
+            if let Some((bytes, uncompacted, build_s)) = c.ray_query_structures {
+                s += &format!(
+                    "  {:<22} ray-query structures {:.1} MiB compacted from {:.1} MiB ({:.1} B/tri), built in {:.3} s\n",
+                    c.name,
+                    bytes as f64 / (1 << 20) as f64,
+                    uncompacted as f64 / (1 << 20) as f64,
+                    bytes as f64 / c.triangles.max(1) as f64,
+                    build_s
+                );
+            }
+        }
+        if let Some(ratios) = self.traversal_ratios() {
+            s += &ratios;
         }
         s
     }
@@ -586,6 +720,8 @@ impl BenchReport {
                     "bvh_build_s": c.bvh_build_s,
                     "bytes_per_triangle": c.bytes_per_triangle,
                     "image_mean": c.image_mean,
+                    "traversal": c.traversal,
+                    "ray_query_structures": c.ray_query_structures.map(|(bytes, uncompacted, build_s)| serde_json::json!({"bytes": bytes, "uncompacted_bytes": uncompacted, "build_s": build_s})),
                 })
             })
             .collect();
@@ -601,6 +737,8 @@ impl BenchReport {
                 "rounds": e.rounds.iter().map(|(a, b)| serde_json::json!({"pathwave_rays_per_s": a, "embree_rays_per_s": b})).collect::<Vec<_>>(),
                 "ratio": e.ratio,
                 "agreement": e.agreement,
+                "traversal": e.traversal,
+                "ray_query": e.ray_query.as_ref().map(|q| serde_json::json!({"rays_per_s": q.rays_per_s, "build_s": q.build_s, "agreement": q.agreement})),
             })),
             "mitsuba": self.mitsuba.as_ref().map(|m| m.json()),
             "mitsuba_spectral": self.mitsuba_spectral.as_ref().map(|m| m.json()),
