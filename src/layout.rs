@@ -500,7 +500,8 @@ pub struct TraceRecord {
     pub time: f32,
     /// Out: the instance hit (NO_INSTANCE for a world-space triangle).
     pub inst: u32,
-    pub pad1: u32,
+    /// The ray's key for stochastic transparency (alphaMode BLEND), in the probe_trace_alpha variants.
+    pub key: u32,
     pub pad2: u32,
     pub t: f32,
     pub tri: u32,

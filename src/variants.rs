@@ -20,6 +20,10 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("follow", "textured_rq", "TEXTURED RAY_QUERY"),
     ("follow", "alpha_rq", "ALPHA_TEST TEXTURED RAY_QUERY"),
     ("probe_trace", "rq", "RAY_QUERY"),
+    // The probe as extend and connect trace alpha-tested scenes, for tests of both traversals against brute force.
+    ("probe_trace", "alpha", "ALPHA_TEST"),
+    ("probe_trace", "alpha_texel", "ALPHA_TEST TEXEL_READS"),
+    ("probe_trace", "alpha_rq", "ALPHA_TEST RAY_QUERY"),
     // Material textures and alpha coverage when shading and sampling emitters.
     ("shade", "textured", "TEXTURED"),
     ("shade", "texel", "TEXEL_READS"),

@@ -62,7 +62,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(LightSelectRecord => "LightSelectRecord", [p, entry, n, u, v, picked, prob, pmf, sub_entry, sub_picked, pad0, pad1]),
         mirror!(GpuPunctual => "PunctualLight", [position, direction, intensity]),
         mirror!(Counters => "Counters", [queue_count, dispatch, extension_rays, shadow_rays, follow_cut, nonfinite, stage_cut, budget_max, pad1, pad2]),
-        mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, pad1, pad2, t, tri, uv]),
+        mirror!(TraceRecord => "TraceRecord", [origin, tmin, dir, tmax, time, inst, key, pad2, t, tri, uv]),
         mirror!(GpuInstance => "Instance", [world0, world1, world2, object0, object1, object2, info, light]),
         mirror!(AovSums => "AovSums", [albedo, normal, position, ids]),
         mirror!(DebugSums => "DebugSums", [geometric, shading, uv]),

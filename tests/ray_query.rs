@@ -170,3 +170,316 @@ fn a_moving_scene_keeps_the_compute_bvh_and_says_why() {
     );
     assert!(!log.contains("(ray queries)"), "{log}");
 }
+
+/// PCG4D as Jarzynski and Olano publish it ("Hash Functions for GPU Rendering", JCGT 9(3), 2020, listing 3):
+/// written here from the paper, not from rng.glsl.
+fn pcg4d(mut v: [u32; 4]) -> [u32; 4] {
+    for x in &mut v {
+        *x = x.wrapping_mul(1664525).wrapping_add(1013904223);
+    }
+    let mix = |v: &mut [u32; 4]| {
+        v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[3]));
+        v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
+        v[2] = v[2].wrapping_add(v[0].wrapping_mul(v[1]));
+        v[3] = v[3].wrapping_add(v[1].wrapping_mul(v[2]));
+    };
+    mix(&mut v);
+    for x in &mut v {
+        *x ^= *x >> 16;
+    }
+    mix(&mut v);
+    v
+}
+
+/// A floor, a MASK quad kept (alpha 0.7, cutoff 0.5) and one cut (alpha 0.3), a BLEND sphere (alpha 0.4) placed
+/// three ways (plain, turned, mirrored) so it is instanced, and in front of them all two degenerate triangles: a
+/// sliver (three points on a line) and one with two corners at one point.
+fn alpha_scene() -> (tempfile::TempDir, PathBuf) {
+    use glam::Quat;
+    use serde_json::json;
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    let light = b.material("light", [0.8; 3], [5.0; 3], false);
+    let kept = b.material("kept", [0.2, 0.8, 0.2], [0.0; 3], true);
+    let cut = b.material("cut", [0.8, 0.2, 0.2], [0.0; 3], true);
+    let blend = b.material("blend", [0.2, 0.2, 0.8], [0.0; 3], true);
+    for (m, alpha, mode) in [(kept, 0.7, "MASK"), (cut, 0.3, "MASK"), (blend, 0.4, "BLEND")] {
+        let j = b.material_json(m);
+        j["pbrMetallicRoughness"]["baseColorFactor"][3] = json!(alpha);
+        j["alphaMode"] = json!(mode);
+        if mode == "MASK" {
+            j["alphaCutoff"] = json!(0.5);
+        }
+    }
+    b.quad(
+        "floor",
+        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
+        white,
+        Some([0.0, 1.0, 0.0]),
+    );
+    b.quad(
+        "lamp",
+        [[-1.0, 3.0, -1.0], [1.0, 3.0, -1.0], [1.0, 3.0, 1.0], [-1.0, 3.0, 1.0]],
+        light,
+        Some([0.0, -1.0, 0.0]),
+    );
+    b.quad(
+        "kept",
+        [[-2.0, 0.2, 0.5], [-0.5, 0.2, 0.5], [-0.5, 1.6, 0.5], [-2.0, 1.6, 0.5]],
+        kept,
+        None,
+    );
+    b.quad(
+        "cut",
+        [[0.5, 0.2, 0.8], [2.0, 0.2, 0.8], [2.0, 1.6, 0.8], [0.5, 1.6, 0.8]],
+        cut,
+        None,
+    );
+    b.uv_sphere("ball", [0.0, 0.0, 0.0], 0.45, blend, true);
+    b.transform_last_node(json!({ "translation": [0.0, 0.6, 0.0] }));
+    b.place_last_mesh(
+        "turned",
+        json!({ "translation": [-1.2, 0.7, -0.6], "rotation": Quat::from_rotation_z(0.7).to_array() }),
+    );
+    b.place_last_mesh(
+        "mirrored",
+        json!({ "translation": [1.3, 0.5, -0.4], "scale": [-1.0, 1.2, 1.0] }),
+    );
+    // Three points on a line (in floats, a sliver of area about 1e-8), and a triangle with two corners at one
+    // point (no area at all).
+    b.mesh(
+        "degenerate",
+        &[[-2.5, 0.3, 2.0], [0.0, 0.9, 2.0], [2.5, 1.5, 2.0], [2.5, 1.5, 2.0]],
+        &[0, 1, 2, 0, 2, 3],
+        white,
+    );
+    b.camera([0.0, 2.0, 5.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 45.0);
+    common::write_temp(&b, "alpha.gltf")
+}
+
+/// Catches, under both traversals: alpha-tested candidates committed untested (the cut quad and the BLEND sphere
+/// would stop every ray), MASK's cutoff read the wrong way, BLEND's coin not the ray's key and triangle hashed as
+/// alpha_stops says (ray queries testing instanced triangles by their BLAS-local index instead of the mesh's first
+/// triangle plus it, or twice per candidate), a degenerate triangle reaching traversal, sliver triangles hit where
+/// the brute force misses them or missed where it hits, any hit stopping at a triangle the ray passes through. The reference (the scene flattened): every triangle intersected one by one, the nearest
+/// that stops the ray by its coverage (MASK: alpha against the cutoff; BLEND: PCG4D of (key, triangle, 0x2545F491,
+/// seed 0) below alpha). With instances, where the triangles' indices are the instanced packing's, ray queries
+/// against the compute BVH, ray by ray.
+#[test]
+fn alpha_tested_triangles_stop_rays_where_brute_force_says_under_both_traversals() {
+    if !common::rt::on_ray_query_driver("alpha_tested_triangles_stop_rays_where_brute_force_says_under_both_traversals")
+    {
+        return;
+    }
+    use glam::Vec3;
+    use pathwave::bvh::{brute_force, Ray};
+    use pathwave::constants::{ALPHA_BLEND, ALPHA_MASK, ALPHA_OPAQUE, NO_HIT};
+    use pathwave::render::gpu_scene::try_pack_with;
+    use pathwave::render::Traversal;
+    use pathwave::scene::Instancing;
+    let (_dir, path) = alpha_scene();
+    let scene = pathwave::scene::load(&path, None).unwrap();
+    let mut rng = common::rng::Rng(11);
+    let rays: Vec<Ray> = (0..4000)
+        .map(|_| {
+            let origin = Vec3::new(rng.next() * 6.0 - 3.0, rng.next() * 2.0 + 0.2, 4.0);
+            let target = Vec3::new(rng.next() * 4.4 - 2.2, rng.next() * 1.6, rng.next() * 2.0 - 1.2);
+            Ray {
+                origin,
+                dir: (target - origin).normalize(),
+                tmin: 0.0,
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect();
+    let trace = |instancing, traversal, any_hit| {
+        let ctx = pathwave::vk::Context::new(&Default::default(), common::validation()).unwrap();
+        let options = pathwave::RendererOptions {
+            instancing,
+            traversal,
+            ..Default::default()
+        };
+        let mut r = pathwave::Renderer::with_options(&scene, ctx, options).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(r.traversal(), traversal, "{:?}", r.warnings);
+        r.probe_trace_alpha(&rays, any_hit).unwrap()
+    };
+
+    // The flattened scene against the brute force.
+    let flat = try_pack_with(&scene, Instancing::Never).unwrap();
+    let coverage = |tri: usize| {
+        let m = &flat.materials[flat.tri_verts[tri].v0[3].to_bits() as usize];
+        let alpha = m.base_color[3];
+        match m.alpha[0].to_bits() {
+            ALPHA_OPAQUE => 1.0,
+            ALPHA_MASK => (alpha >= m.alpha[1]) as u32 as f32,
+            ALPHA_BLEND => alpha,
+            other => panic!("alpha mode {other}"),
+        }
+    };
+    let stops = |tri: usize, key: u32| {
+        let c = coverage(tri);
+        c >= 1.0 || (c > 0.0 && (pcg4d([key, tri as u32, 0x2545F491, 0])[0] >> 8) as f32 / 16777216.0 < c)
+    };
+    // The triangle without area is dropped when the scene is packed; the line-shaped sliver and those at the
+    // spheres' poles stay, and are checked with every other triangle.
+    assert_eq!(
+        flat.tri_verts.iter().filter(|t| t.v0[2] == 2.0).count(),
+        1,
+        "the sliver should reach traversal, the triangle without area not"
+    );
+    let slivers = (flat.tri_verts.iter())
+        .filter(|t| {
+            Vec3::from_slice(&t.e1[..3])
+                .cross(Vec3::from_slice(&t.e2[..3]))
+                .length()
+                < 1e-9
+        })
+        .count();
+    assert!(slivers > 0, "the spheres' poles should have sliver triangles");
+    // Per ray: the nearest stopping triangle, and whether the ray met a BLEND triangle that let it through.
+    let mut passed_blend = 0;
+    let mut stopped_blend = 0;
+    let reference: Vec<(u32, f32)> = rays
+        .iter()
+        .enumerate()
+        .map(|(key, ray)| {
+            let mut best = (NO_HIT, f32::INFINITY);
+            let mut met = Vec::new();
+            for i in 0..flat.tri_verts.len() {
+                let h = brute_force(&flat.tri_verts[i..=i], ray);
+                if h.tri == NO_HIT {
+                    continue;
+                }
+                met.push((h.t, i));
+                if h.t < best.1 && stops(i, key as u32) {
+                    best = (i as u32, h.t);
+                }
+            }
+            for (t, i) in met {
+                if coverage(i) > 0.0 && coverage(i) < 1.0 && t <= best.1 {
+                    if stops(i, key as u32) {
+                        stopped_blend += 1;
+                    } else {
+                        passed_blend += 1;
+                    }
+                }
+            }
+            best
+        })
+        .collect();
+    assert!(
+        passed_blend > 300 && stopped_blend > 300,
+        "the rays should meet the BLEND sphere often: {passed_blend} passed, {stopped_blend} stopped"
+    );
+    for traversal in [Traversal::Compute, Traversal::RayQuery] {
+        let closest = trace(Instancing::Never, traversal, false);
+        let any = trace(Instancing::Never, traversal, true);
+        let mut other_tri = 0;
+        for (k, ((want, c), a)) in reference.iter().zip(&closest).zip(&any).enumerate() {
+            let (tri, t) = *want;
+            assert_eq!(
+                c.tri == NO_HIT,
+                tri == NO_HIT,
+                "{traversal:?}, closest hit of ray {k}: {c:?} against {want:?}"
+            );
+            assert_eq!(
+                a.tri == NO_HIT,
+                tri == NO_HIT,
+                "{traversal:?}, any hit of ray {k}: {a:?} against {want:?}"
+            );
+            if tri != NO_HIT {
+                assert!(
+                    (c.t - t).abs() < 2e-5 * t.max(1.0),
+                    "{traversal:?}, ray {k}: t {} against {t}",
+                    c.t
+                );
+                other_tri += (c.tri != tri) as usize;
+            }
+        }
+        // Rays through an edge shared by two triangles may take either.
+        assert!(
+            other_tri * 500 <= rays.len(),
+            "{traversal:?}: {other_tri} rays hit another triangle"
+        );
+    }
+
+    // Instanced: ray queries against the compute BVH, ray by ray (the same keys and triangle indices).
+    for any_hit in [false, true] {
+        let compute = trace(Instancing::Always, Traversal::Compute, any_hit);
+        let rq = trace(Instancing::Always, Traversal::RayQuery, any_hit);
+        let mut differ = 0;
+        let mut instanced = 0;
+        for (k, (c, q)) in compute.iter().zip(&rq).enumerate() {
+            assert_eq!(
+                c.tri == NO_HIT,
+                q.tri == NO_HIT,
+                "instanced, any hit {any_hit}, ray {k}: {c:?} against {q:?}"
+            );
+            if !any_hit && c.tri != NO_HIT {
+                assert!(
+                    (c.t - q.t).abs() < 2e-5 * c.t.max(1.0),
+                    "instanced, ray {k}: t {} against {}",
+                    q.t,
+                    c.t
+                );
+                differ += (c.tri != q.tri || c.inst != q.inst) as usize;
+                instanced += (c.inst != pathwave::constants::NO_INSTANCE) as usize;
+            }
+        }
+        assert!(
+            differ * 500 <= rays.len(),
+            "instanced: {differ} rays hit another triangle"
+        );
+        if !any_hit {
+            assert!(instanced > 300, "only {instanced} rays hit an instance");
+        }
+    }
+}
+
+/// Catches a missing barrier around ray-query traversal: the structures' builds before the first trace (a build's
+/// writes not made visible to the compute stages that read the top level), and every queue the wavefront and the
+/// fused loop hand between stages, on the driver that runs ray queries, for both traversals and both schedules, in
+/// a scene with instances and alpha-tested triangles (their candidates leave the query for the shader). The AOV
+/// survey and adaptive sampling's plan run too. Every validation message fails the render.
+#[test]
+fn ray_query_renders_pass_synchronization_validation() {
+    if !common::validation_layer_installed() {
+        eprintln!("skipped: VK_LAYER_KHRONOS_validation is not installed");
+        return;
+    }
+    if !common::rt::on_ray_query_driver("ray_query_renders_pass_synchronization_validation") {
+        return;
+    }
+    use pathwave::render::Traversal;
+    let (_dir, path) = alpha_scene();
+    let scene = pathwave::scene::load(&path, None).unwrap();
+    for traversal in [Traversal::Compute, Traversal::RayQuery] {
+        let ctx = pathwave::vk::Context::new(&Default::default(), pathwave::vk::Validation::Sync).unwrap();
+        let options = pathwave::RendererOptions {
+            instancing: pathwave::scene::Instancing::Always,
+            traversal,
+            ..Default::default()
+        };
+        let mut r = pathwave::Renderer::with_options(&scene, ctx, options).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(r.traversal(), traversal, "{:?}", r.warnings);
+        for schedule in [pathwave::Schedule::Wavefront, pathwave::Schedule::Fused] {
+            r.set_schedule(schedule);
+            let (film, _) = r
+                .render(&common::settings(16, 16, 3, 0), &mut |_| {})
+                .unwrap_or_else(|e| panic!("{traversal:?}, {schedule:?}: {e}"));
+            assert!(film.mean().iter().any(|p| p[0] > 0.0));
+            let s = pathwave::RenderSettings {
+                aovs: true,
+                adaptive: Some(pathwave::Adaptive {
+                    threshold: 0.05,
+                    pilot: 2,
+                }),
+                first_sample: 1,
+                ..common::settings(16, 16, 6, 0)
+            };
+            r.render(&s, &mut |_| {})
+                .unwrap_or_else(|e| panic!("{traversal:?}, {schedule:?}, AOVs and adaptive: {e}"));
+        }
+        assert!(r.context().validation_errors().is_empty());
+    }
+}

@@ -181,7 +181,7 @@ fn includes_decide_which_stages_are_stale() {
     let want = ["connect", "extend", "follow", "probe_trace", "survey"];
     let twins = |s: &&String| want.iter().any(|w| s.as_str() == *w || s.starts_with(&format!("{w}_")));
     assert!(
-        traverse.len() == 30 && traverse.iter().all(|s| twins(&s)),
+        traverse.len() == 33 && traverse.iter().all(|s| twins(&s)),
         "{traverse:?}"
     );
     assert_eq!(shaders.affected(&[root.join("generate.comp")]), ["generate"]);

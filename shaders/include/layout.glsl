@@ -244,7 +244,7 @@ struct TraceRecord {
     float tmax;
     float time;
     uint inst;     // out: the instance hit (NO_INSTANCE for a world-space triangle)
-    uint pad1;
+    uint key;      // the ray's key for stochastic transparency, in the _alpha variants
     uint pad2;
     float t;
     uint tri;

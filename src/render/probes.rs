@@ -39,14 +39,21 @@ pub struct BsdfProbe {
 }
 
 impl Renderer {
-    /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl.
+    /// Runs the device traversal on `rays` (closest or any hit): the BVH tests' window onto traverse.glsl. Every
+    /// triangle is opaque to it (see `probe_trace_alpha`).
     pub fn probe_trace(&mut self, rays: &[Ray], any_hit: bool) -> Result<Vec<TraceHit>, Error> {
         self.probe_trace_at(rays, any_hit, 0.0)
     }
 
     /// `probe_trace` at `time` in the shutter, in [0, 1) (moving scenes: the triangles between their keys).
     pub fn probe_trace_at(&mut self, rays: &[Ray], any_hit: bool, time: f32) -> Result<Vec<TraceHit>, Error> {
-        Ok(self.trace_records(rays, any_hit, time, 1)?.0)
+        Ok(self.trace_records(rays, any_hit, time, 1, false)?.0)
+    }
+
+    /// `probe_trace` with alpha-tested triangles (alphaMode MASK and BLEND) tested as extend and connect test them:
+    /// ray i's key for stochastic transparency is i, and the frame's seed 0.
+    pub fn probe_trace_alpha(&mut self, rays: &[Ray], any_hit: bool) -> Result<Vec<TraceHit>, Error> {
+        Ok(self.trace_records(rays, any_hit, 0.0, 1, true)?.0)
     }
 
     /// Traces `rays` `repeats` times after one upload; returns the hits and each dispatch's wall time. The bench's
@@ -57,7 +64,7 @@ impl Renderer {
         any_hit: bool,
         repeats: u32,
     ) -> Result<(Vec<TraceHit>, Vec<Duration>), Error> {
-        self.trace_records(rays, any_hit, 0.0, repeats)
+        self.trace_records(rays, any_hit, 0.0, repeats, false)
     }
 
     fn trace_records(
@@ -66,21 +73,25 @@ impl Renderer {
         any_hit: bool,
         time: f32,
         repeats: u32,
+        alpha: bool,
     ) -> Result<(Vec<TraceHit>, Vec<Duration>), Error> {
         let records: Vec<TraceRecord> = rays
             .iter()
-            .map(|r| TraceRecord {
+            .enumerate()
+            .map(|(i, r)| TraceRecord {
                 origin: r.origin.to_array(),
                 tmin: r.tmin,
                 dir: r.dir.to_array(),
                 tmax: r.tmax,
                 time,
+                key: i as u32,
                 ..Default::default()
             })
             .collect();
         let kernel = Kernel::for_scene(
             Stage::ProbeTrace,
             SceneVariant {
+                alpha: alpha && self.scene.alpha_tested,
                 texel: self.bvh_reads == BvhReads::Texel,
                 ray_query: self.scene.accel.is_some(),
                 ..Default::default()
