@@ -663,7 +663,10 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let device = args.common.device.clone().unwrap_or_default();
     let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
-    let mut renderer = Renderer::with_options(&scene, ctx, options)?;
+    // What the device could not build (the BVH past its limits, the ray-query structures past the budget) names
+    // the scene it was built for.
+    let mut renderer =
+        Renderer::with_options(&scene, ctx, options).with_context(|| args.common.scene.display().to_string())?;
     for w in &renderer.warnings {
         eprintln!("warning: {}: {w}", args.common.scene.display());
     }
