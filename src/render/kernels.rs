@@ -527,7 +527,13 @@ mod tests {
             assert_eq!(pick(Stage::Follow, false, false, texel), format!("follow{t}"));
             assert_eq!(pick(Stage::Follow, false, true, texel), format!("follow_textured{t}"));
             assert_eq!(pick(Stage::Follow, true, true, texel), format!("follow_alpha{t}"));
-            assert_eq!(pick(Stage::ProbeTrace, true, true, texel), format!("probe_trace{t}"));
+            // The probe tests alpha only when asked (probe_trace_alpha): an alpha-tested scene's plain probe sees
+            // every triangle opaque.
+            assert_eq!(pick(Stage::ProbeTrace, false, true, texel), format!("probe_trace{t}"));
+            assert_eq!(
+                pick(Stage::ProbeTrace, true, true, texel),
+                format!("probe_trace_alpha{t}")
+            );
             assert_eq!(pick(Stage::Generate, true, true, texel), "generate");
             assert_eq!(pick(Stage::Accumulate, true, true, texel), "accumulate");
         }
