@@ -1,5 +1,6 @@
 //! The host scene model: meshes placed by instances, materials, textures, emitters and the camera.
 pub mod animation;
+mod budget;
 mod environment;
 pub mod framing;
 mod gltf;

@@ -1,5 +1,8 @@
 //! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
 mod emission;
+mod instances;
+mod lights;
+mod materials;
 mod pack;
 
 pub use emission::Emission;

@@ -1,16 +1,18 @@
-//! Packs a host Scene into the device layout: BVH-ordered triangles, shading data, materials and the light table.
+//! Packs a host Scene into the device layout: the triangles in BVH order with their shading data and motion keys,
+//! and the whole (materials.rs, instances.rs and lights.rs pack the rest).
 use super::emission::Emission;
+use super::instances::pack_instances;
+use super::lights::{light_table, light_tree, pack_punctual, Emitter};
+use super::materials::{gpu_material, pack_textures};
 use crate::bvh::lights::{LightBounds, LightTree};
 use crate::bvh::{self, Bvh};
 use crate::constants::*;
 use crate::error::Error;
 use crate::layout::{
-    GpuInstance, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey, TextureSlot, TriColors, TriShading,
-    TriTangents, TriTexcoords, TriVerts,
+    GpuInstance, GpuLight, GpuMaterial, GpuPunctual, GpuTexture, MotionKey, TriColors, TriShading, TriTangents,
+    TriTexcoords, TriVerts,
 };
-use crate::scene::{
-    AlphaMode, Camera, Instancing, KeyTriangle, Material, PunctualKind, Scene, TextureRef, TriangleSoup, Wrap,
-};
+use crate::scene::{Camera, Instancing, KeyTriangle, Material, Scene, TriangleSoup};
 
 /// Everything the device needs from a scene, in upload order.
 pub struct PackedScene {
@@ -140,118 +142,8 @@ impl PackedScene {
     }
 }
 
-fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
+pub(super) fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
     [v.x, v.y, v.z, w]
-}
-
-fn slot(r: Option<TextureRef>) -> TextureSlot {
-    match r {
-        Some(r) => TextureSlot {
-            u: [
-                r.transform[0][0],
-                r.transform[0][1],
-                r.transform[0][2],
-                f32::from_bits(r.texture as u32),
-            ],
-            v: [
-                r.transform[1][0],
-                r.transform[1][1],
-                r.transform[1][2],
-                f32::from_bits(r.tex_coord),
-            ],
-        },
-        None => TextureSlot {
-            u: [1.0, 0.0, 0.0, f32::from_bits(TEXTURE_NONE)],
-            v: [0.0, 1.0, 0.0, f32::from_bits(0)],
-        },
-    }
-}
-
-fn gpu_material(m: &Material) -> GpuMaterial {
-    let (mode, cutoff) = match m.alpha_mode {
-        AlphaMode::Opaque => (ALPHA_OPAQUE, 0.0),
-        AlphaMode::Mask(c) => (ALPHA_MASK, c),
-        AlphaMode::Blend => (ALPHA_BLEND, 0.0),
-    };
-    GpuMaterial {
-        base_color: v4(m.base_color, m.alpha),
-        emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
-        params: [m.metallic, m.roughness, m.ior, m.specular],
-        specular_color: v4(m.specular_color, m.diffuse_roughness),
-        // Dispersion bends light only through a volume (KHR_materials_dispersion needs KHR_materials_volume).
-        transmission: [
-            m.transmission,
-            if m.thin_walled { 1.0 } else { 0.0 },
-            if m.thin_walled { 0.0 } else { m.dispersion },
-            0.0,
-        ],
-        attenuation: v4(m.attenuation, 0.0),
-        alpha: [
-            f32::from_bits(mode),
-            cutoff,
-            m.normal_scale,
-            f32::from_bits(if m.unlit { MATERIAL_UNLIT } else { 0 }),
-        ],
-        clearcoat: [m.clearcoat.factor, m.clearcoat.roughness, m.clearcoat.normal_scale, 0.0],
-        sheen: v4(m.sheen.color, m.sheen.roughness),
-        anisotropy: [
-            m.anisotropy.strength,
-            m.anisotropy.rotation.cos(),
-            m.anisotropy.rotation.sin(),
-            0.0,
-        ],
-        iridescence: [
-            m.iridescence.factor,
-            m.iridescence.ior,
-            m.iridescence.thickness_min,
-            m.iridescence.thickness_max,
-        ],
-        diffuse_transmission: v4(m.diffuse_transmission.color, m.diffuse_transmission.factor),
-        textures: m.texture_refs().map(slot),
-    }
-}
-
-/// The texture table and every image's texels, each image once however many textures share it.
-fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
-    let mut offsets = Vec::with_capacity(scene.images.len());
-    let mut texels = Vec::new();
-    for image in &scene.images {
-        offsets.push(texels.len() as u32);
-        texels.extend(image.texels.iter().map(|t| u32::from_le_bytes(*t)));
-    }
-    let wrap = |w: Wrap| match w {
-        Wrap::Repeat => WRAP_REPEAT,
-        Wrap::ClampToEdge => WRAP_CLAMP,
-        Wrap::MirroredRepeat => WRAP_MIRROR,
-    };
-    let textures = scene
-        .textures
-        .iter()
-        .map(|t| {
-            let image = &scene.images[t.image];
-            GpuTexture {
-                offset: offsets[t.image],
-                width: image.width,
-                height: image.height,
-                flags: wrap(t.wrap_s)
-                    | wrap(t.wrap_t) << TEXTURE_WRAP_T_SHIFT
-                    | if t.nearest { TEXTURE_NEAREST } else { 0 },
-            }
-        })
-        .collect();
-    (textures, texels)
-}
-
-/// A light's entry before the table is made.
-struct Emitter {
-    /// LIGHT_KIND_* and index, as `GpuLight::id`.
-    id: u32,
-    /// Estimated power (W).
-    power: f64,
-    /// A triangle's area (its mean over the shutter when it moves).
-    area: f32,
-    /// What the light BVH needs of it; None for an infinite light (the environment, a directional light).
-    bounds: Option<LightBounds>,
 }
 
 /// The BVH build's peak host memory per triangle: boxes, centroids and order (40), the binary nodes (up to two of 32
@@ -399,257 +291,6 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
     })
 }
 
-/// Every mesh `instanced` marks in its own space, after the world's triangles, with a BVH of its own; a top-level
-/// BVH over the instances that place them; and the instance records (the header first). Nodes end up as [world
-/// BVH][TLAS][each mesh's BVH], every index offset to its place. Grows `bounds` by the instances' boxes.
-///
-/// An emissive mesh's triangles get a table of their own (returned; records point into it from 0, so the caller
-/// offsets them past light selection's table), picked in proportion to their power in the mesh's space by the power
-/// and uniform samplers, and the bounds of its emitters (entries of that table) for the light tree's subtree of the
-/// mesh; each of its instances becomes one emitter in `t.emitters`, whose power is the mesh's scaled by the
-/// transform's area factor |det|^(2/3). Exact for rotations and uniform scales; under a stretch the pick is a little
-/// off the power, which costs variance, not bias: the device divides by the pick's own probability and the
-/// triangle's area in the world.
-#[allow(clippy::type_complexity)]
-fn pack_instances(
-    scene: &Scene,
-    instanced: &[bool],
-    bvh: &mut Bvh,
-    t: &mut PackedTriangles,
-    bounds: &mut Option<(glam::Vec3, glam::Vec3)>,
-    emission: &mut Emission,
-) -> Option<(Vec<GpuInstance>, Vec<GpuLight>, Vec<MeshEmitters>, Vec<MeshTriangles>)> {
-    use glam::Vec3;
-    // Each instanced mesh's BVH and packed triangles, and where they start.
-    let mut parts: Vec<(usize, Bvh, PackedTriangles, (Vec3, Vec3))> = Vec::new();
-    for (m, _) in instanced.iter().enumerate().filter(|(_, &i)| i) {
-        let soup = scene.object_soup(m);
-        if soup.is_empty() {
-            continue;
-        }
-        let blas = bvh::build(soup.positions());
-        let packed = pack_triangles(scene, &soup, None, &blas.order, emission)?;
-        parts.push((m, blas, packed, soup.bounds()));
-    }
-    let part_of = |m: usize| parts.iter().position(|p| p.0 == m);
-    // (part, world from object at each key of the shutter, the instance's index in the scene). One key when the
-    // instance does not move; MOTION_SEGMENTS + 1 when it does (the rule made every one invertible).
-    let placed: Vec<(usize, Vec<glam::Mat4>, u32)> = (scene.instances.iter().enumerate())
-        .filter(|(_, i)| instanced[i.mesh] && crate::scene::invertible(&i.world_from_object))
-        .filter_map(|(k, i)| {
-            let mut keys = vec![i.world_from_object];
-            if let Some(motion) = &scene.motion {
-                keys.extend(motion.keys.iter().map(|key| key.instances[k].world_from_object));
-                if keys.iter().all(|w| *w == keys[0]) {
-                    keys.truncate(1);
-                }
-            }
-            Some((part_of(i.mesh)?, keys, k as u32))
-        })
-        .collect();
-    // Each moving instance's keys as poses (None for a still one, or keys with shear, which the device interpolates
-    // as matrices).
-    let poses: Vec<Option<Vec<crate::bvh::motion::Pose>>> = (placed.iter())
-        .map(|(_, keys, _)| {
-            (keys.len() > 1)
-                .then(|| crate::bvh::motion::decompose_keys(keys))
-                .flatten()
-        })
-        .collect();
-    // A moving instance's box holds its mesh all along its arc (see swept_box); keys interpolated as matrices move
-    // each point linearly between its places at the keys, so there the keys' boxes hold it.
-    let boxes: Vec<(Vec3, Vec3)> = (placed.iter().zip(&poses))
-        .map(|((p, keys, _), poses)| {
-            let (lo, hi) = parts[*p].3;
-            if let Some(poses) = poses {
-                return crate::bvh::motion::swept_box(lo, hi, poses);
-            }
-            let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            for (w, corner) in keys
-                .iter()
-                .flat_map(|w| crate::scene::box_corners(lo, hi).map(|c| (w, c)))
-            {
-                let q = w.transform_point3(corner);
-                b = (b.0.min(q), b.1.max(q));
-            }
-            b
-        })
-        .collect();
-    for b in &boxes {
-        *bounds = Some(bounds.map_or(*b, |(lo, hi)| (lo.min(b.0), hi.max(b.1))));
-    }
-    let tlas = bvh::build_boxes(&boxes);
-    let tlas_root = bvh.nodes.len() as u32;
-    // TLAS leaves index instance records, which start at 1 (after the header) in the TLAS's order.
-    bvh.nodes.extend(tlas.nodes.iter().map(|n| {
-        let mut n = *n;
-        n.offset(tlas_root, 1);
-        n
-    }));
-    let colored = !t.tri_colors.is_empty() || parts.iter().any(|p| !p.2.tri_colors.is_empty());
-    let white = TriColors {
-        c0: [1.0; 4],
-        c1: [1.0; 4],
-        c2: [1.0; 4],
-    };
-    if colored && t.tri_colors.is_empty() {
-        t.tri_colors = vec![white; t.tri_verts.len()];
-    }
-    let first_blas_triangle = t.tri_verts.len() as u32;
-    let mut roots = Vec::with_capacity(parts.len());
-    let mut meshes = Vec::with_capacity(parts.len());
-    // Per part: (where its emitter table starts, its length, its power in the mesh's space).
-    let mut part_lights = Vec::with_capacity(parts.len());
-    let mut mesh_lights: Vec<GpuLight> = Vec::new();
-    let mut mesh_emitters = Vec::new();
-    for (_, blas, packed, _) in &mut parts {
-        let root = bvh.nodes.len() as u32;
-        let tri_base = t.tri_verts.len() as u32;
-        let power: f64 = packed.emitters.iter().map(|e| e.power).sum();
-        let cone = (packed.emitters.iter().filter_map(|e| e.bounds)).reduce(|a, b| a.union(&b));
-        part_lights.push((mesh_lights.len() as u32, packed.emitters.len() as u32, power, cone));
-        if !packed.emitters.is_empty() {
-            let first = mesh_lights.len() as u32;
-            let bounds = packed.emitters.iter().enumerate();
-            let bounds = bounds.filter_map(|(i, e)| e.bounds.map(|b| (first + i as u32, b)));
-            mesh_emitters.push((first, bounds.collect()));
-        }
-        let (mut acc, mut previous_cdf) = (0.0f64, 0.0f32);
-        for (i, e) in packed.emitters.iter().enumerate() {
-            let (slot, area) = (e.id, e.area);
-            acc += e.power;
-            let cdf = if i + 1 == packed.emitters.len() {
-                1.0
-            } else {
-                (acc / power) as f32
-            };
-            let prob = cdf - previous_cdf;
-            previous_cdf = cdf;
-            mesh_lights.try_reserve(1).ok()?;
-            mesh_lights.push(GpuLight {
-                id: LIGHT_KIND_TRIANGLE << LIGHT_KIND_SHIFT | (tri_base + slot),
-                cdf,
-                prob,
-                area,
-            });
-        }
-        bvh.nodes.extend(blas.nodes.iter().map(|n| {
-            let mut n = *n;
-            n.offset(root, tri_base);
-            n
-        }));
-        roots.push(root);
-        let n = packed.tri_verts.len();
-        meshes.push(MeshTriangles {
-            root,
-            first: tri_base,
-            count: n as u32,
-        });
-        t.tri_verts.try_reserve(n).ok()?;
-        t.tri_verts.append(&mut packed.tri_verts);
-        t.tri_shading.append(&mut packed.tri_shading);
-        t.tri_texcoords.append(&mut packed.tri_texcoords);
-        t.tri_tangents.append(&mut packed.tri_tangents);
-        if colored && packed.tri_colors.is_empty() {
-            packed.tri_colors = vec![white; n];
-        }
-        t.tri_colors.append(&mut packed.tri_colors);
-        let s = &blas.stats;
-        bvh.stats.max_waiting = bvh.stats.max_waiting.max(s.max_waiting);
-        bvh.stats.leaves += s.leaves;
-        bvh.stats.max_leaf_tris = bvh.stats.max_leaf_tris.max(s.max_leaf_tris);
-    }
-    bvh.stats.nodes = bvh.nodes.len();
-    let moving = placed.iter().filter(|p| p.1.len() > 1).count();
-    let mut records = Vec::new();
-    records
-        .try_reserve_exact(1 + placed.len() + moving * (MOTION_SEGMENTS as usize + 1))
-        .ok()?;
-    records.push(GpuInstance {
-        info: [tlas_root, placed.len() as u32, first_blas_triangle, 0],
-        ..Default::default()
-    });
-    // The TLAS's leaves in its order, then each moving instance's keys (MOTION_SEGMENTS + 1 records from the one its
-    // own record's info.w names).
-    let mut later_keys = 1 + placed.len() as u32;
-    let mut key_records = Vec::new();
-    for &i in &tlas.order {
-        let (p, keys, k) = &placed[i as usize];
-        let poses = poses[i as usize].as_deref();
-        let mirrored = crate::scene::handedness(&keys[0]);
-        let moves = keys.len() > 1;
-        let first_key = if moves { later_keys } else { 0 };
-        later_keys += if moves { keys.len() as u32 } else { 0 };
-        let info = [roots[*p], mirrored as u32, *k, first_key];
-        let (first_light, light_count, power, cone) = part_lights[*p];
-        let light = [first_light, light_count, 0, 0];
-        if light_count > 0 {
-            let stretch = glam::Mat3::from_mat4(keys[0]).determinant().abs().powf(2.0 / 3.0) as f64;
-            t.emitters.try_reserve(1).ok()?;
-            t.emitters.push(Emitter {
-                id: LIGHT_KIND_INSTANCE << LIGHT_KIND_SHIFT | records.len() as u32,
-                power: power * stretch,
-                area: 0.0,
-                bounds: cone.map(|c| c.transformed(keys, poses, (power * stretch) as f32)),
-            });
-        }
-        records.push(instance_record(&keys[0], info, light));
-        if moves {
-            // Only a key record's transforms are read (instance_at keeps the instance's own info and light).
-            key_records.extend(
-                keys.iter()
-                    .enumerate()
-                    .map(|(j, w)| key_record(w, poses.map(|p| p[j]), info)),
-            );
-        }
-    }
-    records.append(&mut key_records);
-    Some((records, mesh_lights, mesh_emitters, meshes))
-}
-
-/// An instanced mesh's emitters for its light subtree: where its table starts among the instanced meshes' tables,
-/// and each emitter's place there with its bounds in the mesh's space.
-type MeshEmitters = (u32, Vec<(u32, LightBounds)>);
-
-/// One instance record: `world_from_object` and its inverse as rows, `info` and `light` (see GpuInstance).
-fn instance_record(world_from_object: &glam::Mat4, info: [u32; 4], light: [u32; 4]) -> GpuInstance {
-    let (w, o) = (world_from_object, world_from_object.inverse());
-    GpuInstance {
-        world0: w.row(0).to_array(),
-        world1: w.row(1).to_array(),
-        world2: w.row(2).to_array(),
-        object0: o.row(0).to_array(),
-        object1: o.row(1).to_array(),
-        object2: o.row(2).to_array(),
-        info,
-        light,
-    }
-}
-
-/// One key of a moving instance: `world_from_object` as rows (interpolated when the keys do not decompose), and in
-/// place of the inverse, which instance_at computes, the key's pose (see GpuInstance).
-fn key_record(world_from_object: &glam::Mat4, pose: Option<crate::bvh::motion::Pose>, info: [u32; 4]) -> GpuInstance {
-    let w = world_from_object;
-    let (object0, object1, object2) = match pose {
-        Some(p) => (
-            p.translation.extend(1.0).to_array(),
-            p.rotation.to_array(),
-            p.scale.extend(0.0).to_array(),
-        ),
-        None => ([0.0; 4], [0.0; 4], [0.0; 4]),
-    };
-    GpuInstance {
-        world0: w.row(0).to_array(),
-        world1: w.row(1).to_array(),
-        world2: w.row(2).to_array(),
-        object0,
-        object1,
-        object2,
-        info,
-        light: [0; 4],
-    }
-}
-
 /// The motion buffer: the camera's key records first (zeros when the scene has no camera of its own), then the
 /// triangles' keys `pack_triangles` made.
 fn motion_records(scene: &Scene, triangles: Vec<MotionKey>) -> (Vec<MotionKey>, bool) {
@@ -678,19 +319,19 @@ fn motion_records(scene: &Scene, triangles: Vec<MotionKey>) -> (Vec<MotionKey>, 
 }
 
 /// The per-triangle buffers in BVH order, and the emissive triangles.
-struct PackedTriangles {
+pub(super) struct PackedTriangles {
     /// With motion, each triangle's keys after the first (MOTION_SEGMENTS records a triangle).
-    motion: Vec<MotionKey>,
-    tri_verts: Vec<TriVerts>,
-    tri_shading: Vec<TriShading>,
-    tri_texcoords: Vec<TriTexcoords>,
-    tri_tangents: Vec<TriTangents>,
-    tri_colors: Vec<TriColors>,
-    emitters: Vec<Emitter>,
+    pub(super) motion: Vec<MotionKey>,
+    pub(super) tri_verts: Vec<TriVerts>,
+    pub(super) tri_shading: Vec<TriShading>,
+    pub(super) tri_texcoords: Vec<TriTexcoords>,
+    pub(super) tri_tangents: Vec<TriTangents>,
+    pub(super) tri_colors: Vec<TriColors>,
+    pub(super) emitters: Vec<Emitter>,
 }
 
 /// An empty vector with room for `n`, or None when the host cannot give it.
-fn try_vec<T>(n: usize) -> Option<Vec<T>> {
+pub(super) fn try_vec<T>(n: usize) -> Option<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(n).ok()?;
     Some(v)
@@ -698,7 +339,7 @@ fn try_vec<T>(n: usize) -> Option<Vec<T>> {
 
 /// The soup's triangles in `order` (the BVH's): texture coordinates only when some material has a texture,
 /// tangents only when some has a normal map, colours only when some mesh has COLOR_0.
-fn pack_triangles(
+pub(super) fn pack_triangles(
     scene: &Scene,
     soup: &TriangleSoup,
     keys: Option<&[Vec<KeyTriangle>]>,
@@ -789,118 +430,6 @@ fn pack_triangles(
         }
     }
     Some(t)
-}
-
-/// Punctual lights for the device, and each as an emitter by its emitted power; a directional one by what crosses
-/// the disk of the scene's bounding sphere (`radius`).
-fn pack_punctual(scene: &Scene, radius: f32, emitters: &mut Vec<Emitter>) -> Vec<GpuPunctual> {
-    let mut punctual = Vec::with_capacity(scene.punctual.len());
-    for (i, l) in scene.punctual.iter().enumerate() {
-        let mean = (l.intensity.x + l.intensity.y + l.intensity.z) as f64 / 3.0;
-        let pi = std::f64::consts::PI;
-        let (kind, cos_outer, cos_inner, p) = match l.kind {
-            PunctualKind::Point => (PUNCTUAL_POINT, -1.0, -1.0, 4.0 * pi * mean),
-            PunctualKind::Spot { inner, outer } => {
-                let (ci, co) = (inner.cos(), outer.cos());
-                (PUNCTUAL_SPOT, co, ci, 2.0 * pi * (1.0 - 0.5 * (ci + co) as f64) * mean)
-            }
-            PunctualKind::Directional => (PUNCTUAL_DIRECTIONAL, 1.0, 1.0, pi * (radius as f64).powi(2) * mean),
-        };
-        punctual.push(GpuPunctual {
-            position: v4(l.position, f32::from_bits(kind)),
-            direction: v4(l.direction, cos_outer),
-            intensity: v4(l.intensity, cos_inner),
-        });
-        if p > 0.0 {
-            let bounds = match l.kind {
-                PunctualKind::Point => Some(LightBounds::point(l.position, p as f32)),
-                PunctualKind::Spot { inner, outer } => {
-                    Some(LightBounds::spot(l.position, l.direction, inner, outer, p as f32))
-                }
-                PunctualKind::Directional => None,
-            };
-            emitters.push(Emitter {
-                id: LIGHT_KIND_PUNCTUAL << LIGHT_KIND_SHIFT | i as u32,
-                power: p,
-                area: 0.0,
-                bounds,
-            });
-        }
-    }
-    punctual
-}
-
-/// The light table light selection picks from in proportion to power, the environment's probability in it, and
-/// the total power; each emissive instance's record learns its entry.
-fn light_table(emitters: &[Emitter], instances: &mut [GpuInstance]) -> (Vec<GpuLight>, f32, f64) {
-    let total: f64 = emitters.iter().map(|e| e.power).sum();
-    let mut lights = Vec::with_capacity(emitters.len());
-    let mut acc = 0.0f64;
-    let mut env_prob = 0.0;
-    let mut previous_cdf = 0.0f32;
-    for (i, e) in emitters.iter().enumerate() {
-        let (id, area) = (e.id, e.area);
-        acc += e.power;
-        // The last cdf is exactly 1 so every u in [0, 1) finds a light.
-        let cdf = if i + 1 == emitters.len() {
-            1.0
-        } else {
-            (acc / total) as f32
-        };
-        // The probability the device actually picks with is the gap between stored f32 cdfs, not p / total: for tiny
-        // lights late in the table they differ.
-        let prob = cdf - previous_cdf;
-        previous_cdf = cdf;
-        lights.push(GpuLight { id, cdf, prob, area });
-        match id >> LIGHT_KIND_SHIFT {
-            LIGHT_KIND_ENV => env_prob = prob,
-            // Its triangles' density per unit area is its probability times their own within the mesh over their
-            // world area, which the device finds at the hit (the instance may stretch or move).
-            LIGHT_KIND_INSTANCE => instances[(id & LIGHT_INDEX_MASK) as usize].light[2] = i as u32,
-            _ => {}
-        }
-    }
-    (lights, env_prob, total)
-}
-
-/// The light BVH over the finite emitters of light selection's table (the first entries of `lights`, one per
-/// emitter), with a leaf's place for every entry of `lights` (the instanced meshes' tables too), and the infinite
-/// lights' own table, appended to `lights`. The infinite lights keep the share the power table gives them (their
-/// estimated power, the environment's through the scene's bounding sphere, over the total) and split it by power;
-/// the tree gets the rest. Returns the tree and the environment's probability under it.
-fn light_tree(emitters: &[Emitter], lights: &mut Vec<GpuLight>) -> (LightTree, f32) {
-    let infinite: Vec<usize> = (0..emitters.len()).filter(|&j| emitters[j].bounds.is_none()).collect();
-    let inf_total: f32 = infinite.iter().map(|&j| lights[j].prob).sum();
-    let finite: Vec<(u32, LightBounds)> = (emitters.iter().enumerate())
-        .filter_map(|(j, e)| e.bounds.map(|b| (j as u32, b)))
-        .collect();
-    let share = match (finite.is_empty(), infinite.is_empty()) {
-        (true, _) => 0.0,
-        (false, true) => 1.0,
-        (false, false) => (1.0 - inf_total).clamp(0.0, 1.0),
-    };
-    let first = lights.len() as u32;
-    let mut env_prob = 0.0;
-    let mut acc = 0.0f32;
-    let mut previous_cdf = 0.0f32;
-    for (k, &j) in infinite.iter().enumerate() {
-        acc += lights[j].prob;
-        let cdf = if k + 1 == infinite.len() { 1.0 } else { acc / inf_total };
-        // What the device picks with: the tree's complement times the gap between the stored cdfs.
-        let prob = (1.0 - share) * (cdf - previous_cdf);
-        previous_cdf = cdf;
-        if lights[j].id >> LIGHT_KIND_SHIFT == LIGHT_KIND_ENV {
-            env_prob = prob;
-        }
-        lights.push(GpuLight {
-            id: lights[j].id,
-            cdf,
-            prob,
-            area: 0.0,
-        });
-    }
-    let tree = bvh::lights::build(finite, first, share, (first, infinite.len() as u32));
-    (tree, env_prob)
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ pub(super) fn used(doc: &gltf::Document) -> bool {
 
 /// Decodes every compressed primitive of `root` (whose buffers are `buffers`), appending the decoded vertices and
 /// indices as one new buffer and pointing the primitives' accessors at it. The decode of each is bounded by what
-/// its accessors declare, which `memory::load_estimate` has already checked against `--max-memory`.
+/// its accessors declare, which `estimate::load_estimate` has already checked against `--max-memory`.
 pub(super) fn decompress(
     path: &Path,
     root: &mut json::Root,

@@ -1,6 +1,7 @@
 //! The glTF reader: refuses malformed files with a clear error, then takes in nodes, meshes, materials and lights.
 mod animation;
 mod draco;
+mod estimate;
 mod materials;
 mod meshes;
 mod meshopt;
@@ -145,7 +146,7 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     pre_validate(path, &json)?;
     let tolerated = validate(path, &json)?;
     let document = gltf::Document::from_json_without_validation(json);
-    let need = crate::memory::load_estimate(&document);
+    let need = estimate::load_estimate(&document);
     if need > options.max_memory {
         return Err(scene_err(
             path,

@@ -1,0 +1,104 @@
+//! Materials and textures for the device: each material's GpuMaterial with its texture slots, and the texture
+//! table with every image's texels once.
+use super::pack::v4;
+use crate::constants::*;
+use crate::layout::{GpuMaterial, GpuTexture, TextureSlot};
+use crate::scene::{AlphaMode, Material, Scene, TextureRef, Wrap};
+
+fn slot(r: Option<TextureRef>) -> TextureSlot {
+    match r {
+        Some(r) => TextureSlot {
+            u: [
+                r.transform[0][0],
+                r.transform[0][1],
+                r.transform[0][2],
+                f32::from_bits(r.texture as u32),
+            ],
+            v: [
+                r.transform[1][0],
+                r.transform[1][1],
+                r.transform[1][2],
+                f32::from_bits(r.tex_coord),
+            ],
+        },
+        None => TextureSlot {
+            u: [1.0, 0.0, 0.0, f32::from_bits(TEXTURE_NONE)],
+            v: [0.0, 1.0, 0.0, f32::from_bits(0)],
+        },
+    }
+}
+
+pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
+    let (mode, cutoff) = match m.alpha_mode {
+        AlphaMode::Opaque => (ALPHA_OPAQUE, 0.0),
+        AlphaMode::Mask(c) => (ALPHA_MASK, c),
+        AlphaMode::Blend => (ALPHA_BLEND, 0.0),
+    };
+    GpuMaterial {
+        base_color: v4(m.base_color, m.alpha),
+        emission: v4(m.emission, if m.double_sided { 1.0 } else { 0.0 }),
+        params: [m.metallic, m.roughness, m.ior, m.specular],
+        specular_color: v4(m.specular_color, m.diffuse_roughness),
+        // Dispersion bends light only through a volume (KHR_materials_dispersion needs KHR_materials_volume).
+        transmission: [
+            m.transmission,
+            if m.thin_walled { 1.0 } else { 0.0 },
+            if m.thin_walled { 0.0 } else { m.dispersion },
+            0.0,
+        ],
+        attenuation: v4(m.attenuation, 0.0),
+        alpha: [
+            f32::from_bits(mode),
+            cutoff,
+            m.normal_scale,
+            f32::from_bits(if m.unlit { MATERIAL_UNLIT } else { 0 }),
+        ],
+        clearcoat: [m.clearcoat.factor, m.clearcoat.roughness, m.clearcoat.normal_scale, 0.0],
+        sheen: v4(m.sheen.color, m.sheen.roughness),
+        anisotropy: [
+            m.anisotropy.strength,
+            m.anisotropy.rotation.cos(),
+            m.anisotropy.rotation.sin(),
+            0.0,
+        ],
+        iridescence: [
+            m.iridescence.factor,
+            m.iridescence.ior,
+            m.iridescence.thickness_min,
+            m.iridescence.thickness_max,
+        ],
+        diffuse_transmission: v4(m.diffuse_transmission.color, m.diffuse_transmission.factor),
+        textures: m.texture_refs().map(slot),
+    }
+}
+
+/// The texture table and every image's texels, each image once however many textures share it.
+pub(super) fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
+    let mut offsets = Vec::with_capacity(scene.images.len());
+    let mut texels = Vec::new();
+    for image in &scene.images {
+        offsets.push(texels.len() as u32);
+        texels.extend(image.texels.iter().map(|t| u32::from_le_bytes(*t)));
+    }
+    let wrap = |w: Wrap| match w {
+        Wrap::Repeat => WRAP_REPEAT,
+        Wrap::ClampToEdge => WRAP_CLAMP,
+        Wrap::MirroredRepeat => WRAP_MIRROR,
+    };
+    let textures = scene
+        .textures
+        .iter()
+        .map(|t| {
+            let image = &scene.images[t.image];
+            GpuTexture {
+                offset: offsets[t.image],
+                width: image.width,
+                height: image.height,
+                flags: wrap(t.wrap_s)
+                    | wrap(t.wrap_t) << TEXTURE_WRAP_T_SHIFT
+                    | if t.nearest { TEXTURE_NEAREST } else { 0 },
+            }
+        })
+        .collect();
+    (textures, texels)
+}
