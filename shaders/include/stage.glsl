@@ -6,6 +6,7 @@
 #extension GL_EXT_ray_query : require
 #endif
 #include "layout.glsl"
+#include "scene_reads.glsl"
 layout(local_size_x = WORKGROUP_SIZE, local_size_y = 1, local_size_z = 1) in;
 
 // lavapipe (gallivm) ends every loop of an invocation, silently, once their iterations together reach 65535 (see
