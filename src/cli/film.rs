@@ -37,7 +37,7 @@ pub struct MergeArgs {
     #[arg(short, long, required = true)]
     output: Vec<PathBuf>,
     /// Exposure in stops applied to PNG output, -64 to 64.
-    #[arg(long, default_value = "0", value_parser = crate::cli_values::parse_exposure, allow_hyphen_values = true)]
+    #[arg(long, default_value = "0", value_parser = crate::cli::values::parse_exposure, allow_hyphen_values = true)]
     exposure: f32,
     /// Tone curve of PNG output after --exposure, as for `render`.
     #[arg(long, value_enum, default_value = "none")]
@@ -180,7 +180,7 @@ pub struct DiffArgs {
     reference: PathBuf,
     /// The statistical test's family-wise false-positive rate: the chance that two renders of one expectation are
     /// called different.
-    #[arg(long, default_value = "0.01", value_parser = crate::cli_values::parse_alpha)]
+    #[arg(long, default_value = "0.01", value_parser = crate::cli::values::parse_alpha)]
     alpha: f64,
     /// Write a PNG of where they differ: the tests' p-values (green where rejected), or FLIP's error map in plain mode.
     #[arg(long)]
@@ -189,10 +189,10 @@ pub struct DiffArgs {
     #[arg(long)]
     plain: bool,
     /// Plain mode: the largest relMSE, mean of (c - r)^2 / (r^2 + 0.01), that passes.
-    #[arg(long, default_value = "0.001", value_parser = crate::cli_values::parse_threshold)]
+    #[arg(long, default_value = "0.001", value_parser = crate::cli::values::parse_threshold)]
     max_rel_mse: f64,
     /// Plain mode: the largest mean FLIP error (0 to 1, of the images' sRGB at exposure 0) that passes.
-    #[arg(long, default_value = "0.05", value_parser = crate::cli_values::parse_threshold)]
+    #[arg(long, default_value = "0.05", value_parser = crate::cli::values::parse_threshold)]
     max_flip: f64,
     /// How many of the worst tests to list.
     #[arg(long, default_value = "10")]

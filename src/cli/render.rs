@@ -1,0 +1,590 @@
+//! `pathwave render`: its arguments, the shots (frames and outputs) they ask for, and the render loop that writes
+//! them.
+use super::args::*;
+use super::values::*;
+use anyhow::{bail, Context as _, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use pathwave::output::Aov;
+use pathwave::{output, scene, Estimator, RenderSettings, Renderer};
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(clap::Args)]
+pub(crate) struct RenderArgs {
+    /// Output image; the extension picks the format (.exr or .png). Repeat to write several from one render.
+    #[arg(short, long, required = true)]
+    pub(crate) output: Vec<PathBuf>,
+    /// Samples per pixel, at most 2^24.
+    #[arg(long, default_value = "64", value_parser = parse_spp, allow_hyphen_values = true)]
+    pub(crate) spp: u32,
+    /// Image size as WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x512", value_parser = parse_size, allow_hyphen_values = true)]
+    pub(crate) size: (u32, u32),
+    #[command(flatten)]
+    pub(crate) common: SceneArgs,
+    /// Exposure in stops applied to PNG output, -64 to 64.
+    #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
+    pub(crate) exposure: f32,
+    /// Write the fraction of each pixel's camera samples that hit the scene as alpha: an A channel in EXR (the
+    /// colour as rendered: premultiplied with --hide-env), RGBA in PNG (straight: divided by alpha with --hide-env).
+    #[arg(long)]
+    pub(crate) alpha: bool,
+    /// Tone curve of PNG output after --exposure: none (linear, clipped at 1), aces (Narkowicz's fit), agx
+    /// (Sobotka's AgX) or pbr-neutral (Khronos PBR Neutral). EXR output stays linear.
+    #[arg(long, value_enum, default_value = "none")]
+    pub(crate) tonemap: output::ToneCurve,
+    /// Estimator, for experiments and tests: mis (default), light (NEE only) or bsdf (BSDF sampling only).
+    #[arg(long, value_enum, default_value = "mis", hide = true)]
+    pub(crate) estimator: Estimator,
+    /// Turn off the energy compensation of rough metals (on by default; off shows single scattering alone).
+    #[arg(long)]
+    pub(crate) no_energy_compensation: bool,
+    /// A folder of GLSL stages (as written by `export-shaders`) replacing the built-in ones of the same name.
+    #[arg(long)]
+    pub(crate) shader_dir: Option<PathBuf>,
+    /// With --shader-dir: after writing the image, watch the folder and render again whenever a stage or an
+    /// include changes. A stage that fails to compile is reported and the last image is kept. Stop with Ctrl-C.
+    #[arg(long, requires = "shader_dir")]
+    pub(crate) watch: bool,
+    /// Render frames FIRST..LAST (inclusive) of the animation, frame k at time k / --fps, one file per frame: the
+    /// last run of # in each -o name becomes the zero-padded frame number (-o out.####.exr).
+    #[arg(long, value_parser = parse_frames, conflicts_with_all = ["time", "watch"])]
+    pub(crate) frames: Option<(u32, u32)>,
+    /// Frames per second of --frames.
+    #[arg(long, default_value = "24", value_parser = parse_fps, requires = "frames")]
+    pub(crate) fps: f32,
+    /// With --frames: skip the frames whose every output file exists already.
+    #[arg(long, requires = "frames")]
+    pub(crate) resume: bool,
+    /// Render only sample indices A to B-1 of every pixel (the samples a full render takes there) into a film file
+    /// (EXR with film statistics); `pathwave merge` joins parts of disjoint ranges. Instead of --spp.
+    #[arg(long, value_parser = parse_samples, conflicts_with_all = ["spp", "part"], allow_hyphen_values = true)]
+    pub(crate) samples: Option<(u32, u32)>,
+    /// Render the I-th (from 0) of N contiguous shares of --spp's samples into a film file, or with --frames the I-th
+    /// of N shares of the frames. `auto/N` takes I from the job array: SLURM_ARRAY_TASK_ID, JOB_COMPLETION_INDEX
+    /// (Kubernetes Indexed Jobs) or AWS_BATCH_JOB_ARRAY_INDEX.
+    #[arg(long, value_parser = parse_part, allow_hyphen_values = true)]
+    pub(crate) part: Option<Part>,
+    /// Write film statistics into every EXR output: exact per-pixel sums of the samples and their squares, the
+    /// sample count, and what rendered it, so `pathwave merge` and `pathwave diff` can use it. Implied by
+    /// --samples, and by --part without --frames.
+    #[arg(long)]
+    pub(crate) film_stats: bool,
+    /// Auxiliary images to write beside the image, comma-separated: albedo, normal (world space), depth (distance
+    /// along the camera ray), position, variance (of each pixel's mean), sample-count, instance-id, material-id,
+    /// with --denoise beauty-noisy, and the debug views geometric-normal, shading-normal, uv, bvh-cost and
+    /// light-pick. An EXR output holds them as layers (albedo.R, normal.X, depth.Z, ...); a PNG
+    /// output gets a file of each beside it (out.albedo.png).
+    #[arg(long, value_parser = parse_aovs, allow_hyphen_values = true)]
+    pub(crate) aov: Option<AovList>,
+    /// Write each AOV to a file of its own beside every output (out.albedo.exr), EXR outputs too.
+    #[arg(long, requires = "aov")]
+    pub(crate) aov_files: bool,
+    /// Denoise the image with Intel Open Image Denoise (its RT filter, guided by the albedo and normal AOVs, which
+    /// are prefiltered first). OIDN is loaded at run time: from PATHWAVE_OIDN (its path), else the pyoidn Python
+    /// package (`pip install pyoidn`). --aov beauty-noisy keeps the image before denoising.
+    #[arg(long, conflicts_with_all = ["film_stats", "samples", "part"])]
+    pub(crate) denoise: bool,
+    /// Adaptive sampling: after --min-spp samples of every pixel, each pixel takes only the samples its mean needs for
+    /// a relative standard error of --noise-threshold (as its neighbours' first samples estimate it), at most --spp.
+    /// The image stays unbiased (README, "Adaptive sampling"); --aov sample-count shows where the samples went.
+    #[arg(long)]
+    pub(crate) adaptive: bool,
+    /// With --adaptive: the relative standard error of a pixel's mean to reach, in (0, 1].
+    #[arg(long, default_value = "0.01", value_parser = parse_noise_threshold, requires = "adaptive", allow_hyphen_values = true)]
+    pub(crate) noise_threshold: f32,
+    /// With --adaptive: the samples every pixel takes first (the pilot its neighbours' budgets are planned from).
+    #[arg(long, default_value = "16", value_parser = parse_min_spp, requires = "adaptive", allow_hyphen_values = true)]
+    pub(crate) min_spp: u32,
+}
+
+/// One image a render writes: which frame (None: not a sequence), at what time, into which files.
+pub(crate) struct Shot {
+    pub(crate) frame: Option<u32>,
+    pub(crate) time: f32,
+    pub(crate) outputs: Vec<PathBuf>,
+}
+
+impl RenderArgs {
+    /// The AOVs asked for.
+    pub(crate) fn aovs(&self) -> &[Aov] {
+        self.aov.as_ref().map_or(&[], |l| &l.0)
+    }
+
+    /// Whether the render keeps the exact film and writes film files.
+    pub(crate) fn film_stats(&self) -> bool {
+        self.film_stats || self.samples.is_some() || (self.part.is_some() && self.frames.is_none())
+    }
+
+    /// The first sample index and the samples per pixel: --samples, this part's share of --spp, or all of --spp.
+    pub(crate) fn sample_range(&self) -> Result<(u32, u32)> {
+        match (self.samples, self.part) {
+            (Some((a, b)), _) => Ok((a, b - a)),
+            (None, Some(part)) if self.frames.is_none() => {
+                let index = part.index().map_err(|e| anyhow::anyhow!(e))?;
+                let r = Part::range(index, part.count, self.spp as u64);
+                if r.is_empty() {
+                    bail!(
+                        "--part {index}/{}: {} samples per pixel give part {index} none; use at most {} parts",
+                        part.count,
+                        self.spp,
+                        self.spp
+                    );
+                }
+                Ok((r.start as u32, (r.end - r.start) as u32))
+            }
+            _ => Ok((0, self.spp)),
+        }
+    }
+
+    /// `--part`'s share, for a render of a share of the samples.
+    pub(crate) fn part_of(&self) -> Result<Option<output::PartOf>> {
+        match (self.part, self.frames) {
+            (Some(part), None) => Ok(Some(output::PartOf {
+                index: part.index().map_err(|e| anyhow::anyhow!(e))?,
+                count: part.count,
+                spp: self.spp,
+            })),
+            _ => Ok(None),
+        }
+    }
+
+    /// The options that change the image, as given, for a film file's metadata (its fingerprints hold the rest):
+    /// they name what differs when parts are refused. Nothing machine-specific: parts render on many machines.
+    pub(crate) fn film_settings(&self) -> Vec<(String, String)> {
+        let c = &self.common;
+        let opt = |v: Option<String>| v.unwrap_or_else(|| "default".into());
+        let triple = |v: [f32; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+        [
+            ("size", format!("{}x{}", self.size.0, self.size.1)),
+            ("max-depth", opt(c.max_depth.map(|d| d.to_string()))),
+            ("estimator", format!("{:?}", self.estimator).to_lowercase()),
+            ("light-sampler", c.light_sampler.name().to_string()),
+            ("energy-compensation", (!self.no_energy_compensation).to_string()),
+            ("camera", opt(c.camera.map(|n| n.to_string()))),
+            ("eye", opt(c.view.eye.map(triple))),
+            ("target", opt(c.view.target.map(triple))),
+            ("up", opt(c.view.up.map(triple))),
+            ("yfov", opt(c.view.yfov.map(|d| d.to_string()))),
+            ("orbit", opt(c.view.orbit.map(triple))),
+            ("aperture", c.aperture.to_string()),
+            ("focus-distance", opt(c.focus_distance.map(|f| f.to_string()))),
+            ("time", opt(c.time.map(|t| t.to_string()))),
+            ("shutter", c.shutter.to_string()),
+            ("animation", opt(c.animation.clone())),
+            ("variant", opt(c.limits.variant.clone())),
+            (
+                "env-color",
+                opt(c.env.env_color.map(|rgb| format!("{},{},{}", rgb[0], rgb[1], rgb[2]))),
+            ),
+            ("env-intensity", c.env.env_intensity.to_string()),
+            ("env-rotation", c.env.env_rotation.to_string()),
+            ("hide-env", c.env.hide_env.to_string()),
+            (
+                "adaptive",
+                match self.adaptive {
+                    true => format!("threshold {} after {} spp", self.noise_threshold, self.min_spp),
+                    false => "off".into(),
+                },
+            ),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect()
+    }
+
+    /// The images to render: one at --time, or one per frame of --frames (this part's share of them, with --part)
+    /// with its numbered file names.
+    pub(crate) fn shots(&self) -> Result<Vec<Shot>> {
+        let mut shots = self.all_shots()?;
+        if let (Some(part), Some(_)) = (self.part, self.frames) {
+            let index = part.index().map_err(|e| anyhow::anyhow!(e))?;
+            let r = Part::range(index, part.count, shots.len() as u64);
+            if r.is_empty() {
+                bail!(
+                    "--part {index}/{}: {} frames give part {index} none; use at most {} parts",
+                    part.count,
+                    shots.len(),
+                    shots.len()
+                );
+            }
+            shots = shots.drain(r.start as usize..r.end as usize).collect();
+        }
+        Ok(shots)
+    }
+
+    pub(crate) fn all_shots(&self) -> Result<Vec<Shot>> {
+        let Some((first, last)) = self.frames else {
+            return Ok(vec![Shot {
+                frame: None,
+                time: self.common.time.unwrap_or(0.0),
+                outputs: self.output.clone(),
+            }]);
+        };
+        (first..=last)
+            .map(|k| {
+                let outputs = (self.output.iter())
+                    .map(|o| match output::frame_path(o, k) {
+                        Some(p) => Ok(p),
+                        None if first == last => Ok(o.clone()),
+                        None => bail!(
+                            "-o {}: with --frames {first}..{last}, every output name needs a run of # for the frame \
+                             number (e.g. out.####.exr)",
+                            o.display()
+                        ),
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                Ok(Shot {
+                    frame: Some(k),
+                    time: k as f32 / self.fps,
+                    outputs,
+                })
+            })
+            .collect()
+    }
+}
+
+pub(crate) fn render(args: RenderArgs) -> Result<()> {
+    if args.aovs().contains(&Aov::BeautyNoisy) && !args.denoise {
+        bail!("--aov beauty-noisy is the image before denoising: it needs --denoise");
+    }
+    // Found before rendering, so a missing library costs no render.
+    let denoiser = match args.denoise {
+        true => Some(pathwave::denoise::Denoiser::from_env()?),
+        false => None,
+    };
+    let shots = args.shots()?;
+    // Refuse a bad output path before spending time on the render.
+    let mut inputs = vec![("scene", args.common.scene.as_path())];
+    if let Some(env) = &args.common.env.env {
+        inputs.push(("environment map", env.as_path()));
+    }
+    for shot in &shots {
+        for out in &shot.outputs {
+            output::check_writable(out)?;
+            output::check_not_input(out, &inputs)?;
+            for &aov in args.aovs() {
+                output::check_not_input(&output::aov_path(out, aov), &inputs)?;
+            }
+        }
+    }
+    let (first_sample, spp) = args.sample_range()?;
+    super::interrupt::install()?;
+    let start = Instant::now();
+    let mut scene = args.common.load_at(shots[0].time)?;
+    let from_env = pathwave::render::RendererOptions::from_env()?;
+    let options = pathwave::render::RendererOptions {
+        fingerprint: args.film_stats(),
+        traversal: args.common.traversal.unwrap_or(from_env.traversal),
+        ..from_env
+    };
+    let device = args.common.device.clone().unwrap_or_default();
+    let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
+    // What the device could not build (the BVH past its limits, the ray-query structures past the budget) names
+    // the scene it was built for.
+    let mut renderer =
+        Renderer::with_options(&scene, ctx, options).with_context(|| args.common.scene.display().to_string())?;
+    for w in &renderer.warnings {
+        eprintln!("warning: {}: {w}", args.common.scene.display());
+    }
+    let shader_dir = match &args.shader_dir {
+        Some(dir) => {
+            let dir = pathwave::shaders::ShaderDir::open(dir)?;
+            for unknown in dir.unknown_stages() {
+                eprintln!(
+                    "warning: {}: {unknown}.comp is not a pathwave stage and is not used",
+                    dir.root().display()
+                );
+            }
+            let used = renderer.load_shaders(&dir, None)?;
+            eprintln!("using {} from {}", used.join(", "), dir.root().display());
+            Some(dir)
+        }
+        None => None,
+    };
+    let settings = RenderSettings {
+        width: args.size.0,
+        height: args.size.1,
+        spp,
+        first_sample,
+        exact_film: args.film_stats(),
+        aovs: args.denoise || args.alpha || args.aovs().iter().any(|a| a.surveyed()),
+        debug_aovs: args.aovs().iter().any(|a| a.debug()),
+        adaptive: args.adaptive.then_some(pathwave::Adaptive {
+            threshold: args.noise_threshold,
+            pilot: args.min_spp,
+        }),
+        estimator: args.estimator,
+        energy_compensation: !args.no_energy_compensation,
+        spectral: args.common.spectral(&scene),
+        ..args.common.settings()
+    };
+    let denoiser = denoiser.as_ref();
+    if args.frames.is_some() {
+        return render_frames(&args, &shots, &mut scene, &mut renderer, &settings, denoiser, start);
+    }
+    render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, start)?;
+    let Some(dir) = shader_dir.filter(|_| args.watch) else {
+        return Ok(());
+    };
+    let watcher = pathwave::shaders::ShaderWatcher::new(&dir)?;
+    eprintln!("watching {} for changes (Ctrl-C to stop)", dir.root().display());
+    loop {
+        let changed = watcher.changed(std::time::Duration::from_secs(3600));
+        let stale = dir.affected(&changed);
+        if stale.is_empty() {
+            continue;
+        }
+        // A stage that does not compile keeps its last good pipeline, and the last image stays on disk.
+        match renderer.load_shaders(&dir, Some(&stale)) {
+            Ok(rebuilt) => {
+                eprintln!("rebuilt {}", rebuilt.join(", "));
+                match render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, Instant::now()) {
+                    Err(e) if super::interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) => return Err(e),
+                    Err(e) => eprintln!("error: {e:#}"),
+                    Ok(()) => {}
+                }
+            }
+            Err(e) => eprintln!("error: {e}\nkeeping the previous pipelines; watching for the next change"),
+        }
+    }
+}
+
+/// Every frame of --frames in turn: the scene posed at the frame's time and uploaded again on the same device, the
+/// pipelines kept. An interrupted frame is not written (so --resume renders it again); the run then fails.
+pub(crate) fn render_frames(
+    args: &RenderArgs,
+    shots: &[Shot],
+    scene: &mut scene::Scene,
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    denoiser: Option<&pathwave::denoise::Denoiser>,
+    start: Instant,
+) -> Result<()> {
+    let (mut rendered, mut skipped) = (0, 0);
+    if !scene.rig.animated() {
+        eprintln!(
+            "warning: {}: the file has no animations, so every frame is the same image",
+            args.common.scene.display()
+        );
+    }
+    // The scene came posed at the first frame's time.
+    let mut posed_at = shots[0].time;
+    for (i, shot) in shots.iter().enumerate() {
+        if args.resume && shot.outputs.iter().all(|o| o.exists()) {
+            skipped += 1;
+            continue;
+        }
+        if scene.rig.animated() && shot.time != posed_at {
+            args.common.pose(scene, shot.time)?;
+            renderer.set_scene(scene)?;
+            posed_at = shot.time;
+        }
+        let label = format!("frame {} ({}/{})", shot.frame.unwrap_or(0), i + 1, shots.len());
+        let written = render_and_write(renderer, settings, args, shot, denoiser, Instant::now());
+        match written {
+            Ok(()) => rendered += 1,
+            Err(e) => return Err(e.context(format!("{label}, at {} s", shot.time))),
+        }
+    }
+    let (first, last) = args.frames.unwrap_or((0, 0));
+    eprintln!(
+        "frames {first}..{last} at {} fps: {rendered} rendered, {skipped} already there (--resume); wall {:.2} s",
+        args.fps,
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub(crate) fn render_and_write(
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    args: &RenderArgs,
+    shot: &Shot,
+    denoiser: Option<&pathwave::denoise::Denoiser>,
+    start: Instant,
+) -> Result<()> {
+    let bar = ProgressBar::new(settings.spp as u64);
+    let prefix = match shot.frame {
+        Some(k) => format!("frame {k} "),
+        None => String::new(),
+    };
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{prefix}{{bar:40}} {{pos}}/{{len}} spp  {{per_sec}}  eta {{eta}}"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let device = match renderer.traversal() {
+        pathwave::render::Traversal::RayQuery => format!("{} (ray queries)", renderer.context().device_name()),
+        _ => renderer.context().device_name(),
+    };
+    let warned = renderer.warnings.len();
+    // Until the files are in place, a signal stops the render after its pass rather than the process.
+    let _busy = super::interrupt::Busy::begin();
+    let (film, stats) = renderer.render_until(
+        settings,
+        &mut |done| bar.set_position(done as u64),
+        &super::interrupt::STOP,
+    )?;
+    bar.finish_and_clear();
+    // What the renderer learned while rendering (e.g. falling back to the wavefront schedule).
+    for w in &renderer.warnings[warned..] {
+        eprintln!("warning: {}: {w}", args.common.scene.display());
+    }
+    if film.spp == 0 && stats.interrupted {
+        bail!("interrupted before the first pass ended: no samples, nothing written");
+    }
+    if stats.interrupted && shot.frame.is_some() {
+        bail!(
+            "interrupted with {} of {} samples per pixel; the frame is not written, so --resume renders it again",
+            film.spp,
+            settings.spp
+        );
+    }
+    let noisy = film.mean();
+    let (pixels, denoise_s) = match denoiser {
+        Some(d) => {
+            let aovs = film
+                .aovs
+                .as_ref()
+                .context("the render has no AOVs to guide the denoiser")?;
+            let (albedo, normal) = (aovs.albedo(), aovs.normal());
+            let t = Instant::now();
+            let guides = pathwave::denoise::Guides {
+                albedo: Some(&albedo),
+                normal: Some(&normal),
+                clean: false,
+            };
+            let denoised = d.denoise(film.width, film.height, &noisy, guides)?;
+            (denoised, Some(t.elapsed().as_secs_f64()))
+        }
+        None => (noisy.clone(), None),
+    };
+    let meta = match &film.exact {
+        Some(exact) => Some(super::film::film_meta(
+            renderer,
+            settings,
+            exact,
+            args.film_settings(),
+            args.part_of()?,
+        )?),
+        None => None,
+    };
+    let film_stats = (film.exact.as_ref().zip(meta.as_ref())).map(|(film, meta)| output::Stats { film, meta });
+    let written = write_outputs(args, shot, &film, &pixels, &noisy, film_stats)?;
+    let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+    let denoised = denoise_s.map_or(String::new(), |s| format!(", denoised in {s:.2} s"));
+    eprintln!(
+        "{} {}x{} {} spp on {device}: wall {:.2} s, render {}{denoised}",
+        names.join(", "),
+        film.width,
+        film.height,
+        film.spp,
+        start.elapsed().as_secs_f64(),
+        stats.summary()
+    );
+    if stats.interrupted {
+        let (a, done, b) = (
+            settings.first_sample,
+            settings.first_sample + film.spp,
+            settings.first_sample + settings.spp,
+        );
+        let rest = match film.exact {
+            Some(_) => format!(" (samples {a}..{done}; render --samples {done}..{b} and merge them to finish)"),
+            None => String::new(),
+        };
+        bail!(
+            "interrupted: wrote {} with {} of {} samples per pixel{rest}",
+            names.join(", "),
+            film.spp,
+            settings.spp
+        );
+    }
+    Ok(())
+}
+
+/// The shot's outputs and, for the AOVs asked for, their layers in each EXR and their files of their own (beside
+/// every PNG output, and every output with --aov-files), all or nothing. Returns every path written.
+pub(crate) fn write_outputs(
+    args: &RenderArgs,
+    shot: &Shot,
+    film: &pathwave::Film,
+    pixels: &[[f32; 3]],
+    noisy: &[[f32; 3]],
+    stats: Option<output::Stats>,
+) -> Result<Vec<PathBuf>> {
+    use output::{Content, OutFile};
+    let source = output::AovSource {
+        film,
+        noisy: Some(noisy),
+    };
+    let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
+    let aovs = args.aovs();
+    let mut layers = Vec::new();
+    let coverage = match args.alpha {
+        true => Some(
+            film.aovs
+                .as_ref()
+                .context("the render has no coverage for --alpha")?
+                .coverage(),
+        ),
+        false => None,
+    };
+    if let Some(c) = &coverage {
+        layers.push(output::Channel {
+            name: "A".into(),
+            samples: output::Samples::F32(c.clone()),
+        });
+    }
+    let mut own = Vec::new();
+    for &a in aovs {
+        layers.extend(source.channels(a, true).ok_or_else(|| missing(a))?);
+        own.push(source.channels(a, false).ok_or_else(|| missing(a))?);
+    }
+    let png = shot
+        .outputs
+        .iter()
+        .any(|o| output::format_of(o).ok() == Some(output::Format::Png));
+    let pictures = match png {
+        true => (aovs.iter())
+            .map(|&a| source.picture(a, args.exposure).ok_or_else(|| missing(a)))
+            .collect::<Result<Vec<_>>>()?,
+        false => Vec::new(),
+    };
+    let mut paths: Vec<(PathBuf, Option<usize>)> = Vec::new();
+    for out in &shot.outputs {
+        paths.push((out.clone(), None));
+        let is_png = output::format_of(out)? == output::Format::Png;
+        if is_png || args.aov_files {
+            paths.extend((0..aovs.len()).map(|k| (output::aov_path(out, aovs[k]), Some(k))));
+        }
+    }
+    let files: Vec<OutFile> = (paths.iter())
+        .map(|(path, aov)| -> Result<OutFile> {
+            let png = output::format_of(path)? == output::Format::Png;
+            let content = match (aov, png) {
+                (None, _) => Content::Image {
+                    rgb: pixels,
+                    display: output::Display {
+                        exposure: args.exposure,
+                        curve: args.tonemap,
+                    },
+                    stats,
+                    layers: &layers,
+                    alpha: coverage.as_deref().map(|coverage| output::Alpha {
+                        coverage,
+                        // glTF holds no environment: only these options give one.
+                        over_black: args.common.env.hide_env
+                            || (args.common.env.env.is_none() && args.common.env.env_color.is_none()),
+                    }),
+                },
+                (Some(k), false) => Content::Channels(&own[*k]),
+                (Some(k), true) => Content::Srgb8(&pictures[*k]),
+            };
+            Ok(OutFile { path, content })
+        })
+        .collect::<Result<_>>()?;
+    output::write_files(film.width, film.height, &files)?;
+    Ok(paths.into_iter().map(|(p, _)| p).collect())
+}
