@@ -27,18 +27,7 @@ fn spheres() -> GltfBuilder {
     // Glass, so that a mirrored instance's front face matters (entering and leaving refract differently).
     let red = b.glass_material("glass", [0.9, 0.5, 0.4], 1.5, 0.0, false, Some(([0.8, 0.5, 0.4], 0.5)));
     let light = b.material("light", [0.8; 3], [6.0; 3], false);
-    b.quad(
-        "floor",
-        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "lamp",
-        [[-1.0, 3.0, -1.0], [1.0, 3.0, -1.0], [1.0, 3.0, 1.0], [-1.0, 3.0, 1.0]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.floor_and_lamp(white, light);
     b.uv_sphere("ball", [0.0, 0.0, 0.0], 0.4, red, true);
     b.transform_last_node(
         json!({ "translation": [-1.5, 0.5, 0.0], "rotation": Quat::from_rotation_z(0.6).to_array() }),

@@ -69,13 +69,17 @@ bool bsdf_needs_averages() {
     return scene_has(FEATURE_ANISOTROPY | FEATURE_IRIDESCENCE);
 }
 
+// The layer's average is kept in the Bsdf where a stretched lobe or a film needs it, or where the multiple scattering
+// adds a trilinear lookup to it (read by every evaluation of a diffuse lobe, twice a hit).
+bool coat_average_kept() {
+    return bsdf_needs_averages() || scene_has(FEATURE_DIELECTRIC_MS);
+}
+
 void bsdf_averages(inout Bsdf b) {
     b.coat_avg = Spectrum(0.0);
     b.metal_e_avg = 0.0;
     b.metal_f_avg = Spectrum(0.0);
-    // The layer's average is read by every evaluation of a diffuse lobe (twice a hit): kept once here when the
-    // multiple scattering adds a trilinear lookup to it.
-    if ((bsdf_needs_averages() || scene_has(FEATURE_DIELECTRIC_MS)) && b.specular > 0.0) b.coat_avg = coat_average(b);
+    if (coat_average_kept() && b.specular > 0.0) b.coat_avg = coat_average(b);
     if (!bsdf_needs_averages()) return;
     if (b.metallic > 0.0) {
         b.metal_e_avg = spec_energy_average(b, 0u);
@@ -509,7 +513,7 @@ Spectrum coat_average(Bsdf b) {
 Spectrum coat_transmittance(Bsdf b, vec3 wi, Spectrum ms_i) {
     // No coat (KHR_materials_specular weight 0, as in a pure Lambertian): nothing to look up.
     if (b.specular == 0.0) return Spectrum(1.0);
-    Spectrum avg = bsdf_needs_averages() || scene_has(FEATURE_DIELECTRIC_MS) ? b.coat_avg : coat_average(b);
+    Spectrum avg = coat_average_kept() ? b.coat_avg : coat_average(b);
     return (Spectrum(1.0) - b.coat_albedo_o) * (Spectrum(1.0) - coat_albedo(b, wi, ms_i)) / max(Spectrum(1.0) - avg, Spectrum(1e-6));
 }
 

@@ -180,8 +180,13 @@ pub struct RayQueryRounds {
     pub agreement: f64,
 }
 
-/// A renderer over `scene` tracing with `traversal`, refused when ray queries were asked for and cannot run.
-fn tracer(scene: &crate::scene::Scene, device: &DeviceChoice, traversal: Traversal) -> Result<Renderer, Error> {
+/// A renderer over `scene` tracing with `traversal`, refused when ray queries were asked for and cannot run: every
+/// bench case and comparison builds its renderer here.
+pub(super) fn tracer(
+    scene: &crate::scene::Scene,
+    device: &DeviceChoice,
+    traversal: Traversal,
+) -> Result<Renderer, Error> {
     let ctx = Context::new(device, Validation::Off)?;
     let options = crate::render::RendererOptions {
         traversal,
@@ -189,7 +194,10 @@ fn tracer(scene: &crate::scene::Scene, device: &DeviceChoice, traversal: Travers
     };
     let r = Renderer::with_options(scene, ctx, options)?;
     if traversal == Traversal::RayQuery && r.traversal() != Traversal::RayQuery {
-        return Err(err(format!("cannot trace with ray queries: {}", r.warnings.join("; "))));
+        return Err(Error::Settings(format!(
+            "cannot trace with ray queries: {}",
+            r.warnings.join("; ")
+        )));
     }
     Ok(r)
 }

@@ -3,7 +3,7 @@ pub mod adaptive;
 pub mod compare;
 
 use crate::error::Error;
-use crate::render::{BvhReads, LightSampler, RenderSettings, Renderer, RendererOptions, Schedule, Traversal};
+use crate::render::{BvhReads, LightSampler, RenderSettings, Schedule, Traversal};
 use crate::scene::{self, Camera, Environment, Material, Mesh, Primitive, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 pub use compare::{EmbreeComparison, MitsubaComparison};
@@ -203,19 +203,9 @@ fn measure(
         spectral,
         traversal,
     } = variation;
-    let ctx = Context::new(&o.device, Validation::Off)?;
-    let device_name = ctx.device_name();
-    let options = RendererOptions {
-        traversal,
-        ..RendererOptions::from_env()?
-    };
-    let mut r = Renderer::with_options(scene, ctx, options)?;
-    if traversal == Traversal::RayQuery && r.traversal() != Traversal::RayQuery {
-        return Err(Error::Settings(format!(
-            "bench: {name} cannot be traced with ray queries here: {}",
-            r.warnings.join("; ")
-        )));
-    }
+    let mut r =
+        compare::tracer(scene, &o.device, traversal).map_err(|e| Error::Settings(format!("bench: {name}: {e}")))?;
+    let device_name = r.context().device_name();
     let bvh_build_s = r.bvh_build_time().as_secs_f64();
     let bytes = r.traversal_bytes();
     if let Some(reads) = reads {
@@ -355,11 +345,16 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         adaptive: Vec::new(),
         total: Duration::ZERO,
     };
+    // Which traversals the cases and the Embree comparison measure, from one look at the device.
+    let traversals = match !o.only_compare || o.compare.contains(&Compare::Embree) {
+        true => traversals(o)?,
+        false => Vec::new(),
+    };
     if !o.only_compare {
         progress("start-up");
         process_time(&o.exe, &cornell, (64, 64), 1)?;
         report.startup_s = Some(process_time(&o.exe, &cornell, (64, 64), 1)?);
-        run_cases(o, &cornell, &glass, &mut report.cases, progress)?;
+        run_cases(o, &traversals, &cornell, &glass, &mut report.cases, progress)?;
         progress("light tree");
         let mut glowing = terrain(if o.quick { 128 } else { 708 });
         glowing.materials[0].emission = Vec3::ONE;
@@ -368,7 +363,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
     }
     if o.compare.contains(&Compare::Embree) {
         progress("Embree comparison");
-        report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick, &traversals(o)?)?);
+        report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick, &traversals)?);
     }
     if o.compare.contains(&Compare::Mitsuba) {
         progress("Mitsuba comparison");
@@ -430,6 +425,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
 
 fn run_cases(
     o: &BenchOptions,
+    traversals: &[Traversal],
     cornell: &Path,
     glass: &Path,
     cases: &mut Vec<CaseResult>,
@@ -438,7 +434,6 @@ fn run_cases(
     // Every full case takes at least two passes (16 spp of 256x256 fit in flight on lavapipe), so its stage times
     // exclude the first, which compiles the pipelines.
     let (spp_cornell, spp_glass, spp_mesh, side) = if o.quick { (4, 2, 1, 128) } else { (64, 32, 32, 708) };
-    let traversals = traversals(o)?;
     // The main cases once per traversal, each right after the other so the machine's load is shared alike; the
     // variations of the compute BVH's reads and schedules after the compute case.
     let traced = |traversal| Variation {
@@ -449,7 +444,7 @@ fn run_cases(
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
         let scene = scene::load(path, None)?;
-        for &t in &traversals {
+        for &t in traversals {
             let mut c = measure(&traced_name(name, t), &scene, (256, 256), spp, o, traced(t))?;
             if t == Traversal::Compute {
                 c.process_s = Some(process_time(&o.exe, path, (256, 256), spp)?);
@@ -485,7 +480,7 @@ fn run_cases(
     progress("terrain");
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangle_count() / 1000);
-    for &traversal in &traversals {
+    for &traversal in traversals {
         cases.push(measure(
             &traced_name(&name, traversal),
             &t,
@@ -506,7 +501,7 @@ fn run_cases(
     progress("instances");
     let (count, mesh_side) = if o.quick { (400, 40) } else { (10_000, 160) };
     let name = format!("instances-{count}x{}k", 2 * mesh_side * mesh_side / 1000);
-    for &traversal in &traversals {
+    for &traversal in traversals {
         let build = Instant::now();
         let forest = instanced_terrain(count, mesh_side);
         let mut c = measure(

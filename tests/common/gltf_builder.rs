@@ -514,6 +514,14 @@ impl GltfBuilder {
         (positions, normals, uvs, indices)
     }
 
+    /// The stage the traversal tests place things on: a 6 m floor at y = 0 facing up, and a 2 m lamp 3 m above it
+    /// facing down.
+    pub fn floor_and_lamp(&mut self, floor: usize, lamp: usize) {
+        let square = |half: f32, y: f32| [[-half, y, -half], [half, y, -half], [half, y, half], [-half, y, half]];
+        self.quad("floor", square(3.0, 0.0), floor, Some([0.0, 1.0, 0.0]));
+        self.quad("lamp", square(1.0, 3.0), lamp, Some([0.0, -1.0, 0.0]));
+    }
+
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
     pub fn quad(&mut self, name: &str, corners: [[f32; 3]; 4], material: usize, facing: Option<[f32; 3]>) {
         let c = corners.map(Vec3::from);
