@@ -11,6 +11,7 @@ mod probes;
 pub mod schedule;
 pub mod session;
 pub mod settings;
+mod sizing;
 mod tonemap;
 
 pub use aovs::Aovs;

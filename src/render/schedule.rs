@@ -1,6 +1,7 @@
 //! How passes take paths through the stages: the two schedules, the trial that picks one on CPU devices, and the
 //! fused schedule's back-off when lavapipe's loop budget cuts a dispatch short.
 use super::film::RenderStats;
+use super::sizing::wavefront_rows;
 use super::Renderer;
 use crate::constants::*;
 use crate::error::Error;
@@ -188,13 +189,11 @@ impl Renderer {
         counters: &Buffer,
         times: &mut Vec<(&'static str, f64)>,
     ) -> Result<Counters, Error> {
-        let rows = frame.path_count / frame.pass_pixels.max(1);
-        let fit = (frame.path_capacity / frame.pass_pixels.max(1)).max(1);
         let mut total = Counters::default();
-        for first in (0..rows).step_by(fit as usize) {
+        for (first, rows) in wavefront_rows(frame.path_count, frame.pass_pixels, frame.path_capacity) {
             let mut f = *frame;
             f.sample_index = frame.sample_index + first;
-            f.path_count = fit.min(rows - first) * frame.pass_pixels;
+            f.path_count = rows * frame.pass_pixels;
             let t = self.tallied_pass(&f, counters, Schedule::Wavefront, times)?;
             // The device's tallies are u32 and wrap; so do these.
             total.extension_rays = total.extension_rays.wrapping_add(t.extension_rays);

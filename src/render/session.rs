@@ -1,7 +1,8 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
 use super::film::{ExactFilm, Film, RenderStats};
+use super::sizing::{path_capacity, size_pass, PathLimits};
 use super::Aovs;
-use super::{RenderSettings, Renderer, Schedule, DEPTH_SAFETY_CAP};
+use super::{RenderSettings, Renderer, DEPTH_SAFETY_CAP};
 use crate::constants::*;
 use crate::error::Error;
 use crate::layout::{AovSums, Counters, DebugSums, Frame, FrameCamera};
@@ -158,7 +159,7 @@ impl Renderer {
                 s.width, s.height
             )));
         }
-        let capacity = self.path_capacity(pixels * s.spp as u64);
+        let capacity = path_capacity(pixels * s.spp as u64, self.path_limits());
         let per_path = PATH_FIELDS as u64 * 16;
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -242,20 +243,14 @@ impl Renderer {
         Ok(session)
     }
 
-    /// Paths in flight for `wanted` paths: every pixel times as many samples as fit, or chunks of pixels when one
-    /// sample of the image alone is larger. The budget is a sixteenth of the largest device-local heap, within one
-    /// storage buffer's range: on lavapipe that is 2^20 paths (128 MiB), 6 % faster on the Cornell box than 2^18.
-    fn path_capacity(&self, wanted: u64) -> u32 {
-        let per_path = PATH_FIELDS as u64 * 16;
-        let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let budget = (self.ctx.device_local_heap() / 16).max(per_path * 1024);
-        // The TEXEL_READS stages read the path state through one texel view, which must see all of it.
-        let view_paths = self.ctx.properties.limits.max_texel_buffer_elements as u64 / PATH_FIELDS as u64;
-        wanted
-            .min(range / per_path)
-            .min(view_paths)
-            .min(budget / per_path)
-            .min(u32::MAX as u64 / 4) as u32
+    /// The device limits the path state must fit.
+    fn path_limits(&self) -> PathLimits {
+        let limits = &self.ctx.properties.limits;
+        PathLimits {
+            storage_range: limits.max_storage_buffer_range as u64,
+            texel_elements: limits.max_texel_buffer_elements as u64,
+            device_local_heap: self.ctx.device_local_heap(),
+        }
     }
 
     /// Clears a session's film and starts again from sample 0 with the renderer's current camera and the session's
@@ -361,39 +356,20 @@ impl Renderer {
             }
             None => session.pixels,
         };
+        let size = size_pass(pixels, capacity, self.schedule.current(), samples);
         let mut stats = std::mem::take(&mut session.stats);
-        let added = if pixels <= capacity as u64 {
-            // Whole samples of every pixel, as many as fit. A fused pass keeps only a pixel's running sums in the
-            // path state, so it may take more samples than fit there (FOLLOW_ROWS_MAX: a dispatch takes up to that
-            // many, and the more, the less lanes wait for the last paths); a wavefront pass as many as fit.
-            let fit = (capacity as u64 / pixels) as u32;
-            let k = match self.schedule.current() {
-                // path_count must stay within u32, as the path state's capacity does.
-                Schedule::Fused => fit.max(FOLLOW_ROWS_MAX).min((u32::MAX as u64 / 4 / pixels) as u32),
-                Schedule::Wavefront => fit,
+        for i in 0..size.chunks {
+            let slice = size.slice(pixels, i);
+            frame.pixel_offset = slice.pixel_offset;
+            frame.pass_pixels = slice.pass_pixels;
+            frame.path_count = slice.path_count;
+            if let Err(e) = self.run_pass(&frame, &session.counters, &mut stats) {
+                session.stats = stats;
+                return Err(e);
             }
-            .min(samples.max(1));
-            frame.pixel_offset = 0;
-            frame.pass_pixels = pixels as u32;
-            frame.path_count = pixels as u32 * k;
-            let r = self.run_pass(&frame, &session.counters, &mut stats);
-            session.stats = stats;
-            r?;
-            k
-        } else {
-            // One sample, the image in chunks of `capacity` pixels.
-            for chunk in 0..pixels.div_ceil(capacity as u64) as u32 {
-                frame.pixel_offset = chunk * capacity;
-                frame.pass_pixels = (pixels - frame.pixel_offset as u64).min(capacity as u64) as u32;
-                frame.path_count = frame.pass_pixels;
-                if let Err(e) = self.run_pass(&frame, &session.counters, &mut stats) {
-                    session.stats = stats;
-                    return Err(e);
-                }
-            }
-            session.stats = stats;
-            1
-        };
+        }
+        session.stats = stats;
+        let added = size.rows;
         session.done += added;
         self.check_validation()?;
         Ok(added)
