@@ -28,6 +28,7 @@ use crate::layout::Frame;
 use crate::scene::{Camera, Scene};
 use crate::vk::{Buffer, Context, DeviceChoice, TexelViews, Timestamps, Validation};
 use ash::vk;
+use energy::EnergyTables;
 use gpu_allocator::MemoryLocation;
 use gpu_scene::GpuScene;
 use kernels::{Kernel, Kernels, SceneVariant};
@@ -43,14 +44,13 @@ struct StandIns {
 }
 
 impl StandIns {
-    /// The bindings a session, a probe or the tone map fills in, and the energy tables while they are being built.
-    const BINDINGS: [u32; 10] = [
+    /// The bindings a session, a probe or the tone map fills in.
+    const BINDINGS: [u32; 9] = [
         BINDING_PATHS,
         BINDING_QUEUES,
         BINDING_COUNTERS,
         BINDING_FILM,
         BINDING_PROBE,
-        BINDING_ENERGY,
         BINDING_TONEMAP_OUT,
         BINDING_AOVS,
         BINDING_BUDGET,
@@ -89,11 +89,7 @@ pub struct Renderer {
     kernels: Kernels,
     scene: GpuScene,
     stand_ins: StandIns,
-    /// Built once per device at start-up; None only while it is being built.
-    energy: Option<Buffer>,
-    /// Whether the energy buffer's sheen grid is built (the first scene with a sheen builds it).
-    sheen_table: bool,
-    aniso_table: bool,
+    energy: EnergyTables,
     /// How traversal reads the BVH; Texel needs the scene's texel views.
     bvh_reads: BvhReads,
     options: RendererOptions,
@@ -153,9 +149,7 @@ impl Renderer {
             kernels,
             scene: uploaded.gpu,
             stand_ins,
-            energy: None,
-            sheen_table: false,
-            aniso_table: false,
+            energy: EnergyTables::upload(&ctx)?,
             bvh_reads: uploaded.bvh_reads,
             options,
             schedule,
@@ -169,7 +163,11 @@ impl Renderer {
             ctx,
         };
         r.bind_scene_views();
-        r.energy = Some(r.build_energy_tables()?);
+        r.build_grids(
+            kernels::Stage::EnergyTables,
+            ENERGY_RES * ENERGY_RES,
+            energy::grid_averages,
+        )?;
         r.ensure_layer_tables(scene)?;
         Ok(r)
     }
@@ -276,7 +274,7 @@ impl Renderer {
     /// Binds the scene, the energy tables, `extra` buffers and `views`, and stand-ins for every other binding.
     fn bind(&self, extra: &[(u32, &Buffer)], views: &[(u32, vk::BufferView)]) {
         let mut all: Vec<(u32, &Buffer)> = self.scene.bindings().collect();
-        all.extend(self.energy.as_ref().map(|e| (BINDING_ENERGY, e)));
+        all.push(self.energy.binding());
         all.extend_from_slice(extra);
         let missing: Vec<(u32, &Buffer)> = self
             .stand_ins
