@@ -15,7 +15,7 @@ vec3 sample_rgb(uint pixel, uint path) {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    // A follow dispatch cut short left wrong samples: the host runs the pass again (Renderer::run_pass).
+    // A follow dispatch cut short left wrong samples: the host runs the pass again (Integrator::run).
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint pixel = pass_pixel(i);
     uint pixels = frame.width * frame.height;

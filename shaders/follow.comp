@@ -87,7 +87,7 @@ void main() {
     // together reach 65535, silently. Once spent, that budget stops every loop after one step, so a two-step loop
     // with a bound the compiler cannot see that runs fewer than two steps, or a lane left with samples to do, shows
     // the loops above may have been cut. Then accumulate skips this pass and the host runs it again, fused with fewer
-    // samples per dispatch or, at the fewest, as a wavefront (Renderer::run_pass).
+    // samples per dispatch or, at the fewest, as a wavefront (Integrator::run).
     uint steps = 0u;
     for (uint k = 0u; k < 2u + (frame.path_count == 0u ? 1u : 0u); k++) steps++;
     bool cut = steps != 2u || (i < frame.pass_pixels && path < end);

@@ -22,7 +22,7 @@ bool near_specular(Bsdf b, float u_lobe) {
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
-    // A follow dispatch cut short: the host runs the pass again, survey included (Renderer::run_pass).
+    // A follow dispatch cut short: the host runs the pass again, survey included (Integrator::run).
     if (i >= frame.pass_pixels || counters.follow_cut != 0u) return;
     uint path = i + survey_row() * frame.pass_pixels;
     uint pixel = path_pixel(path);

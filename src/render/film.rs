@@ -264,6 +264,26 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// Adds a pass of `paths` paths: its ray tallies and (after the first pass, which also compiles) its GPU stage
+    /// times.
+    pub(super) fn add_pass(&mut self, done: &super::integrator::PassDone, paths: u32) {
+        let tally = &done.tally;
+        self.extension_rays += tally.extension_rays as u64;
+        self.shadow_rays += tally.shadow_rays as u64;
+        self.nonfinite += tally.nonfinite as u64;
+        self.samples += paths as u64;
+        if self.passes == 0 {
+            self.first_pass = done.wall;
+            // Kept apart (it includes compilation) and reported only if no other pass follows.
+            self.first_pass_stage_ms = done.times.iter().map(|(l, ns)| (*l, ns * 1e-6)).collect();
+        } else {
+            for &(label, ns) in &done.times {
+                crate::vk::add_labelled(&mut self.stage_ms, label, ns * 1e-6);
+            }
+        }
+        self.passes += 1;
+    }
+
     /// Time over the passes after the first, so compile time does not count against throughput.
     pub(super) fn steady(&self) -> Duration {
         self.wall.saturating_sub(self.first_pass)

@@ -26,13 +26,14 @@ use crate::constants::*;
 use crate::error::Error;
 use crate::layout::Frame;
 use crate::scene::{Camera, Scene};
-use crate::vk::{Buffer, Context, DeviceChoice, TexelViews, Timestamps, Validation};
+use crate::vk::{Buffer, Context, DeviceChoice, TexelViews, Validation};
 use ash::vk;
 use energy::EnergyTables;
 use gpu_allocator::MemoryLocation;
 use gpu_scene::GpuScene;
+use integrator::Integrator;
 use kernels::{Kernel, Kernels, SceneVariant};
-use schedule::{FollowRows, ScheduleChoice};
+use schedule::ScheduleChoice;
 
 /// Renderer-owned 16-byte buffers bound wherever no session or probe binds a buffer, and a one-texel path-state view:
 /// lavapipe reads every binding of a bound set, used or not, so a set must never keep a destroyed buffer or view.
@@ -85,7 +86,7 @@ impl StandIns {
 /// A scene uploaded to one device, ready to render any number of images.
 pub struct Renderer {
     // Field order is drop order: everything device-owned goes before the context.
-    timestamps: Timestamps,
+    integrator: Integrator,
     kernels: Kernels,
     scene: GpuScene,
     stand_ins: StandIns,
@@ -93,8 +94,6 @@ pub struct Renderer {
     /// How traversal reads the BVH; Texel needs the scene's texel views.
     bvh_reads: BvhReads,
     options: RendererOptions,
-    schedule: ScheduleChoice,
-    follow: FollowRows,
     env_size: (u32, u32),
     env_rotation: f32,
     /// The camera's distance to the scene's centre along its view direction: the focus when none is given.
@@ -145,15 +144,13 @@ impl Renderer {
         let stand_ins = StandIns::new(&ctx)?;
         let env = scene.environment.as_ref();
         let mut r = Renderer {
-            timestamps: Timestamps::new(&ctx, 2048)?,
+            integrator: Integrator::new(&ctx, schedule)?,
             kernels,
             scene: uploaded.gpu,
             stand_ins,
             energy: EnergyTables::upload(&ctx)?,
             bvh_reads: uploaded.bvh_reads,
             options,
-            schedule,
-            follow: FollowRows::default(),
             env_size: env.map(|e| (e.width, e.height)).unwrap_or((0, 0)),
             env_rotation: env.map(|e| e.rotation).unwrap_or(0.0),
             default_focus: uploaded.default_focus,
@@ -239,9 +236,9 @@ impl Renderer {
             self.kernels.replace(&self.ctx, *kernel, spv)?;
         }
         if compiled.iter().any(|(k, _)| k.stage.wavefront_only()) {
-            self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
+            self.integrator.fix(Schedule::Wavefront);
         } else if compiled.iter().any(|(k, _)| k.stage == kernels::Stage::Follow) {
-            self.schedule = ScheduleChoice::Fixed(Schedule::Fused);
+            self.integrator.fix(Schedule::Fused);
         }
         Ok(names)
     }
@@ -383,17 +380,17 @@ impl Renderer {
 
     /// How the next pass takes paths through the stages (on a CPU device, the one timed faster after four passes).
     pub fn schedule(&self) -> Schedule {
-        self.schedule.current()
+        self.integrator.schedule()
     }
 
     /// Sample rows the next follow dispatch takes (see FOLLOW_SAMPLES).
     pub fn follow_rows(&self) -> u32 {
-        self.follow.rows
+        self.integrator.follow_rows()
     }
 
     /// Fixes how passes run; both schedules work on every device and give the same bytes.
     pub fn set_schedule(&mut self, schedule: Schedule) {
-        self.schedule = ScheduleChoice::Fixed(schedule);
+        self.integrator.fix(schedule);
     }
 
     /// The camera renders use; `set_camera` changes it for the next `begin` or `restart`.

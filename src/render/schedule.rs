@@ -1,13 +1,7 @@
-//! How passes take paths through the stages: the two schedules, the trial that picks one on CPU devices, and the
-//! fused schedule's back-off when lavapipe's loop budget cuts a dispatch short.
-use super::film::RenderStats;
-use super::sizing::wavefront_rows;
-use super::Renderer;
+//! How passes take paths through the stages: the two schedules, the trial that picks one on CPU devices, and the rows
+//! a follow dispatch takes (the fused schedule's back-off when lavapipe's loop budget cuts a dispatch short). State
+//! machines only; the integrator runs them.
 use crate::constants::*;
-use crate::error::Error;
-use crate::layout::{Counters, Frame};
-use crate::vk::{add_labelled, Buffer};
-use std::time::Instant;
 
 /// How a pass takes its paths through the stages. Both give the same bytes for a seed (tests/schedule.rs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,7 +86,7 @@ impl Default for FollowRows {
 impl FollowRows {
     /// After a cut dispatch that took `taken` rows (a pass may hold fewer than `rows`): the rows to run the pass
     /// fused again with, or None when it is already at the fewest and must run as a wavefront.
-    fn after_cut(&mut self, taken: u32) -> Option<u32> {
+    pub(super) fn after_cut(&mut self, taken: u32) -> Option<u32> {
         if taken <= FOLLOW_SAMPLES {
             return None;
         }
@@ -101,107 +95,8 @@ impl FollowRows {
         Some(self.rows)
     }
 
-    fn after_fused_pass(&mut self) {
+    pub(super) fn after_fused_pass(&mut self) {
         self.rows = (2 * self.rows).min(self.max);
-    }
-}
-
-impl Renderer {
-    /// Runs one pass and adds its ray tallies and (after the first pass, which also compiles) GPU stage times.
-    pub(super) fn run_pass(&mut self, frame: &Frame, counters: &Buffer, stats: &mut RenderStats) -> Result<(), Error> {
-        let pass_start = Instant::now();
-        let schedule = self.schedule.current();
-        let mut times = Vec::new();
-        let mut tally = self.tallied_pass(frame, counters, schedule, &mut times)?;
-        while tally.follow_cut != 0 {
-            // lavapipe cut follow's loops short (follow.comp), and accumulate skipped the pass. With fewer rows per
-            // dispatch the pass runs fused again, and never with as many again; at the fewest, it runs again as a
-            // wavefront, whose invocations each trace one ray, and the renderer stays with the wavefront.
-            times.clear();
-            let taken = self.follow.rows.min(frame.path_count / frame.pass_pixels.max(1));
-            if self.follow.after_cut(taken).is_some() {
-                tally = self.tallied_pass(frame, counters, Schedule::Fused, &mut times)?;
-            } else {
-                self.warnings.push(
-                    "the fused schedule ran past lavapipe's loop budget on this scene; using the wavefront".into(),
-                );
-                self.schedule = ScheduleChoice::Fixed(Schedule::Wavefront);
-                tally = self.wavefront_in_chunks(frame, counters, &mut times)?;
-            }
-        }
-        if tally.stage_cut != 0 {
-            return Err(Error::Shader(format!(
-                "{} invocations of the wavefront stages ran past lavapipe's loop budget (65535 loop iterations per \
-                 invocation), which cuts every loop short silently: an endless or very long loop in a stage, and the \
-                 image would be wrong",
-                tally.stage_cut
-            )));
-        }
-        if schedule == Schedule::Fused && self.schedule.current() == Schedule::Fused {
-            self.follow.after_fused_pass();
-        }
-        stats.extension_rays += tally.extension_rays as u64;
-        stats.shadow_rays += tally.shadow_rays as u64;
-        stats.nonfinite += tally.nonfinite as u64;
-        stats.samples += frame.path_count as u64;
-        // Without timestamps (some devices), the pass's wall time, which also holds the tally's download.
-        let gpu_ns: f64 = times.iter().map(|(_, ns)| ns).sum();
-        let ns = if gpu_ns > 0.0 {
-            gpu_ns
-        } else {
-            pass_start.elapsed().as_nanos() as f64
-        };
-        self.schedule.record(ns, frame.path_count);
-        if stats.passes == 0 {
-            stats.first_pass = pass_start.elapsed();
-            // Kept apart (it includes compilation) and reported only if no other pass follows.
-            stats.first_pass_stage_ms = times.iter().map(|(l, ns)| (*l, ns * 1e-6)).collect();
-        } else {
-            for (label, ns) in times {
-                add_labelled(&mut stats.stage_ms, label, ns * 1e-6);
-            }
-        }
-        stats.passes += 1;
-        Ok(())
-    }
-
-    /// `pass`, then its tallies; its GPU stage times are added to `times`.
-    fn tallied_pass(
-        &mut self,
-        frame: &Frame,
-        counters: &Buffer,
-        schedule: Schedule,
-        times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<Counters, Error> {
-        self.pass(frame, counters, schedule)?;
-        let tally: Counters = counters.download(&self.ctx)?[0];
-        for (label, ns) in self.timestamps.read()? {
-            add_labelled(times, label, ns);
-        }
-        Ok(tally)
-    }
-
-    /// A pass as wavefront passes of as many sample rows as the path state holds (a fused pass may have more), with
-    /// their tallies summed.
-    fn wavefront_in_chunks(
-        &mut self,
-        frame: &Frame,
-        counters: &Buffer,
-        times: &mut Vec<(&'static str, f64)>,
-    ) -> Result<Counters, Error> {
-        let mut total = Counters::default();
-        for (first, rows) in wavefront_rows(frame.path_count, frame.pass_pixels, frame.path_capacity) {
-            let mut f = *frame;
-            f.sample_index = frame.sample_index + first;
-            f.path_count = rows * frame.pass_pixels;
-            let t = self.tallied_pass(&f, counters, Schedule::Wavefront, times)?;
-            // The device's tallies are u32 and wrap; so do these.
-            total.extension_rays = total.extension_rays.wrapping_add(t.extension_rays);
-            total.shadow_rays = total.shadow_rays.wrapping_add(t.shadow_rays);
-            total.nonfinite = total.nonfinite.wrapping_add(t.nonfinite);
-            total.stage_cut = total.stage_cut.wrapping_add(t.stage_cut);
-        }
-        Ok(total)
     }
 }
 

@@ -1,5 +1,6 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
 use super::film::{ExactFilm, Film, RenderStats};
+use super::integrator::{Pass, FUSED_FALLBACK};
 use super::sizing::{path_capacity, size_pass, PathLimits};
 use super::Aovs;
 use super::{RenderSettings, Renderer, DEPTH_SAFETY_CAP};
@@ -17,6 +18,8 @@ use std::time::Instant;
 pub struct Session {
     pub settings: RenderSettings,
     frame: Frame,
+    /// The FEATURE_* bits the settings ask for, decided with `frame` at each (re)start.
+    features: u32,
     pixels: u64,
     capacity: u32,
     /// The path state's texel views: dropped before it.
@@ -235,6 +238,7 @@ impl Renderer {
             debug,
             budget,
             planned: None,
+            features: 0,
             done: 0,
             stats: RenderStats::default(),
             started: Instant::now(),
@@ -259,6 +263,7 @@ impl Renderer {
         let mut frame = self.frame(&session.settings);
         frame.path_capacity = session.capacity;
         session.frame = frame;
+        session.features = session.settings.features();
         session.done = 0;
         session.stats = RenderStats::default();
         session.started = Instant::now();
@@ -338,7 +343,35 @@ impl Renderer {
     fn plan_session(&mut self, session: &Session, a: super::Adaptive, end: u32) -> Result<Planned, Error> {
         let budget =
             (session.budget.as_ref()).ok_or_else(|| Error::Vulkan("an adaptive session has no budgets".into()))?;
-        self.plan(&session.frame, &session.counters, budget, a.pilot, a.threshold, end)
+        let pass = self.pass_of(session, session.frame);
+        self.integrator
+            .plan(&self.ctx, &mut self.kernels, &pass, budget, a, end)
+    }
+
+    /// A pass of `session` over `frame`: its stages specialised for the scene, the session's settings and the light
+    /// selection `frame` asks for (the light tree only where the scene has enough emitters for it, `lit`).
+    fn pass_of<'a>(&self, session: &'a Session, frame: Frame) -> Pass<'a> {
+        let tree = match frame.flags & FLAG_LIGHT_TREE != 0 {
+            true => FEATURE_LIGHT_TREE,
+            false => 0,
+        };
+        Pass {
+            frame,
+            features: self.scene.features | session.features | tree,
+            variant: self.scene_variant(),
+            survey: session.aovs.is_some() || session.debug.is_some(),
+            counters: &session.counters,
+        }
+    }
+
+    /// Runs one pass and adds it to `stats`; a fall-back to the wavefront becomes a warning.
+    fn run_pass(&mut self, pass: &Pass, stats: &mut RenderStats) -> Result<(), Error> {
+        let report = self.integrator.run(&self.ctx, &mut self.kernels, pass);
+        if report.fell_back {
+            self.warnings.push(FUSED_FALLBACK.into());
+        }
+        stats.add_pass(&report.outcome?, pass.frame.path_count);
+        Ok(())
     }
 
     /// One pass of `advance`, adaptive or not. Once adaptive sampling has planned, a pass covers only the pixels
@@ -356,14 +389,15 @@ impl Renderer {
             }
             None => session.pixels,
         };
-        let size = size_pass(pixels, capacity, self.schedule.current(), samples);
+        let size = size_pass(pixels, capacity, self.integrator.schedule(), samples);
         let mut stats = std::mem::take(&mut session.stats);
         for i in 0..size.chunks {
             let slice = size.slice(pixels, i);
             frame.pixel_offset = slice.pixel_offset;
             frame.pass_pixels = slice.pass_pixels;
             frame.path_count = slice.path_count;
-            if let Err(e) = self.run_pass(&frame, &session.counters, &mut stats) {
+            let pass = self.pass_of(session, frame);
+            if let Err(e) = self.run_pass(&pass, &mut stats) {
                 session.stats = stats;
                 return Err(e);
             }

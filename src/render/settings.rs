@@ -239,6 +239,16 @@ impl RendererOptions {
 }
 
 impl RenderSettings {
+    /// The FEATURE_* bits these settings specialise the render stages for: a lens, the exact film, adaptive sampling
+    /// and spectral transport (the scene and the light selection add theirs).
+    pub fn features(&self) -> u32 {
+        let bit = |on: bool, feature: u32| if on { feature } else { 0 };
+        bit(self.aperture > 0.0, FEATURE_LENS)
+            | bit(self.exact_film, FEATURE_EXACT_FILM)
+            | bit(self.adaptive.is_some(), FEATURE_ADAPTIVE)
+            | bit(self.spectral, FEATURE_SPECTRAL)
+    }
+
     /// Refuses settings no render can honour, before anything is allocated.
     pub(super) fn check(&self) -> Result<(), Error> {
         if self.width == 0 || self.height == 0 {
@@ -275,5 +285,51 @@ impl RenderSettings {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Adaptive, RenderSettings};
+    use crate::constants::*;
+
+    /// Each setting adds its own bit and nothing else; the defaults specialise for none of them. A closed aperture is
+    /// a pinhole (no lens stage work), any opening a lens.
+    #[test]
+    fn settings_features_are_one_bit_each() {
+        let none = RenderSettings::default();
+        assert_eq!(none.features(), 0);
+        let with = |edit: fn(&mut RenderSettings)| {
+            let mut s = RenderSettings::default();
+            edit(&mut s);
+            s.features()
+        };
+        assert_eq!(with(|s| s.aperture = 0.05), FEATURE_LENS);
+        assert_eq!(with(|s| s.aperture = 0.0), 0);
+        assert_eq!(with(|s| s.exact_film = true), FEATURE_EXACT_FILM);
+        let adaptive = Some(Adaptive {
+            threshold: 0.01,
+            pilot: 16,
+        });
+        let s = RenderSettings {
+            adaptive,
+            ..RenderSettings::default()
+        };
+        assert_eq!(s.features(), FEATURE_ADAPTIVE);
+        assert_eq!(with(|s| s.spectral = true), FEATURE_SPECTRAL);
+        // Settings that change no stage's specialisation.
+        assert_eq!(with(|s| s.aovs = true), 0);
+        assert_eq!(with(|s| s.seed = 9), 0);
+        let all = RenderSettings {
+            aperture: 1.0,
+            exact_film: true,
+            adaptive,
+            spectral: true,
+            ..RenderSettings::default()
+        };
+        assert_eq!(
+            all.features(),
+            FEATURE_LENS | FEATURE_EXACT_FILM | FEATURE_ADAPTIVE | FEATURE_SPECTRAL
+        );
     }
 }
