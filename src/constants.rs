@@ -198,23 +198,17 @@ pub const FLAG_CAMERA_MOTION: u32 = 64;
 /// The camera is orthographic: camera rays start across an image plane frame_half_height() high and all run along
 /// its forward axis.
 pub const FLAG_ORTHOGRAPHIC: u32 = 128;
-/// The film is the exact one (FEATURE_EXACT_FILM): the host reads this flag to specialise the render stages.
-pub const FLAG_EXACT_FILM: u32 = 256;
-/// The render keeps AOVs: after each pass the host runs survey over its sample rows (read by the host only, and left
-/// out of a film file's frame fingerprint: AOVs do not change the samples).
-pub const FLAG_AOVS: u32 = 512;
-/// The render samples adaptively (FEATURE_ADAPTIVE): the host reads this flag to specialise the render stages.
-pub const FLAG_ADAPTIVE: u32 = 1024;
-/// survey adds the debug views too (BINDING_DEBUG_AOVS); read by survey, and by the host, which leaves it out of a
-/// film file's frame fingerprint like FLAG_AOVS.
+// Bits 256, 512 and 1024 are retired: they carried settings no shader reads (the exact film, AOVs, adaptive
+// sampling; RenderSettings::features specialises the stages for them). Film files still hash 256 and 1024 into their
+// frame fingerprint (session.rs, film_frame_flags), so they must never mean anything else here.
+/// survey adds the debug views too (BINDING_DEBUG_AOVS); read by survey, and left out of a film file's frame
+/// fingerprint (AOVs do not change the samples).
 pub const FLAG_DEBUG_AOVS: u32 = 2048;
 /// A pass after adaptive sampling's plan: its pixels are the budget buffer's order (ORDER_*), the pixels by budget
 /// from the largest, so a pass covers only those that take its samples and a subgroup's pixels take about as many.
 /// plan.comp's second dispatch (which ranks them) carries it too.
 pub const FLAG_PIXEL_ORDER: u32 = 4096;
-/// The render is spectral (FEATURE_SPECTRAL): the host reads this flag to specialise the render stages, and it keeps
-/// spectral and RGB film files from merging.
-pub const FLAG_SPECTRAL: u32 = 8192;
+// Bit 8192 is retired (it marked a spectral render); film files hash it, as 256 and 1024 above.
 /// Light selection picks uniformly among the table's entries (--light-sampler uniform).
 pub const FLAG_LIGHT_UNIFORM: u32 = 16384;
 /// Light selection descends the light BVH (--light-sampler bvh, FEATURE_LIGHT_TREE); neither bit: by power.

@@ -465,8 +465,7 @@ impl Renderer {
             Error::Settings("the renderer did not keep the scene's fingerprint (RendererOptions::fingerprint)".into())
         })?;
         let mut frame = self.frame(s);
-        // AOVs do not change the samples: parts with and without them merge.
-        frame.flags &= !(FLAG_AOVS | FLAG_DEBUG_AOVS);
+        frame.flags = film_frame_flags(frame.flags, s);
         let frame = blake3::hash(bytemuck::bytes_of(&frame)).to_hex().to_string();
         Ok([scene, frame, self.kernels.render_fingerprint()])
     }
@@ -518,11 +517,7 @@ impl Renderer {
                     FLAG_CAMERA_MOTION,
                 )
                 | flag(self.camera.projection.is_orthographic(), FLAG_ORTHOGRAPHIC)
-                | flag(s.exact_film, FLAG_EXACT_FILM)
-                | flag(s.aovs || s.debug_aovs, FLAG_AOVS)
                 | flag(s.debug_aovs, FLAG_DEBUG_AOVS)
-                | flag(s.adaptive.is_some(), FLAG_ADAPTIVE)
-                | flag(s.spectral, FLAG_SPECTRAL)
                 | s.light_sampler.flags(),
             ..Frame::default()
         })
@@ -530,10 +525,87 @@ impl Renderer {
     }
 }
 
+/// Bits film format 1 hashes into a film file's frame fingerprint for settings no shader reads. Frame.flags carried
+/// them once (constants.rs keeps them retired); hashing them as then keeps film files written before and after
+/// mergeable, and keeps spectral and RGB parts, and adaptive and uniform ones, from merging.
+const FILM_FRAME_EXACT: u32 = 256;
+const FILM_FRAME_ADAPTIVE: u32 = 1024;
+const FILM_FRAME_SPECTRAL: u32 = 8192;
+
+/// The flags a film file's frame fingerprint hashes: a pass's flags without the debug views (AOVs do not change the
+/// samples: parts with and without them merge), with the retired settings bits.
+fn film_frame_flags(flags: u32, s: &RenderSettings) -> u32 {
+    let bit = |on: bool, b: u32| if on { b } else { 0 };
+    flags & !FLAG_DEBUG_AOVS
+        | bit(s.exact_film, FILM_FRAME_EXACT)
+        | bit(s.adaptive.is_some(), FILM_FRAME_ADAPTIVE)
+        | bit(s.spectral, FILM_FRAME_SPECTRAL)
+}
+
 /// Film bytes a pixel takes: the float film's sum and sum of squares, or the exact film's texels.
 fn film_bytes_per_pixel(s: &RenderSettings) -> u32 {
     match s.exact_film {
         true => EXACT_FILM_TEXELS * 16,
         false => FILM_BYTES_PER_PIXEL,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::Adaptive;
+
+    /// A film file's frame fingerprint hashes the bits Frame.flags carried for these settings before they were
+    /// retired, written out as numbers: a renumbering, or a flag the shaders read taking a retired bit, fails here
+    /// (either would change every film file's bytes and which parts merge).
+    #[test]
+    fn film_files_keep_hashing_the_retired_flag_bits() {
+        let s = |edit: fn(&mut RenderSettings)| {
+            let mut s = RenderSettings::default();
+            edit(&mut s);
+            s
+        };
+        assert_eq!(film_frame_flags(0, &s(|_| {})), 0);
+        assert_eq!(film_frame_flags(0, &s(|s| s.exact_film = true)), 256);
+        assert_eq!(
+            film_frame_flags(
+                0,
+                &s(|s| s.adaptive = Some(Adaptive {
+                    threshold: 0.01,
+                    pilot: 16
+                }))
+            ),
+            1024
+        );
+        assert_eq!(film_frame_flags(0, &s(|s| s.spectral = true)), 8192);
+        // The debug views leave; every other flag stays.
+        assert_eq!(film_frame_flags(1 | 2048 | 32768, &s(|s| s.aovs = true)), 1 | 32768);
+        let live = FLAG_ENERGY_COMPENSATION
+            | FLAG_HIDE_ENV
+            | FLAG_VERTEX_COLORS
+            | FLAG_FUSED_SUMS
+            | 3 << ESTIMATOR_SHIFT
+            | FLAG_CAMERA_MOTION
+            | FLAG_ORTHOGRAPHIC
+            | FLAG_DEBUG_AOVS
+            | FLAG_PIXEL_ORDER
+            | FLAG_LIGHT_UNIFORM
+            | FLAG_LIGHT_TREE;
+        assert_eq!(live & (256 | 512 | 1024 | 8192), 0, "a live flag took a retired bit");
+    }
+
+    /// A pass from sample s covers the buckets whose largest budget is above s: those pixels still take samples.
+    #[test]
+    fn planned_passes_cover_the_buckets_still_sampling() {
+        let p = Planned {
+            end: 40,
+            counts: vec![3, 5, 7],
+            largest: vec![40, 20, 10],
+        };
+        assert_eq!(p.active(0), 15);
+        assert_eq!(p.active(10), 8);
+        assert_eq!(p.active(19), 8);
+        assert_eq!(p.active(20), 3);
+        assert_eq!(p.active(40), 0);
     }
 }
