@@ -20,6 +20,6 @@ pub mod vk;
 pub use error::Error;
 pub use render::{
     Adaptive, BvhReads, Estimator, Film, LightSampler, RenderSettings, RenderStats, Renderer, RendererOptions,
-    Schedule, Session,
+    Schedule, Session, SpectralChoice,
 };
 pub use scene::Scene;

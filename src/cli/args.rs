@@ -4,7 +4,7 @@ use super::info::instancing_rule;
 use super::values::*;
 use anyhow::{bail, Result};
 use pathwave::vk::DeviceChoice;
-use pathwave::{scene, LightSampler, RenderSettings};
+use pathwave::{scene, LightSampler, RenderSettings, SpectralChoice};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -256,19 +256,19 @@ impl SceneArgs {
     /// Whether the render is spectral: --spectral, or a scene with dispersion unless --rgb. Says which, on stderr, when
     /// the scene decided.
     pub(crate) fn spectral(&self, scene: &scene::Scene) -> bool {
-        let dispersive = scene.wants_spectral();
-        if dispersive && self.rgb {
-            eprintln!(
+        let choice = SpectralChoice::new(self.spectral, self.rgb, scene.wants_spectral());
+        match choice {
+            SpectralChoice::RgbOverDispersion => eprintln!(
                 "warning: {}: --rgb renders without dispersion (KHR_materials_dispersion needs spectral transport)",
                 self.scene.display()
-            );
-        } else if dispersive && !self.spectral {
-            eprintln!(
+            ),
+            SpectralChoice::Dispersion => eprintln!(
                 "{}: dispersion (KHR_materials_dispersion): rendering spectrally (--rgb to force RGB)",
                 self.scene.display()
-            );
+            ),
+            SpectralChoice::Asked | SpectralChoice::Rgb => {}
         }
-        self.spectral || (dispersive && !self.rgb)
+        choice.spectral()
     }
 
     pub(crate) fn settings(&self) -> RenderSettings {

@@ -20,7 +20,9 @@ pub use gpu_scene::BvhReads;
 pub use probes::{BsdfProbe, BsdfQuery};
 pub use schedule::Schedule;
 pub use session::Session;
-pub use settings::{Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, Traversal, DEPTH_SAFETY_CAP};
+pub use settings::{
+    Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, SpectralChoice, Traversal, DEPTH_SAFETY_CAP,
+};
 
 use crate::constants::*;
 use crate::error::Error;

@@ -238,6 +238,34 @@ impl RendererOptions {
     }
 }
 
+/// Whether a render is spectral, and why: asked for (`--spectral`), or a scene with dispersion
+/// (KHR_materials_dispersion needs spectral transport) unless RGB is asked for. The command line and the viewer
+/// both decide with it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpectralChoice {
+    Asked,
+    /// The scene has dispersion and RGB was not asked for.
+    Dispersion,
+    Rgb,
+    /// RGB asked for over a scene with dispersion, which then renders without it.
+    RgbOverDispersion,
+}
+
+impl SpectralChoice {
+    pub fn new(spectral: bool, rgb: bool, dispersive: bool) -> Self {
+        match (spectral, rgb, dispersive) {
+            (true, _, _) => SpectralChoice::Asked,
+            (false, false, true) => SpectralChoice::Dispersion,
+            (false, true, true) => SpectralChoice::RgbOverDispersion,
+            (false, _, false) => SpectralChoice::Rgb,
+        }
+    }
+
+    pub fn spectral(self) -> bool {
+        matches!(self, SpectralChoice::Asked | SpectralChoice::Dispersion)
+    }
+}
+
 impl RenderSettings {
     /// The FEATURE_* bits these settings specialise the render stages for: a lens, the exact film, adaptive sampling
     /// and spectral transport (the scene and the light selection add theirs).
@@ -290,7 +318,7 @@ impl RenderSettings {
 
 #[cfg(test)]
 mod tests {
-    use super::{Adaptive, RenderSettings};
+    use super::{Adaptive, RenderSettings, SpectralChoice};
     use crate::constants::*;
 
     /// Each setting adds its own bit and nothing else; the defaults specialise for none of them. A closed aperture is
@@ -331,5 +359,26 @@ mod tests {
             all.features(),
             FEATURE_LENS | FEATURE_EXACT_FILM | FEATURE_ADAPTIVE | FEATURE_SPECTRAL
         );
+    }
+
+    /// --spectral always renders spectrally (the command line refuses it with --rgb, but the rule stays); a scene with
+    /// dispersion does unless --rgb; nothing else does.
+    #[test]
+    fn spectral_choice_truth_table() {
+        use SpectralChoice::*;
+        for (spectral, rgb, dispersive, want) in [
+            (false, false, false, Rgb),
+            (false, false, true, Dispersion),
+            (false, true, false, Rgb),
+            (false, true, true, RgbOverDispersion),
+            (true, false, false, Asked),
+            (true, false, true, Asked),
+            (true, true, false, Asked),
+            (true, true, true, Asked),
+        ] {
+            let c = SpectralChoice::new(spectral, rgb, dispersive);
+            assert_eq!(c, want, "{spectral} {rgb} {dispersive}");
+            assert_eq!(c.spectral(), spectral || (dispersive && !rgb));
+        }
     }
 }

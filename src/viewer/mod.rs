@@ -2,7 +2,7 @@
 mod swapchain;
 
 use crate::error::Error;
-use crate::render::{RenderSettings, Renderer, Session};
+use crate::render::{RenderSettings, Renderer, Session, SpectralChoice};
 use crate::scene::{Camera, Projection, Scene};
 use crate::shaders::{ShaderDir, ShaderWatcher};
 use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
@@ -350,7 +350,7 @@ impl State {
         settings.width = swapchain.extent[0];
         settings.height = swapchain.extent[1];
         settings.focus_distance = Some(focus);
-        settings.spectral = s.spectral || (scene.wants_spectral() && !options.rgb);
+        settings.spectral = SpectralChoice::new(s.spectral, options.rgb, scene.wants_spectral()).spectral();
         let session = renderer.begin(&settings)?;
         let pixels = pixel_buffer(renderer.context(), swapchain.extent)?;
         if options.play && !scene.rig.animated() {
