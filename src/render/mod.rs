@@ -502,3 +502,27 @@ fn default_focus(bounds: Option<(glam::Vec3, glam::Vec3)>, cam: &Camera) -> f32 
     let (lo, hi) = bounds.unwrap_or((glam::Vec3::ZERO, glam::Vec3::ZERO));
     ((lo + hi) * 0.5 - cam.origin()).dot(cam.basis().2).max(1e-3)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::StandIns;
+    use crate::constants::*;
+
+    /// Every binding of the one descriptor set has exactly one filler: the scene (SCENE_BINDINGS), the energy tables,
+    /// or a session, probe or tone map (with a stand-in when none is bound), and the path state's texel view. A binding
+    /// nobody fills would keep a destroyed buffer on lavapipe, which reads every binding of a bound set; one filled
+    /// twice would be bound to whichever comes last.
+    #[test]
+    fn every_binding_has_exactly_one_filler() {
+        let (scene_storage, scene_texel) = super::gpu_scene::filled_bindings();
+        let mut storage: Vec<u32> = scene_storage;
+        storage.push(BINDING_ENERGY);
+        storage.extend(StandIns::BINDINGS);
+        storage.sort_unstable();
+        assert_eq!(storage, (0..BINDING_FIRST_TEXEL).collect::<Vec<_>>());
+        let mut texel = scene_texel;
+        texel.push(BINDING_PATH_TEXELS);
+        texel.sort_unstable();
+        assert_eq!(texel, (BINDING_FIRST_TEXEL..BINDING_COUNT).collect::<Vec<_>>());
+    }
+}

@@ -41,6 +41,14 @@ enum Reads {
 /// One scene buffer: its name in messages, its storage binding, its texel binding, how it is read.
 struct SceneBinding(&'static str, u32, Option<u32>, Reads);
 
+/// The storage and texel bindings the scene fills (render/mod.rs checks every binding has exactly one filler).
+#[cfg(test)]
+pub(super) fn filled_bindings() -> (Vec<u32>, Vec<u32>) {
+    let storage = SCENE_BINDINGS.iter().map(|b| b.1).collect();
+    let texel = SCENE_BINDINGS.iter().filter_map(|b| b.2).collect();
+    (storage, texel)
+}
+
 /// Every scene buffer, in upload order: the one list binding, upload, views and limits come from.
 const SCENE_BINDINGS: [SceneBinding; 15] = [
     SceneBinding("bvh nodes", BINDING_NODES, Some(BINDING_NODE_TEXELS), Reads::Viewed),
