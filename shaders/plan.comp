@@ -1,7 +1,7 @@
 // plan: adaptive sampling's budgets, once the film holds exactly the pilot (plan_pilot() samples of every pixel). A
 // pixel's budget is the samples its mean needs for a relative standard error of plan_threshold(), estimated from
 // the pilot samples of its 24 nearest neighbours, never its own: its budget is then independent of its own samples, so
-// the mean of the samples it takes is an unbiased estimate of the pixel (see README, "Adaptive sampling"). It also
+// the mean of the samples it takes is an unbiased estimate of the pixel (see docs/guide/aovs.md, "Adaptive sampling"). It also
 // counts the budgets per bucket, and a second dispatch ranks the pixels by them (the budget buffer's order).
 #version 460
 #extension GL_GOOGLE_include_directive : require

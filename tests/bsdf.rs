@@ -1308,7 +1308,7 @@ fn iridescent_eval_pdf_and_sample_agree_and_are_reciprocal() {
 // film albedo is exact, so smooth films keep at most all energy; under rough lobes the film's albedo is approximated
 // (its reflectance at the lobe's mean Schlick cosine). Over this sweep that measures 0.98 to 1.02 up to 60 degrees
 // and 0.965 to 1.039 at 85 (roughness 0.8, IOR 1.8, 600 nm), so rough films are held to 5 % of 1: the approximation's
-// error, not noise, and a known limit (README).
+// error, not noise, and a known limit (docs/guide/materials.md).
 #[test]
 fn iridescent_albedo_never_exceeds_one() {
     let mut cases = Vec::new();

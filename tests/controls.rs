@@ -560,7 +560,7 @@ fn eight_bit_environment_maps_are_srgb_decoded() {
     }
 }
 
-/// --env-rotation -90 shows a map as three.js and Blender do (README, "Environment"): the map's centre straight
+/// --env-rotation -90 shows a map as three.js and Blender do (docs/guide/rendering.md, "Environment map"): the map's centre straight
 /// ahead of a camera looking down +x, and a quarter turn later (u = 0.75) down +z.
 #[test]
 fn env_rotation_minus_90_matches_three_js_and_blender() {

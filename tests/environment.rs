@@ -370,7 +370,7 @@ fn anisotropic_materials_vanish_in_a_white_furnace() {
 // A thin film changes how the base's reflection splits into colours, not how much energy the base keeps: over a white
 // plastic the diffuse takes what the film does not reflect. Would catch the diffuse weighted by the bare coat's albedo
 // (energy created where the film reflects more) or the film's reflectance above 1. The film's albedo under a rough
-// lobe is approximated (README), hence 2 % here against the tables' 1 %.
+// lobe is approximated (docs/guide/materials.md), hence 2 % here against the tables' 1 %.
 #[test]
 fn iridescent_materials_vanish_in_a_white_furnace() {
     use pathwave::scene::Iridescence;

@@ -80,7 +80,7 @@ fn load(material: Value) -> Result<String, String> {
     Ok(format!("{:?}", scene.materials[0]))
 }
 
-/// Schema properties pathwave does not read, as README says: a path tracer measures the thickness its rays cross in
+/// Schema properties pathwave does not read, as docs/guide/materials.md says: a path tracer measures the thickness its rays cross in
 /// the geometry itself, where a rasterizer needs the volume's thickness map.
 const UNUSED_BY_DESIGN: &[(&str, &str)] = &[("KHR_materials_volume", "thicknessTexture")];
 

@@ -157,7 +157,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     bool front = sf.front;
     vec3 n_in = sf.n_in;
     vec3 ns = sf.ns;
-    // To look at any quantity while editing (README), e.g. the shading normals in an RGB render:
+    // To look at any quantity while editing (docs/guide/shaders.md), e.g. the shading normals in an RGB render:
     // `v.radiance = Spectrum(ns * 0.5 + 0.5, 0.0); return false;` here.
 
     // Emission seen by this ray, weighted against the chance NEE would have found the same point.

@@ -68,7 +68,7 @@ uint traverse_node_visits = 0u;
 // lavapipe runs both sides of every branch under a mask, so a loop step costs a node test plus a triangle test
 // whichever one a lane needs. Each step therefore does one of each: the next interior node (all its children), and
 // the next triangle of a pending leaf. A leaf reached while another is pending waits as the current node. Four-wide
-// nodes halve the steps of two-wide ones, and quantised child boxes keep a node to three texel reads (see README).
+// nodes halve the steps of two-wide ones, and quantised child boxes keep a node to three texel reads (see docs/guide/internals.md).
 
 float sooner(float a, float b) { return a < b ? a : b; }
 float later(float a, float b) { return a > b ? a : b; }

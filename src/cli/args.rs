@@ -138,15 +138,15 @@ pub(crate) struct SceneArgs {
     /// skinned and morphed vertices) is blurred. 0, the default, is an instant and costs nothing.
     #[arg(long, default_value = "0", value_parser = parse_shutter, allow_hyphen_values = true)]
     pub(crate) shutter: f32,
-    /// Spectral transport: every path carries four wavelengths and colours become spectra at them (README,
-    /// "Spectral rendering"). Scenes with dispersion (KHR_materials_dispersion) render spectrally without it.
+    /// Spectral transport: every path carries four wavelengths and colours become spectra at them
+    /// (docs/guide/spectral.md). Scenes with dispersion (KHR_materials_dispersion) render spectrally without it.
     #[arg(long, conflicts_with = "rgb")]
     pub(crate) spectral: bool,
     /// RGB transport even for a scene with dispersion, which is then ignored (with a warning).
     #[arg(long)]
     pub(crate) rgb: bool,
     /// How next-event estimation picks a light: bvh (by importance at the shading point, from a light BVH over the
-    /// emitters), power (in proportion to power, the same everywhere) or uniform. README, "Light selection".
+    /// emitters), power (in proportion to power, the same everywhere) or uniform. docs/guide/light-selection.md.
     #[arg(long, value_enum, default_value = "bvh")]
     pub(crate) light_sampler: LightSampler,
     #[command(flatten)]
@@ -157,7 +157,7 @@ pub(crate) struct SceneArgs {
     pub(crate) limits: LoadArgs,
 }
 
-/// A camera given on the command line (README, "Cameras"), replacing or changing the file's.
+/// A camera given on the command line (docs/guide/rendering.md, "Cameras"), replacing or changing the file's.
 #[derive(clap::Args)]
 pub(crate) struct CameraArgs {
     /// Where the camera stands, X,Y,Z in scene units; with --target.

@@ -87,7 +87,7 @@ pub(crate) struct RenderArgs {
     pub(crate) denoise: bool,
     /// Adaptive sampling: after --min-spp samples of every pixel, each pixel takes only the samples its mean needs for
     /// a relative standard error of --noise-threshold (as its neighbours' first samples estimate it), at most --spp.
-    /// The image stays unbiased (README, "Adaptive sampling"); --aov sample-count shows where the samples went.
+    /// The image stays unbiased (docs/guide/aovs.md, "Adaptive sampling"); --aov sample-count shows where the samples went.
     #[arg(long)]
     pub(crate) adaptive: bool,
     /// With --adaptive: the relative standard error of a pixel's mean to reach, in (0, 1].

@@ -475,7 +475,7 @@ fn ray_query_structures(
     let wanted = match traversal {
         Traversal::Compute => false,
         Traversal::RayQuery => true,
-        // On lavapipe the compute BVH is the faster (README, "Traversal").
+        // On lavapipe the compute BVH is the faster (docs/guide/traversal.md).
         Traversal::Auto => gpu_device && ctx.accel.is_some(),
     };
     if !wanted {

@@ -31,7 +31,7 @@ impl Estimator {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Traversal {
     /// Ray queries on a GPU that has them; the compute BVH on CPU devices (on lavapipe the compute BVH is faster,
-    /// see README) and wherever a scene needs what ray queries lack (motion blur).
+    /// see docs/guide/traversal.md) and wherever a scene needs what ray queries lack (motion blur).
     #[default]
     Auto,
     /// The compute BVH (traverse.glsl), on every device.

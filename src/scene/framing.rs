@@ -1,7 +1,7 @@
 //! Where the camera goes when the file does not say: the command line's --eye/--target/--up/--yfov/--orbit, and the
 //! view a file without a camera gets.
 //!
-//! The default view (README, "Cameras"): from the direction 45° round from +z towards +x and 30° up, looking at
+//! The default view (docs/guide/rendering.md, "Cameras"): from the direction 45° round from +z towards +x and 30° up, looking at
 //! the centre of the scene's bounds, far enough that the bounding sphere fits the 45° vertical field of view with
 //! 10 % to spare. A scene whose surfaces mostly face its centre (a room, a closed box with something inside) is
 //! seen from inside instead: from 85 % of the way from the centre towards the bounds' corner in that direction, with
