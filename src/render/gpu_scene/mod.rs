@@ -1,10 +1,12 @@
 //! A scene on the device: the one table of scene buffers (SCENE_BINDINGS), their upload, texel views and limits.
+mod describe;
 mod emission;
 mod instances;
 mod lights;
 mod materials;
 mod pack;
 
+pub use describe::{describe, Report};
 pub use emission::Emission;
 pub use pack::{pack, try_pack, try_pack_with, PackedScene};
 
