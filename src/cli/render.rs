@@ -254,52 +254,14 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         false => None,
     };
     let shots = args.shots()?;
-    // Refuse a bad output path before spending time on the render.
-    let mut inputs = vec![("scene", args.common.scene.as_path())];
-    if let Some(env) = &args.common.env.env {
-        inputs.push(("environment map", env.as_path()));
-    }
-    for shot in &shots {
-        for out in &shot.outputs {
-            output::check_writable(out)?;
-            output::check_not_input(out, &inputs)?;
-            for &aov in args.aovs() {
-                output::check_not_input(&output::aov_path(out, aov), &inputs)?;
-            }
-        }
-    }
+    check_outputs(&args, &shots)?;
     let (first_sample, spp) = args.sample_range()?;
     super::interrupt::install()?;
     let start = Instant::now();
     let mut scene = args.common.load_at(shots[0].time)?;
-    let from_env = pathwave::render::RendererOptions::from_env()?;
-    let options = pathwave::render::RendererOptions {
-        fingerprint: args.film_stats(),
-        traversal: args.common.traversal.unwrap_or(from_env.traversal),
-        ..from_env
-    };
-    let device = args.common.device.clone().unwrap_or_default();
-    let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
-    // What the device could not build (the BVH past its limits, the ray-query structures past the budget) names
-    // the scene it was built for.
-    let mut renderer =
-        Renderer::with_options(&scene, ctx, options).with_context(|| args.common.scene.display().to_string())?;
-    for w in &renderer.warnings {
-        eprintln!("warning: {}: {w}", args.common.scene.display());
-    }
+    let mut renderer = renderer_for(&args, &scene)?;
     let shader_dir = match &args.shader_dir {
-        Some(dir) => {
-            let dir = pathwave::shaders::ShaderDir::open(dir)?;
-            for unknown in dir.unknown_stages() {
-                eprintln!(
-                    "warning: {}: {unknown}.comp is not a pathwave stage and is not used",
-                    dir.root().display()
-                );
-            }
-            let used = renderer.load_shaders(&dir, None)?;
-            eprintln!("using {} from {}", used.join(", "), dir.root().display());
-            Some(dir)
-        }
+        Some(dir) => Some(load_shader_dir(dir, &mut renderer)?),
         None => None,
     };
     let settings = RenderSettings {
@@ -324,10 +286,75 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         return render_frames(&args, &shots, &mut scene, &mut renderer, &settings, denoiser, start);
     }
     render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, start)?;
-    let Some(dir) = shader_dir.filter(|_| args.watch) else {
-        return Ok(());
+    match shader_dir.filter(|_| args.watch) {
+        Some(dir) => watch(&dir, &mut renderer, &settings, &args, &shots[0], denoiser),
+        None => Ok(()),
+    }
+}
+
+/// Refuses a bad output path (unwritable, or one of the inputs, AOV files included) before any time goes to the render.
+fn check_outputs(args: &RenderArgs, shots: &[Shot]) -> Result<()> {
+    let mut inputs = vec![("scene", args.common.scene.as_path())];
+    if let Some(env) = &args.common.env.env {
+        inputs.push(("environment map", env.as_path()));
+    }
+    for shot in shots {
+        for out in &shot.outputs {
+            output::check_writable(out)?;
+            output::check_not_input(out, &inputs)?;
+            for &aov in args.aovs() {
+                output::check_not_input(&output::aov_path(out, aov), &inputs)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The renderer on the device asked for, with the environment's options and the command line's traversal; its
+/// warnings are printed.
+fn renderer_for(args: &RenderArgs, scene: &scene::Scene) -> Result<Renderer> {
+    let from_env = pathwave::render::RendererOptions::from_env()?;
+    let options = pathwave::render::RendererOptions {
+        fingerprint: args.film_stats(),
+        traversal: args.common.traversal.unwrap_or(from_env.traversal),
+        ..from_env
     };
-    let watcher = pathwave::shaders::ShaderWatcher::new(&dir)?;
+    let device = args.common.device.clone().unwrap_or_default();
+    let ctx = pathwave::vk::Context::new(&device, pathwave::vk::Validation::from_env()?)?;
+    // What the device could not build (the BVH past its limits, the ray-query structures past the budget) names
+    // the scene it was built for.
+    let renderer =
+        Renderer::with_options(scene, ctx, options).with_context(|| args.common.scene.display().to_string())?;
+    for w in &renderer.warnings {
+        eprintln!("warning: {}: {w}", args.common.scene.display());
+    }
+    Ok(renderer)
+}
+
+/// --shader-dir: the folder's stages replace the built-in ones.
+fn load_shader_dir(dir: &std::path::Path, renderer: &mut Renderer) -> Result<pathwave::shaders::ShaderDir> {
+    let dir = pathwave::shaders::ShaderDir::open(dir)?;
+    for unknown in dir.unknown_stages() {
+        eprintln!(
+            "warning: {}: {unknown}.comp is not a pathwave stage and is not used",
+            dir.root().display()
+        );
+    }
+    let used = renderer.load_shaders(&dir, None)?;
+    eprintln!("using {} from {}", used.join(", "), dir.root().display());
+    Ok(dir)
+}
+
+/// --watch: renders again whenever a stage the folder holds changes, until interrupted.
+fn watch(
+    dir: &pathwave::shaders::ShaderDir,
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    args: &RenderArgs,
+    shot: &Shot,
+    denoiser: Option<&pathwave::denoise::Denoiser>,
+) -> Result<()> {
+    let watcher = pathwave::shaders::ShaderWatcher::new(dir)?;
     eprintln!("watching {} for changes (Ctrl-C to stop)", dir.root().display());
     loop {
         let changed = watcher.changed(std::time::Duration::from_secs(3600));
@@ -336,10 +363,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
             continue;
         }
         // A stage that does not compile keeps its last good pipeline, and the last image stays on disk.
-        match renderer.load_shaders(&dir, Some(&stale)) {
+        match renderer.load_shaders(dir, Some(&stale)) {
             Ok(rebuilt) => {
                 eprintln!("rebuilt {}", rebuilt.join(", "));
-                match render_and_write(&mut renderer, &settings, &args, &shots[0], denoiser, Instant::now()) {
+                match render_and_write(renderer, settings, args, shot, denoiser, Instant::now()) {
                     Err(e) if super::interrupt::STOP.load(std::sync::atomic::Ordering::SeqCst) => return Err(e),
                     Err(e) => eprintln!("error: {e:#}"),
                     Ok(()) => {}
@@ -404,17 +431,7 @@ pub(crate) fn render_and_write(
     denoiser: Option<&pathwave::denoise::Denoiser>,
     start: Instant,
 ) -> Result<()> {
-    let bar = ProgressBar::new(settings.spp as u64);
-    let prefix = match shot.frame {
-        Some(k) => format!("frame {k} "),
-        None => String::new(),
-    };
-    bar.set_style(
-        ProgressStyle::with_template(&format!(
-            "{prefix}{{bar:40}} {{pos}}/{{len}} spp  {{per_sec}}  eta {{eta}}"
-        ))
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = progress_bar(shot, settings.spp);
     let device = match renderer.traversal() {
         pathwave::render::Traversal::RayQuery => format!("{} (ray queries)", renderer.context().device_name()),
         _ => renderer.context().device_name(),
@@ -445,19 +462,8 @@ pub(crate) fn render_and_write(
     let noisy = film.mean();
     let (pixels, denoise_s) = match denoiser {
         Some(d) => {
-            let aovs = film
-                .aovs
-                .as_ref()
-                .context("the render has no AOVs to guide the denoiser")?;
-            let (albedo, normal) = (aovs.albedo(), aovs.normal());
             let t = Instant::now();
-            let guides = pathwave::denoise::Guides {
-                albedo: Some(&albedo),
-                normal: Some(&normal),
-                clean: false,
-            };
-            let denoised = d.denoise(film.width, film.height, &noisy, guides)?;
-            (denoised, Some(t.elapsed().as_secs_f64()))
+            (denoise(d, &film, &noisy)?, Some(t.elapsed().as_secs_f64()))
         }
         None => (noisy.clone(), None),
     };
@@ -484,24 +490,59 @@ pub(crate) fn render_and_write(
         start.elapsed().as_secs_f64(),
         stats.summary()
     );
-    if stats.interrupted {
-        let (a, done, b) = (
-            settings.first_sample,
-            settings.first_sample + film.spp,
-            settings.first_sample + settings.spp,
-        );
-        let rest = match film.exact {
-            Some(_) => format!(" (samples {a}..{done}; render --samples {done}..{b} and merge them to finish)"),
-            None => String::new(),
-        };
-        bail!(
-            "interrupted: wrote {} with {} of {} samples per pixel{rest}",
-            names.join(", "),
-            film.spp,
-            settings.spp
-        );
+    match stats.interrupted {
+        true => Err(interrupted(settings, &film, &names)),
+        false => Ok(()),
     }
-    Ok(())
+}
+
+fn progress_bar(shot: &Shot, spp: u32) -> ProgressBar {
+    let bar = ProgressBar::new(spp as u64);
+    let prefix = match shot.frame {
+        Some(k) => format!("frame {k} "),
+        None => String::new(),
+    };
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{prefix}{{bar:40}} {{pos}}/{{len}} spp  {{per_sec}}  eta {{eta}}"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+/// The film's mean through the denoiser, guided by its albedo and normal AOVs.
+fn denoise(d: &pathwave::denoise::Denoiser, film: &pathwave::Film, noisy: &[[f32; 3]]) -> Result<Vec<[f32; 3]>> {
+    let aovs = film
+        .aovs
+        .as_ref()
+        .context("the render has no AOVs to guide the denoiser")?;
+    let (albedo, normal) = (aovs.albedo(), aovs.normal());
+    let guides = pathwave::denoise::Guides {
+        albedo: Some(&albedo),
+        normal: Some(&normal),
+        clean: false,
+    };
+    Ok(d.denoise(film.width, film.height, noisy, guides)?)
+}
+
+/// A render stopped before its samples, its files written: what it holds, and how to finish it when it can be.
+fn interrupted(settings: &RenderSettings, film: &pathwave::Film, names: &[String]) -> anyhow::Error {
+    let (a, done, b) = (
+        settings.first_sample,
+        settings.first_sample + film.spp,
+        settings.first_sample + settings.spp,
+    );
+    let rest = match film.exact {
+        Some(_) => format!(" (samples {a}..{done}; render --samples {done}..{b} and merge them to finish)"),
+        None => String::new(),
+    };
+    anyhow::anyhow!(
+        "interrupted: wrote {} with {} of {} samples per pixel{rest}",
+        names.join(", "),
+        film.spp,
+        settings.spp
+    )
 }
 
 /// The shot's outputs and, for the AOVs asked for, their layers in each EXR and their files of their own (beside
