@@ -114,7 +114,7 @@ pub struct RenderSettings {
 }
 
 /// Adaptive sampling (FEATURE_ADAPTIVE): every pixel takes the first `pilot` samples; then each pixel's budget is the
-/// samples its mean needs for a relative standard error of `threshold`, as its eight neighbours' pilot samples
+/// samples its mean needs for a relative standard error of `threshold`, as its 24 nearest neighbours' pilot samples
 /// estimate it (plan.comp), at most the render's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Adaptive {
