@@ -85,11 +85,72 @@ fn instance_words(rows: [[f32; 4]; 3], custom_index: u32, mask: u32, blas: u64) 
     w
 }
 
+/// Buffer usages of the builds' inputs, the structures and the scratch space.
+const INPUT_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw()
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+const STRUCTURE_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR.as_raw()
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+const SCRATCH_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw() | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+);
+
+/// The bottom levels as built, before compaction.
+struct Bottom {
+    built: Vec<vk::AccelerationStructureKHR>,
+    /// Each one's size as built, and as the driver would compact it (0: no answer).
+    sizes: Vec<u64>,
+    compacted: Vec<u64>,
+}
+
+/// Every bottom level's vertices, three a triangle (v0, v0 + e1, v0 + e2, as the compute traversal's arithmetic
+/// places them), in one buffer the builds read.
+fn vertex_buffer(ctx: &Context, packed: &PackedScene) -> Result<Buffer, Error> {
+    let vertices: Vec<[f32; 3]> = packed
+        .tri_verts
+        .iter()
+        .flat_map(|t| {
+            let v0 = [t.v0[0], t.v0[1], t.v0[2]];
+            let add = |e: [f32; 4]| [v0[0] + e[0], v0[1] + e[1], v0[2] + e[2]];
+            [v0, add(t.e1), add(t.e2)]
+        })
+        .collect();
+    Buffer::with_data_usage(ctx, "ray-query vertices", &vertices, INPUT_USAGE)
+}
+
+/// A bottom level's one geometry: the range's triangles in the vertex buffer at `vertices`.
+fn triangles(packed: &PackedScene, r: &Range, vertices: u64) -> [vk::AccelerationStructureGeometryKHR<'static>; 1] {
+    let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+        .vertex_format(vk::Format::R32G32B32_SFLOAT)
+        .vertex_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: vertices + r.first as u64 * 36,
+        })
+        .vertex_stride(12)
+        .max_vertex((3 * r.count).max(1) - 1)
+        .index_type(vk::IndexType::NONE_KHR);
+    // Alpha-tested triangles come back to the shader as candidates; with the rest of their mesh they are tested there
+    // once each (an any-hit test twice would draw its stochastic coverage twice).
+    let alpha = packed.tri_verts[r.first as usize..(r.first + r.count) as usize]
+        .iter()
+        .any(|t| t.e1[3] != 0.0);
+    let flags = match alpha {
+        true => vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION,
+        false => vk::GeometryFlagsKHR::OPAQUE,
+    };
+    [vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+        .flags(flags)]
+}
+
 impl AccelStructures {
     /// Builds the structures for `packed` (`unsupported` must have said None), refusing by name when they would
-    /// take more than `budget` bytes of device memory.
+    /// take more than `budget` bytes of device memory: the bottom levels (the world's triangles, then each instanced
+    /// mesh's), their compacted copies where those fit, and the top level over them.
     pub fn build(ctx: &Context, packed: &PackedScene, budget: u64) -> Result<Self, Error> {
-        let loader = ctx.accel.clone().expect("unsupported() checks for ray queries");
         let start = std::time::Instant::now();
         let mut me = AccelStructures {
             tlas: vk::AccelerationStructureKHR::null(),
@@ -97,7 +158,7 @@ impl AccelStructures {
             bytes: 0,
             uncompacted_bytes: 0,
             build_time: std::time::Duration::ZERO,
-            loader,
+            loader: ctx.accel.clone().expect("unsupported() checks for ray queries"),
         };
         let world = packed
             .instances
@@ -108,110 +169,107 @@ impl AccelStructures {
             first: m.first,
             count: m.count,
         }));
-        let scratch_align = scratch_alignment(ctx);
+        let vertices = vertex_buffer(ctx, packed)?;
+        let bottom = me.build_bottom(ctx, packed, &ranges, &vertices, budget)?;
+        // The copies live beside their sources until the top level is built: where both would not fit the budget the
+        // structures stay as built.
+        let total: u64 = bottom.sizes.iter().sum();
+        let smaller = |i: usize| bottom.compacted[i] > 0 && bottom.compacted[i] < bottom.sizes[i];
+        let copy_bytes: u64 = (0..bottom.built.len())
+            .filter(|&i| smaller(i))
+            .map(|i| bottom.compacted[i])
+            .sum();
+        let compact = total + copy_bytes + vertices.size <= budget;
+        let mut blas = Vec::with_capacity(bottom.built.len());
+        let mut copies = Vec::new();
+        for (i, (&s, &c)) in bottom.built.iter().zip(&bottom.compacted).enumerate() {
+            if compact && smaller(i) {
+                let small = me.create(
+                    ctx,
+                    "compacted bottom-level structure",
+                    c,
+                    vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                    STRUCTURE_USAGE,
+                )?;
+                copies.push((s, small));
+                blas.push(small);
+            } else {
+                blas.push(s);
+            }
+        }
+        let words = me.instances(packed, &blas, world > 0)?;
+        let top_size = me.build_top(ctx, &words, &copies)?;
+        // The uncompacted bottom levels are no longer needed once copied.
+        let stale: Vec<vk::AccelerationStructureKHR> = copies.iter().map(|c| c.0).collect();
+        let loader = me.loader.clone();
+        me.structures.retain(|(s, _)| {
+            let keep = !stale.contains(s);
+            if !keep {
+                unsafe { loader.destroy_acceleration_structure(*s, None) };
+            }
+            keep
+        });
+        me.bytes = me.structures.iter().map(|(_, b)| b.size).sum();
+        me.uncompacted_bytes = total + top_size;
+        me.build_time = start.elapsed();
+        Ok(me)
+    }
 
-        // Every bottom level's vertices, three a triangle (v0, v0 + e1, v0 + e2, as the compute traversal's
-        // arithmetic places them), in one buffer the builds read.
-        let vertices: Vec<[f32; 3]> = packed
-            .tri_verts
-            .iter()
-            .flat_map(|t| {
-                let v0 = [t.v0[0], t.v0[1], t.v0[2]];
-                let add = |e: [f32; 4]| [v0[0] + e[0], v0[1] + e[1], v0[2] + e[2]];
-                [v0, add(t.e1), add(t.e2)]
-            })
-            .collect();
-        let input_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-        let vertex_buffer = Buffer::with_data_usage(ctx, "ray-query vertices", &vertices, input_usage)?;
-        let vertex_address = vertex_buffer.address(ctx);
-        let alpha = |r: &Range| {
-            packed.tri_verts[r.first as usize..(r.first + r.count) as usize]
-                .iter()
-                .any(|t| t.e1[3] != 0.0)
-        };
-        let geometries: Vec<[vk::AccelerationStructureGeometryKHR; 1]> = ranges
-            .iter()
-            .map(|r| {
-                let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-                    .vertex_format(vk::Format::R32G32B32_SFLOAT)
-                    .vertex_data(vk::DeviceOrHostAddressConstKHR {
-                        device_address: vertex_address + r.first as u64 * 36,
-                    })
-                    .vertex_stride(12)
-                    .max_vertex((3 * r.count).max(1) - 1)
-                    .index_type(vk::IndexType::NONE_KHR);
-                // Alpha-tested triangles come back to the shader as candidates; with the rest of their mesh they
-                // are tested there once each (an any-hit test twice would draw its stochastic coverage twice).
-                let flags = if alpha(r) {
-                    vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION
-                } else {
-                    vk::GeometryFlagsKHR::OPAQUE
-                };
-                [vk::AccelerationStructureGeometryKHR::default()
-                    .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-                    .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-                    .flags(flags)]
-            })
-            .collect();
-        let blas_flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
+    /// Builds a bottom level per range (refused when they and their scratch space would pass `budget`), then asks
+    /// each one's compacted size.
+    fn build_bottom(
+        &mut self,
+        ctx: &Context,
+        packed: &PackedScene,
+        ranges: &[Range],
+        vertices: &Buffer,
+        budget: u64,
+    ) -> Result<Bottom, Error> {
+        let scratch_align = scratch_alignment(ctx);
+        let vertex_address = vertices.address(ctx);
+        let geometries: Vec<_> = ranges.iter().map(|r| triangles(packed, r, vertex_address)).collect();
+        let flags = vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE
             | vk::BuildAccelerationStructureFlagsKHR::ALLOW_COMPACTION;
         let mut infos: Vec<vk::AccelerationStructureBuildGeometryInfoKHR> = geometries
             .iter()
             .map(|g| {
                 vk::AccelerationStructureBuildGeometryInfoKHR::default()
                     .ty(vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL)
-                    .flags(blas_flags)
+                    .flags(flags)
                     .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
                     .geometries(g)
             })
             .collect();
-        let sizes: Vec<vk::AccelerationStructureBuildSizesInfoKHR> = infos
-            .iter()
-            .zip(&ranges)
-            .map(|(info, r)| {
-                let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
-                unsafe {
-                    me.loader.get_acceleration_structure_build_sizes(
-                        vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                        info,
-                        &[r.count],
-                        &mut size,
-                    )
-                };
-                size
-            })
+        let sizes: Vec<vk::AccelerationStructureBuildSizesInfoKHR> = (infos.iter().zip(ranges))
+            .map(|(info, r)| self.build_sizes(info, r.count))
             .collect();
         let total: u64 = sizes.iter().map(|s| s.acceleration_structure_size).sum();
         let scratch: u64 = sizes.iter().map(|s| s.build_scratch_size + scratch_align).sum();
-        if total + scratch + vertex_buffer.size > budget {
+        if total + scratch + vertices.size > budget {
             return Err(Error::Settings(format!(
                 "the scene's acceleration structures need {} MiB of device memory to build ({} bottom levels), more \
                  than the {} MiB left for them",
-                (total + scratch + vertex_buffer.size) >> 20,
+                (total + scratch + vertices.size) >> 20,
                 ranges.len(),
                 budget >> 20
             )));
         }
-        let structure_usage =
-            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
-        let scratch_usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         let scratch_buffer = Buffer::new(
             ctx,
             "ray-query scratch",
             scratch,
-            scratch_usage,
+            SCRATCH_USAGE,
             MemoryLocation::GpuOnly,
         )?;
         let mut scratch_at = scratch_buffer.address(ctx);
         let mut built = Vec::with_capacity(ranges.len());
         for (info, size) in infos.iter_mut().zip(&sizes) {
-            let s = me.create(
+            let s = self.create(
                 ctx,
                 "bottom-level structure",
                 size.acceleration_structure_size,
                 vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                structure_usage,
+                STRUCTURE_USAGE,
             )?;
             built.push(s);
             let aligned = scratch_at.div_ceil(scratch_align) * scratch_align;
@@ -228,8 +286,40 @@ impl AccelStructures {
             .collect();
         let range_refs: Vec<&[vk::AccelerationStructureBuildRangeInfoKHR]> =
             range_infos.iter().map(|r| &r[..]).collect();
+        let compacted = self.build_and_query(ctx, &infos, &range_refs, &built)?;
+        Ok(Bottom {
+            built,
+            sizes: sizes.iter().map(|s| s.acceleration_structure_size).collect(),
+            compacted,
+        })
+    }
 
-        // Build, then ask each bottom level's compacted size.
+    /// What a build of `info` over `count` primitives takes.
+    fn build_sizes(
+        &self,
+        info: &vk::AccelerationStructureBuildGeometryInfoKHR,
+        count: u32,
+    ) -> vk::AccelerationStructureBuildSizesInfoKHR<'static> {
+        let mut size = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        unsafe {
+            self.loader.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                info,
+                &[count],
+                &mut size,
+            )
+        };
+        size
+    }
+
+    /// Runs the bottom levels' builds, then reads each one's compacted size.
+    fn build_and_query(
+        &self,
+        ctx: &Context,
+        infos: &[vk::AccelerationStructureBuildGeometryInfoKHR],
+        ranges: &[&[vk::AccelerationStructureBuildRangeInfoKHR]],
+        built: &[vk::AccelerationStructureKHR],
+    ) -> Result<Vec<u64>, Error> {
         let queries = unsafe {
             ctx.device.create_query_pool(
                 &vk::QueryPoolCreateInfo::default()
@@ -240,11 +330,11 @@ impl AccelStructures {
         }?;
         let done = ctx.submit_and_wait(|cmd| unsafe {
             ctx.device.cmd_reset_query_pool(cmd, queries, 0, built.len() as u32);
-            me.loader.cmd_build_acceleration_structures(cmd, &infos, &range_refs);
+            self.loader.cmd_build_acceleration_structures(cmd, infos, ranges);
             build_barrier(ctx, cmd, BUILD_THEN_BUILD);
-            me.loader.cmd_write_acceleration_structures_properties(
+            self.loader.cmd_write_acceleration_structures_properties(
                 cmd,
-                &built,
+                built,
                 vk::QueryType::ACCELERATION_STRUCTURE_COMPACTED_SIZE_KHR,
                 queries,
                 0,
@@ -263,45 +353,25 @@ impl AccelStructures {
             .map_err(Error::from)
         });
         unsafe { ctx.device.destroy_query_pool(queries, None) };
-        read?;
-        drop(scratch_buffer);
+        read.map(|()| compacted)
+    }
 
-        // Compacted copies (where the driver reports a size smaller than the build's), then the top level over them:
-        // instance 0 the world (mask 0 when it has no triangles), instance i the instance record i.
-        // The copies live beside their sources until the top level is built: where both would not fit the budget
-        // the structures stay as built.
-        let smaller = |i: usize| compacted[i] > 0 && compacted[i] < sizes[i].acceleration_structure_size;
-        let copy_bytes: u64 = (0..built.len()).filter(|&i| smaller(i)).map(|i| compacted[i]).sum();
-        let compact = total + copy_bytes + vertex_buffer.size <= budget;
-        let mut blas = Vec::with_capacity(built.len());
-        let mut copies = Vec::new();
-        for (i, (&s, &c)) in built.iter().zip(&compacted).enumerate() {
-            if compact && smaller(i) {
-                let small = me.create(
-                    ctx,
-                    "compacted bottom-level structure",
-                    c,
-                    vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                    structure_usage,
-                )?;
-                copies.push((s, small));
-                blas.push(small);
-            } else {
-                blas.push(s);
-            }
-        }
+    /// The top level's instances: instance 0 the world (mask 0 when it has no triangles), instance i the instance
+    /// record i, each over its bottom level in `blas` (the world's, then each instanced mesh's).
+    fn instances(
+        &self,
+        packed: &PackedScene,
+        blas: &[vk::AccelerationStructureKHR],
+        world: bool,
+    ) -> Result<Vec<[u32; 16]>, Error> {
         let address = |s: vk::AccelerationStructureKHR| unsafe {
-            me.loader.get_acceleration_structure_device_address(
+            self.loader.get_acceleration_structure_device_address(
                 &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(s),
             )
         };
         let identity = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
-        let mut words = vec![instance_words(
-            identity,
-            0,
-            if world > 0 { 0xFF } else { 0 },
-            address(blas[0]),
-        )];
+        let mask = if world { 0xFF } else { 0 };
+        let mut words = vec![instance_words(identity, 0, mask, address(blas[0]))];
         let placed = packed.instances.first().map_or(0, |h| h.info[1] as usize);
         for record in packed.instances.iter().skip(1).take(placed) {
             let mesh = packed.meshes.iter().position(|m| m.root == record.info[0]);
@@ -314,7 +384,18 @@ impl AccelStructures {
                 address(blas[1 + mesh]),
             ));
         }
-        let instance_buffer = Buffer::with_data_usage(ctx, "ray-query instances", &words, input_usage)?;
+        Ok(words)
+    }
+
+    /// Copies the bottom levels into their compacted structures, then builds the top level over `words`' instances;
+    /// returns its size.
+    fn build_top(
+        &mut self,
+        ctx: &Context,
+        words: &[[u32; 16]],
+        copies: &[(vk::AccelerationStructureKHR, vk::AccelerationStructureKHR)],
+    ) -> Result<u64, Error> {
+        let instance_buffer = Buffer::with_data_usage(ctx, "ray-query instances", words, INPUT_USAGE)?;
         let instances = vk::AccelerationStructureGeometryInstancesDataKHR::default()
             .array_of_pointers(false)
             .data(vk::DeviceOrHostAddressConstKHR {
@@ -328,27 +409,20 @@ impl AccelStructures {
             .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
             .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
             .geometries(&top_geometry);
-        let mut top_size = vk::AccelerationStructureBuildSizesInfoKHR::default();
-        unsafe {
-            me.loader.get_acceleration_structure_build_sizes(
-                vk::AccelerationStructureBuildTypeKHR::DEVICE,
-                &top,
-                &[words.len() as u32],
-                &mut top_size,
-            )
-        };
-        let tlas = me.create(
+        let top_size = self.build_sizes(&top, words.len() as u32);
+        let tlas = self.create(
             ctx,
             "top-level structure",
             top_size.acceleration_structure_size,
             vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-            structure_usage,
+            STRUCTURE_USAGE,
         )?;
+        let scratch_align = scratch_alignment(ctx);
         let top_scratch = Buffer::new(
             ctx,
             "ray-query scratch",
             top_size.build_scratch_size + scratch_align,
-            scratch_usage,
+            SCRATCH_USAGE,
             MemoryLocation::GpuOnly,
         )?;
         let aligned = top_scratch.address(ctx).div_ceil(scratch_align) * scratch_align;
@@ -359,8 +433,8 @@ impl AccelStructures {
             });
         let top_range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(words.len() as u32)];
         ctx.submit_and_wait(|cmd| unsafe {
-            for (from, to) in &copies {
-                me.loader.cmd_copy_acceleration_structure(
+            for (from, to) in copies {
+                self.loader.cmd_copy_acceleration_structure(
                     cmd,
                     &vk::CopyAccelerationStructureInfoKHR::default()
                         .src(*from)
@@ -369,26 +443,13 @@ impl AccelStructures {
                 );
             }
             build_barrier(ctx, cmd, BUILD_THEN_BUILD);
-            me.loader
+            self.loader
                 .cmd_build_acceleration_structures(cmd, &[top], &[&top_range[..]]);
             // Traversal in every later submission reads what the builds wrote.
             build_barrier(ctx, cmd, BUILD_THEN_TRACE);
         })?;
-        // The uncompacted bottom levels are no longer needed once copied.
-        let stale: Vec<vk::AccelerationStructureKHR> = copies.iter().map(|c| c.0).collect();
-        let loader = me.loader.clone();
-        me.structures.retain(|(s, _)| {
-            let keep = !stale.contains(s);
-            if !keep {
-                unsafe { loader.destroy_acceleration_structure(*s, None) };
-            }
-            keep
-        });
-        me.tlas = tlas;
-        me.bytes = me.structures.iter().map(|(_, b)| b.size).sum();
-        me.uncompacted_bytes = total + top_size.acceleration_structure_size;
-        me.build_time = start.elapsed();
-        Ok(me)
+        self.tlas = tlas;
+        Ok(top_size.acceleration_structure_size)
     }
 
     /// A structure of `size` bytes in a buffer of its own, kept until the structures drop.
