@@ -1,7 +1,7 @@
 //! Packs a host Scene into the device layout: the triangles in BVH order with their shading data and motion keys,
 //! and the whole (materials.rs, instances.rs and lights.rs pack the rest).
 use super::emission::Emission;
-use super::instances::pack_instances;
+use super::instances::{pack_instances, Instanced};
 use super::lights::{light_table, light_tree, pack_punctual, Emitter};
 use super::materials::{gpu_material, pack_textures};
 use crate::bvh::lights::{LightBounds, LightTree};
@@ -197,13 +197,19 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             message: format!("out of host memory packing its {} triangles", soup.len()),
         })?;
     let mut bounds = (!soup.is_empty()).then(|| soup.bounds());
-    let (mut instances, mesh_lights, mesh_emitters, meshes) = if instanced.contains(&true) {
-        pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds, &mut emission).ok_or_else(|| Error::Scene {
-            path: scene.path.clone(),
-            message: "out of host memory packing its instanced meshes".into(),
-        })?
-    } else {
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new())
+    let Instanced {
+        records: mut instances,
+        mesh_lights,
+        mesh_emitters,
+        meshes,
+    } = match instanced.contains(&true) {
+        true => pack_instances(scene, &instanced, &mut bvh, &mut t, &mut bounds, &mut emission).ok_or_else(|| {
+            Error::Scene {
+                path: scene.path.clone(),
+                message: "out of host memory packing its instanced meshes".into(),
+            }
+        })?,
+        false => Instanced::default(),
     };
     let bvh_build = if instances.is_empty() {
         bvh_build
