@@ -1,6 +1,6 @@
 //! Walks the GGX microsurface (src/microsurface.rs) over the dielectric layer's grid and writes data/dielectric_ms.bin,
 //! the multiple scattering the shaders return. Run after changing the walk or the grid (MS_* in src/constants.rs);
-//! tests/bsdf.rs checks cells of the kept table against fresh walks.
+//! tests/bsdf/energy.rs checks cells of the kept table against fresh walks.
 use indicatif::{ProgressBar, ProgressStyle};
 use pathwave::constants::{MS_RES_F0, MS_RES_ROUGH, MS_WALKS};
 use pathwave::microsurface;

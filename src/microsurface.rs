@@ -1,7 +1,7 @@
 //! The random walk on a GGX microsurface (Heitz, Hanika, d'Eon and Dachsbacher 2016, "Multiple-Scattering Microfacet
 //! BSDFs with the Smith Model"), reflection only: what a rough dielectric returns by bouncing more than once between
 //! its microfacets, which single-scattering GGX loses. examples/dielectric_ms.rs tabulates it for the shaders
-//! (data/dielectric_ms.bin); tests/bsdf.rs holds the walk to the device's own single scattering and to reciprocity.
+//! (data/dielectric_ms.bin); tests/bsdf/energy.rs holds the walk to the device's own single scattering and to reciprocity.
 //!
 //! The walk runs on the CPU in f64: it is the reference the table is made from, not a renderer path.
 use crate::constants::{MS_RES_F0, MS_RES_MU, MS_RES_ROUGH};

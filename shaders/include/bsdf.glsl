@@ -372,7 +372,7 @@ float spec_energy_average(Bsdf b, uint table) {
 // Directional albedo of the dielectric coat's single scattering seen from w, per channel (Schlick is linear in F0).
 // The thin film's albedo for the base's lobe seen from w: E1 times the film's reflectance at the cosine where
 // Schlick's weight equals the lobe's mean one (E2 / E1). Exact for a mirror (the cosine is then w's own) and for a
-// film that is no film; for rough lobes an approximation (tests/bsdf.rs measures it: a white plastic under a strong
+// film that is no film; for rough lobes an approximation (tests/bsdf/ measures it: a white plastic under a strong
 // film returns 0.98 to 1.02 of what arrives; the film's reflectance at w's own cosine was off by 8 % at grazing).
 Spectrum film_albedo(Bsdf b, Spectrum f0, vec3 w) {
     float e1 = bsdf_is_delta(b) ? 1.0 : spec_energy(b, 0u, w);
