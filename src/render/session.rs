@@ -150,32 +150,11 @@ impl Renderer {
         s.check()?;
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
-        let film_bytes = pixels * film_bytes_per_pixel(s) as u64;
-        if film_bytes > range || pixels > u32::MAX as u64 / EXACT_FILM_TEXELS as u64 {
-            let exact = match s.exact_film {
-                true => " (an exact film, for film statistics, takes 112 bytes a pixel)",
-                false => "",
-            };
-            return Err(Error::Settings(format!(
-                "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} \
-                 bytes{exact}",
-                s.width, s.height
-            )));
-        }
+        let film_bytes = film_bytes(s, range)?;
         let capacity = path_capacity(pixels * s.spp as u64, self.path_limits());
-        let per_path = PATH_FIELDS as u64 * 16;
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let paths = Buffer::new(
-            ctx,
-            "path state",
-            capacity as u64 * per_path,
-            storage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
-        let path_views = TexelViews::new(ctx, &[(BINDING_PATH_TEXELS, &paths, vk::Format::R32G32B32A32_SFLOAT)])?;
-        let queue_bytes = capacity as u64 * 4 * QUEUE_COUNT as u64;
-        let queues = Buffer::new(ctx, "queues", queue_bytes, storage, MemoryLocation::GpuOnly)?;
+        let (paths, path_views, queues) = path_state(ctx, capacity)?;
         let counters = Buffer::new(
             ctx,
             "counters",
@@ -184,36 +163,32 @@ impl Renderer {
             MemoryLocation::GpuToCpu,
         )?;
         let film = Buffer::new(ctx, "film", film_bytes, storage, MemoryLocation::GpuOnly)?;
-        let aov_bytes = pixels * std::mem::size_of::<AovSums>() as u64;
+        // (whether asked for, the buffer's name, what the settings ask for, bytes, what they hold).
+        let sums = |(asked, name, with, bytes, holds): (bool, &str, &str, u64, &str)| match asked {
+            true if bytes > range => Err(Error::Settings(format!(
+                "{}x{} with {with} needs {bytes} bytes of {holds} but this device's storage buffers hold at most \
+                 {range} bytes",
+                s.width, s.height
+            ))),
+            true => Buffer::new(ctx, name, bytes, storage, MemoryLocation::GpuOnly).map(Some),
+            false => Ok(None),
+        };
         let debug_bytes = pixels * std::mem::size_of::<DebugSums>() as u64;
-        let debug = match s.debug_aovs {
-            true if debug_bytes > range => {
-                return Err(Error::Settings(format!(
-                    "{}x{} with debug views needs {debug_bytes} bytes of sums (48 a pixel) but this device's storage \
-                     buffers hold at most {range} bytes",
-                    s.width, s.height
-                )))
-            }
-            true => Some(Buffer::new(
-                ctx,
-                "debug views",
-                debug_bytes,
-                storage,
-                MemoryLocation::GpuOnly,
-            )?),
-            false => None,
-        };
-        let aovs = match s.aovs || s.debug_aovs {
-            true if aov_bytes > range => {
-                return Err(Error::Settings(format!(
-                    "{}x{} with AOVs needs {aov_bytes} bytes of AOV sums (64 a pixel) but this device's storage \
-                     buffers hold at most {range} bytes",
-                    s.width, s.height
-                )))
-            }
-            true => Some(Buffer::new(ctx, "aovs", aov_bytes, storage, MemoryLocation::GpuOnly)?),
-            false => None,
-        };
+        let debug = sums((
+            s.debug_aovs,
+            "debug views",
+            "debug views",
+            debug_bytes,
+            "sums (48 a pixel)",
+        ))?;
+        let aov_bytes = pixels * std::mem::size_of::<AovSums>() as u64;
+        let aovs = sums((
+            s.aovs || s.debug_aovs,
+            "aovs",
+            "AOVs",
+            aov_bytes,
+            "AOV sums (64 a pixel)",
+        ))?;
         let budget = match s.adaptive {
             Some(_) => Some(Buffer::new(
                 ctx,
@@ -523,6 +498,41 @@ impl Renderer {
         })
         .with_camera(&camera)
     }
+}
+
+/// The film's bytes for `s`, refused when one storage buffer cannot hold them (or the exact film's texels outgrow
+/// u32).
+fn film_bytes(s: &RenderSettings, range: u64) -> Result<u64, Error> {
+    let pixels = s.width as u64 * s.height as u64;
+    let film_bytes = pixels * film_bytes_per_pixel(s) as u64;
+    if film_bytes > range || pixels > u32::MAX as u64 / EXACT_FILM_TEXELS as u64 {
+        let exact = match s.exact_film {
+            true => " (an exact film, for film statistics, takes 112 bytes a pixel)",
+            false => "",
+        };
+        return Err(Error::Settings(format!(
+            "{}x{} needs a {film_bytes}-byte film but this device's storage buffers hold at most {range} bytes{exact}",
+            s.width, s.height
+        )));
+    }
+    Ok(film_bytes)
+}
+
+/// The path state for `capacity` paths, its texel view, and the queues.
+fn path_state(ctx: &crate::vk::Context, capacity: u32) -> Result<(Buffer, TexelViews, Buffer), Error> {
+    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+    let per_path = PATH_FIELDS as u64 * 16;
+    let paths = Buffer::new(
+        ctx,
+        "path state",
+        capacity as u64 * per_path,
+        storage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+        MemoryLocation::GpuOnly,
+    )?;
+    let path_views = TexelViews::new(ctx, &[(BINDING_PATH_TEXELS, &paths, vk::Format::R32G32B32A32_SFLOAT)])?;
+    let queue_bytes = capacity as u64 * 4 * QUEUE_COUNT as u64;
+    let queues = Buffer::new(ctx, "queues", queue_bytes, storage, MemoryLocation::GpuOnly)?;
+    Ok((paths, path_views, queues))
 }
 
 /// Bits film format 1 hashes into a film file's frame fingerprint for settings no shader reads. Frame.flags carried
