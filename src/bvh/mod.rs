@@ -407,15 +407,7 @@ fn choose_split(idx: &mut [u32], inputs: &Inputs, bounds: &Aabb, depth: u32) -> 
 /// so the node stores where each run starts (`BvhNode::child_entries`). Returns the nodes, the triangle order that
 /// makes (original indices, as `order` holds them for the binary tree's positions) and the stack bound.
 fn widen(binary: &[BinaryNode], order: &[u32]) -> (Vec<BvhNode>, Vec<u32>, u32) {
-    // Children always follow their parent in the binary array, so one backward sweep finds every height.
-    let mut height = vec![0u32; binary.len()];
-    for i in (0..binary.len()).rev() {
-        if !binary[i].is_leaf() {
-            let l = binary[i].first() as usize;
-            height[i] = 1 + height[l].max(height[l + 1]);
-        }
-    }
-    const W: usize = BVH_WIDTH as usize;
+    let height = heights(binary);
     let mut out = Vec::with_capacity(binary.len() / 2 + 1);
     out.push(BvhNode::default());
     if binary[0].is_leaf() {
@@ -429,34 +421,7 @@ fn widen(binary: &[BinaryNode], order: &[u32]) -> (Vec<BvhNode>, Vec<u32>, u32) 
     // (binary node, the wide node made from it, entries waiting on the stack when traversal reaches it)
     let mut work = vec![(0usize, 0usize, 0u32)];
     while let Some((b, wide, pushes)) = work.pop() {
-        let l = binary[b].first() as usize;
-        let mut slots = [l, l + 1, 0, 0];
-        let mut n = 2;
-        while n < W {
-            // The largest interior child whose opening keeps every child within the stack bound.
-            let mut best: Option<(usize, f32)> = None;
-            for k in 0..n {
-                let c = slots[k];
-                if binary[c].is_leaf() {
-                    continue;
-                }
-                let g = binary[c].first() as usize;
-                let tallest = (0..n)
-                    .filter(|&j| j != k)
-                    .map(|j| height[slots[j]])
-                    .chain([height[g], height[g + 1]])
-                    .max()
-                    .unwrap_or(0);
-                let a = binary[c].bounds().area();
-                if pushes + n as u32 + tallest < BVH_STACK_SIZE && best.is_none_or(|(_, ba)| a > ba) {
-                    best = Some((k, a));
-                }
-            }
-            let Some((k, _)) = best else { break };
-            let g = binary[slots[k]].first() as usize;
-            (slots[k], slots[n]) = (g, g + 1);
-            n += 1;
-        }
+        let (slots, n) = open_children(binary, &height, b, pushes);
         let waiting = pushes + n as u32 - 1;
         max_waiting = max_waiting.max(waiting);
         let first_node = out.len() as u32;
@@ -486,6 +451,57 @@ fn widen(binary: &[BinaryNode], order: &[u32]) -> (Vec<BvhNode>, Vec<u32>, u32) 
     // Every triangle sits in exactly one leaf, and every leaf under exactly one node.
     debug_assert_eq!(placed.len(), order.len());
     (out, placed, max_waiting)
+}
+
+/// Children per wide node, as an array length.
+const W: usize = BVH_WIDTH as usize;
+
+/// Each binary node's height: 0 for a leaf, one more than its taller child's otherwise.
+fn heights(binary: &[BinaryNode]) -> Vec<u32> {
+    // Children always follow their parent in the binary array, so one backward sweep finds every height.
+    let mut height = vec![0u32; binary.len()];
+    for i in (0..binary.len()).rev() {
+        if !binary[i].is_leaf() {
+            let l = binary[i].first() as usize;
+            height[i] = 1 + height[l].max(height[l + 1]);
+        }
+    }
+    height
+}
+
+/// The binary nodes the wide node made from binary node `b` holds (slots, how many): `b`'s two children, then
+/// grandchildren in place of its largest interior children while every child stays within the stack bound, with
+/// `pushes` entries waiting when traversal reaches the node.
+fn open_children(binary: &[BinaryNode], height: &[u32], b: usize, pushes: u32) -> ([usize; W], usize) {
+    let l = binary[b].first() as usize;
+    let mut slots = [l, l + 1, 0, 0];
+    let mut n = 2;
+    while n < W {
+        // The largest interior child whose opening keeps every child within the stack bound.
+        let mut best: Option<(usize, f32)> = None;
+        for k in 0..n {
+            let c = slots[k];
+            if binary[c].is_leaf() {
+                continue;
+            }
+            let g = binary[c].first() as usize;
+            let tallest = (0..n)
+                .filter(|&j| j != k)
+                .map(|j| height[slots[j]])
+                .chain([height[g], height[g + 1]])
+                .max()
+                .unwrap_or(0);
+            let a = binary[c].bounds().area();
+            if pushes + n as u32 + tallest < BVH_STACK_SIZE && best.is_none_or(|(_, ba)| a > ba) {
+                best = Some((k, a));
+            }
+        }
+        let Some((k, _)) = best else { break };
+        let g = binary[slots[k]].first() as usize;
+        (slots[k], slots[n]) = (g, g + 1);
+        n += 1;
+    }
+    (slots, n)
 }
 
 /// One wide node: each child's box rounded outwards onto a grid of 255 steps per axis spanning `parent`, so the box
