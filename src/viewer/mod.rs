@@ -1,5 +1,6 @@
 //! `pathwave view`: a window on the progressive render, camera controls, adaptive samples per frame, hot reload.
 mod orbit;
+mod playback;
 mod swapchain;
 
 use crate::error::Error;
@@ -9,6 +10,7 @@ use crate::shaders::{ShaderDir, ShaderWatcher};
 use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
 use glam::Vec3;
 use orbit::Orbit;
+use playback::Playback;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use swapchain::Swapchain;
@@ -78,39 +80,6 @@ struct App {
     options: ViewOptions,
     state: Option<State>,
     error: Option<Error>,
-}
-
-/// The animation as the viewer plays it: where it is, and whether it runs.
-struct Playback {
-    /// The scene the renderer holds, posed at `time`.
-    scene: Scene,
-    time: f32,
-    playing: bool,
-    animation: Option<usize>,
-    shutter: f32,
-}
-
-impl Playback {
-    /// Moves on by `dt` seconds, looping over the animation's keys; true when the scene was posed anew.
-    fn advance(&mut self, dt: f32) -> Result<bool, Error> {
-        if !self.playing {
-            return Ok(false);
-        }
-        let (lo, hi) = self.scene.rig.range(self.animation);
-        let length = hi - lo;
-        let t = self.time + dt;
-        self.time = if length > 0.0 && t > hi {
-            lo + (t - lo) % length
-        } else {
-            t
-        };
-        let pose = crate::scene::PoseTime {
-            time: self.time,
-            animation: self.animation,
-        };
-        self.scene.pose_shutter(pose, self.shutter)?;
-        Ok(true)
-    }
 }
 
 // Field order is drop order: device objects before the renderer's device, the window after its surface.
