@@ -3,6 +3,7 @@ mod display;
 mod input;
 mod orbit;
 mod playback;
+mod reload;
 mod swapchain;
 
 use crate::error::Error;
@@ -14,6 +15,7 @@ use display::pixel_buffer;
 use glam::Vec3;
 use orbit::Orbit;
 use playback::Playback;
+use reload::watch_shaders;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use swapchain::Swapchain;
@@ -224,16 +226,7 @@ impl State {
         for w in &renderer.warnings {
             eprintln!("warning: {}: {w}", scene.path.display());
         }
-        let shaders = match &options.shader_dir {
-            Some(dir) => {
-                let dir = ShaderDir::open(dir)?;
-                let used = renderer.load_shaders(&dir, None)?;
-                eprintln!("using {} from {}", used.join(", "), dir.root().display());
-                let watcher = ShaderWatcher::new(&dir)?;
-                Some((dir, watcher))
-            }
-            None => None,
-        };
+        let shaders = watch_shaders(&mut renderer, options)?;
         let size = window.inner_size();
         let swapchain = Swapchain::new(renderer.context(), [size.width.max(1), size.height.max(1)])?;
         let focus = s.focus_distance.unwrap_or(renderer.default_focus());
@@ -437,27 +430,5 @@ impl State {
             return Ok(false);
         }
         Ok(true)
-    }
-
-    fn reload_shaders(&mut self) -> Result<(), Error> {
-        let Some((dir, watcher)) = &self.shaders else {
-            return Ok(());
-        };
-        let changed = watcher.changed(Duration::ZERO);
-        let stale = dir.affected(&changed);
-        if stale.is_empty() {
-            return Ok(());
-        }
-        match self.renderer.load_shaders(dir, Some(&stale)) {
-            Ok(rebuilt) => {
-                eprintln!("rebuilt {}", rebuilt.join(", "));
-                self.reset()
-            }
-            Err(e) => {
-                // The previous pipelines keep running, and so does the accumulation.
-                eprintln!("error: {e}\nkeeping the previous pipelines");
-                Ok(())
-            }
-        }
     }
 }
