@@ -1,9 +1,7 @@
 //! One frame of the viewer: hot reload, playback, fly keys, samples until the budget is spent, present, title.
 use super::{State, ViewOptions};
 use crate::error::Error;
-use glam::Vec3;
 use std::time::{Duration, Instant};
-use winit::keyboard::KeyCode;
 
 impl State {
     /// One frame: hot reload, fly keys, samples until the budget is spent, tone map, present. False when done.
@@ -17,29 +15,33 @@ impl State {
             self.renderer.set_scene(&self.playback.scene)?;
             self.reset()?;
         }
-        if !self.held.is_empty() {
-            let mut v = Vec3::ZERO;
-            for k in &self.held {
-                v += match k {
-                    KeyCode::KeyW => Vec3::Z,
-                    KeyCode::KeyS => -Vec3::Z,
-                    KeyCode::KeyD => Vec3::X,
-                    KeyCode::KeyA => -Vec3::X,
-                    KeyCode::KeyE => Vec3::Y,
-                    KeyCode::KeyQ => -Vec3::Y,
-                    _ => Vec3::ZERO,
-                };
-            }
-            self.orbit.fly(v * self.fly_speed * dt);
-            self.moved()?;
-        }
+        self.fly_held(dt)?;
         // Back to full resolution once the camera has been still for a moment.
         let still = self.last_move.is_none_or(|t| t.elapsed() > Duration::from_millis(300));
         if still && self.scale > 1 {
             self.scale = 1;
             self.reset()?;
         }
-        let budget = options.budget;
+        self.sample(options.budget, still)?;
+        self.present()?;
+        self.frames += 1;
+        self.frame_ms = 0.9 * self.frame_ms + 0.1 * now.elapsed().as_secs_f32() * 1e3;
+        let rate = self.session.samples_per_sec();
+        let clock = self.clock();
+        self.show_title(rate, &clock);
+        if options.frames.is_some_and(|n| self.frames >= n) {
+            self.report(rate, &clock);
+            if let Some(path) = &options.screenshot {
+                self.save(path, false)?;
+            }
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    /// Renders passes until `budget` is spent, adapting the samples per pass (and, while the camera moves, the
+    /// resolution) to it.
+    fn sample(&mut self, budget: Duration, still: bool) -> Result<(), Error> {
         let start = Instant::now();
         loop {
             let pass_start = Instant::now();
@@ -59,48 +61,6 @@ impl State {
                 break;
             }
         }
-        self.present()?;
-        self.frames += 1;
-        self.frame_ms = 0.9 * self.frame_ms + 0.1 * now.elapsed().as_secs_f32() * 1e3;
-        let rate = self.session.samples_per_sec();
-        let clock = match (self.playback.scene.rig.animated(), self.playback.playing) {
-            (false, _) => String::new(),
-            (true, playing) => format!(
-                ", t {:.2} s{}",
-                self.playback.time,
-                if playing { "" } else { " (paused)" }
-            ),
-        };
-        let scene = &self.playback.scene;
-        let variant = match scene.variant {
-            Some(i) => format!(", variant '{}'", scene.variants[i]),
-            None => String::new(),
-        };
-        self.window.set_title(&format!(
-            "pathwave: {} spp, {:.2} M samples/s, {:.0} ms/frame, {:?}, exposure {:+.1}{}{variant}{clock}",
-            self.session.done,
-            rate * 1e-6,
-            self.frame_ms,
-            self.curve,
-            self.exposure,
-            if self.dof { ", depth of field" } else { "" }
-        ));
-        if options.frames.is_some_and(|n| self.frames >= n) {
-            let secs = self.started.elapsed().as_secs_f64();
-            eprintln!(
-                "{} frames in {secs:.2} s ({:.1} frames/s) at {}x{}: {} spp, {:.2} M samples/s{clock}",
-                self.frames,
-                self.frames as f64 / secs,
-                self.swapchain.extent[0],
-                self.swapchain.extent[1],
-                self.session.done,
-                rate * 1e-6
-            );
-            if let Some(path) = &options.screenshot {
-                self.save(path, false)?;
-            }
-            return Ok(false);
-        }
-        Ok(true)
+        Ok(())
     }
 }

@@ -1,6 +1,7 @@
 //! Key bindings and the mouse: what each key, drag and click does to the view.
 use super::{State, ViewOptions};
 use crate::error::Error;
+use glam::Vec3;
 use std::path::PathBuf;
 use winit::event::MouseButton;
 use winit::keyboard::KeyCode;
@@ -138,6 +139,27 @@ impl State {
             self.session.settings.focus_distance = Some(d);
             self.dof = true;
             self.reset()?;
+        }
+        Ok(())
+    }
+
+    /// W/S, D/A and E/Q fly forward and back, right and left, up and down while held.
+    pub(super) fn fly_held(&mut self, dt: f32) -> Result<(), Error> {
+        if !self.held.is_empty() {
+            let mut v = Vec3::ZERO;
+            for k in &self.held {
+                v += match k {
+                    KeyCode::KeyW => Vec3::Z,
+                    KeyCode::KeyS => -Vec3::Z,
+                    KeyCode::KeyD => Vec3::X,
+                    KeyCode::KeyA => -Vec3::X,
+                    KeyCode::KeyE => Vec3::Y,
+                    KeyCode::KeyQ => -Vec3::Y,
+                    _ => Vec3::ZERO,
+                };
+            }
+            self.orbit.fly(v * self.fly_speed * dt);
+            self.moved()?;
         }
         Ok(())
     }

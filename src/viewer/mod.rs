@@ -6,6 +6,7 @@ mod orbit;
 mod playback;
 mod reload;
 mod swapchain;
+mod title;
 
 use crate::error::Error;
 use crate::render::{RenderSettings, Renderer, Session, SpectralChoice};
