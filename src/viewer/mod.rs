@@ -5,23 +5,21 @@ mod input;
 mod orbit;
 mod playback;
 mod reload;
+mod state;
 mod swapchain;
 mod title;
 
 use crate::error::Error;
-use crate::render::{RenderSettings, Renderer, Session, SpectralChoice};
+use crate::render::{RenderSettings, Renderer, Session};
 use crate::scene::Scene;
 use crate::shaders::{ShaderDir, ShaderWatcher};
-use crate::vk::{Buffer, Context, DeviceChoice, Validation, WindowHandles};
-use display::pixel_buffer;
+use crate::vk::{Buffer, DeviceChoice};
 use orbit::Orbit;
 use playback::Playback;
-use reload::watch_shaders;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use swapchain::Swapchain;
 use winit::application::ApplicationHandler;
-use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
@@ -200,138 +198,5 @@ impl ApplicationHandler for App {
         if let Some(s) = &self.state {
             s.window.request_redraw();
         }
-    }
-}
-
-impl State {
-    fn new(event_loop: &ActiveEventLoop, scene: Scene, options: &ViewOptions) -> Result<Self, Error> {
-        use winit::raw_window_handle::{HasDisplayHandle, HasWindowHandle};
-        let s = &options.settings;
-        let attributes = Window::default_attributes()
-            .with_title("pathwave")
-            .with_inner_size(PhysicalSize::new(s.width, s.height));
-        let window = event_loop
-            .create_window(attributes)
-            .map_err(|e| Error::Settings(format!("cannot open a window: {e}")))?;
-        let handle_err = |e: winit::raw_window_handle::HandleError| Error::Settings(format!("window handle: {e}"));
-        let handles = WindowHandles {
-            display: window.display_handle().map_err(handle_err)?.as_raw(),
-            window: window.window_handle().map_err(handle_err)?.as_raw(),
-        };
-        let ctx = Context::for_window(&options.device, Validation::from_env()?, handles)?;
-        let mut renderer_options = crate::RendererOptions::from_env()?;
-        if let Some(t) = options.traversal {
-            renderer_options.traversal = t;
-        }
-        let mut renderer = Renderer::with_options(&scene, ctx, renderer_options)?;
-        for w in &renderer.warnings {
-            eprintln!("warning: {}: {w}", scene.path.display());
-        }
-        let shaders = watch_shaders(&mut renderer, options)?;
-        let size = window.inner_size();
-        let swapchain = Swapchain::new(renderer.context(), [size.width.max(1), size.height.max(1)])?;
-        let focus = s.focus_distance.unwrap_or(renderer.default_focus());
-        let orbit = Orbit::from_camera(&renderer.camera(), focus);
-        let (lo, hi) = scene.bounds();
-        let extent = (hi - lo).length().max(1e-3);
-        let mut settings = s.clone();
-        settings.width = swapchain.extent[0];
-        settings.height = swapchain.extent[1];
-        settings.focus_distance = Some(focus);
-        settings.spectral = SpectralChoice::new(s.spectral, options.rgb, scene.wants_spectral()).spectral();
-        let session = renderer.begin(&settings)?;
-        let pixels = pixel_buffer(renderer.context(), swapchain.extent)?;
-        if options.play && !scene.rig.animated() {
-            eprintln!("warning: {}: the file has no animations to play", scene.path.display());
-        }
-        let mut state = State {
-            playback: Playback {
-                playing: options.play && scene.rig.animated(),
-                scene,
-                time: options.time,
-                animation: options.animation,
-                shutter: options.shutter,
-            },
-            window,
-            renderer,
-            session,
-            swapchain,
-            pixels,
-            shaders,
-            orbit,
-            fly_speed: extent * 0.5,
-            curve: options.tonemap,
-            exposure: options.exposure,
-            dof: s.aperture > 0.0,
-            aperture: if s.aperture > 0.0 { s.aperture } else { extent * 0.01 },
-            samples_per_pass: 1,
-            scale: 1,
-            last_move: None,
-            camera_moved: false,
-            held: Vec::new(),
-            cursor: (0.0, 0.0),
-            dragging: None,
-            shift: false,
-            display: None,
-            denoiser: None,
-            denoising: false,
-            shown: None,
-            frames: 0,
-            started: Instant::now(),
-            last_frame: Instant::now(),
-            frame_ms: 0.0,
-        };
-        // A view or denoising asked for on the command line: the session then surveys the AOVs.
-        if options.show.is_some() || options.denoise {
-            state.display = options.show;
-            if options.denoise {
-                state.denoiser = Some(crate::denoise::Denoiser::from_env()?);
-                state.denoising = true;
-            }
-            state.reset()?;
-        }
-        Ok(state)
-    }
-
-    /// Starts the accumulation again (camera, settings or shaders changed), at 1/scale of the window's resolution.
-    fn reset(&mut self) -> Result<(), Error> {
-        if self.camera_moved {
-            self.renderer.set_camera(self.orbit.camera());
-        }
-        self.shown = None;
-        let mut settings = self.session.settings.clone();
-        settings.aperture = if self.dof { self.aperture } else { 0.0 };
-        // The AOVs only while something shows them.
-        settings.aovs = self.denoising || self.display.is_some_and(|a| a.surveyed());
-        settings.debug_aovs = self.display.is_some_and(|a| a.debug());
-        let w = (self.swapchain.extent[0] / self.scale).max(1);
-        let h = (self.swapchain.extent[1] / self.scale).max(1);
-        let buffers =
-            (settings.aovs, settings.debug_aovs) != (self.session.settings.aovs, self.session.settings.debug_aovs);
-        if (w, h) != (settings.width, settings.height) || buffers {
-            settings.width = w;
-            settings.height = h;
-            self.session = self.renderer.begin(&settings)?;
-        } else {
-            self.session.settings = settings;
-            self.renderer.restart(&mut self.session)?;
-        }
-        Ok(())
-    }
-
-    fn moved(&mut self) -> Result<(), Error> {
-        self.last_move = Some(Instant::now());
-        self.camera_moved = true;
-        self.reset()
-    }
-
-    fn resize(&mut self, size: PhysicalSize<u32>) -> Result<(), Error> {
-        if size.width == 0 || size.height == 0 {
-            return Ok(());
-        }
-        self.swapchain
-            .recreate(self.renderer.context(), [size.width, size.height])?;
-        self.pixels = pixel_buffer(self.renderer.context(), self.swapchain.extent)?;
-        self.reset()
     }
 }
