@@ -58,46 +58,17 @@ impl Swapchain {
         let caps = unsafe { sl.get_physical_device_surface_capabilities(pd, surface.raw) }?;
         let formats = unsafe { sl.get_physical_device_surface_formats(pd, surface.raw) }?;
         let modes = unsafe { sl.get_physical_device_surface_present_modes(pd, surface.raw) }?;
-        // The tone map writes sRGB-encoded bytes and a copy does not convert, so UNORM and SRGB images both work.
-        let wanted = [
-            (vk::Format::B8G8R8A8_UNORM, true),
-            (vk::Format::B8G8R8A8_SRGB, true),
-            (vk::Format::R8G8B8A8_UNORM, false),
-            (vk::Format::R8G8B8A8_SRGB, false),
-        ];
-        let (format, bgra) = wanted
-            .iter()
-            .find_map(|&(f, bgra)| formats.iter().find(|s| s.format == f).map(|s| (*s, bgra)))
-            .ok_or_else(|| Error::Vulkan(format!("the window offers no 8-bit RGBA format: {formats:?}")))?;
+        let (format, bgra) = pick_format(&formats)?;
         if !caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_DST) {
             return Err(Error::Vulkan("the window's images cannot be copied into".into()));
         }
-        // Never wait for a vertical blank when one exists: the frame budget, not the display, paces the viewer.
-        let mode = [vk::PresentModeKHR::MAILBOX, vk::PresentModeKHR::IMMEDIATE]
-            .into_iter()
-            .find(|m| modes.contains(m))
-            .unwrap_or(vk::PresentModeKHR::FIFO);
-        let extent = if caps.current_extent.width != u32::MAX {
-            caps.current_extent
-        } else {
-            vk::Extent2D {
-                width: size[0].clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: size[1].clamp(caps.min_image_extent.height, caps.max_image_extent.height),
-            }
-        };
+        let mode = pick_mode(&modes);
+        let extent = pick_extent(&caps, size);
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
         }
-        let alpha = [
-            vk::CompositeAlphaFlagsKHR::OPAQUE,
-            vk::CompositeAlphaFlagsKHR::INHERIT,
-            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
-            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
-        ]
-        .into_iter()
-        .find(|a| caps.supported_composite_alpha.contains(*a))
-        .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE);
+        let alpha = pick_alpha(&caps);
         let info = vk::SwapchainCreateInfoKHR::default()
             .surface(surface.raw)
             .min_image_count(count)
@@ -217,6 +188,53 @@ impl Swapchain {
             }
         }
     }
+}
+
+/// The first of the 8-bit formats the tone map can fill that the window offers, and whether it stores blue first.
+fn pick_format(formats: &[vk::SurfaceFormatKHR]) -> Result<(vk::SurfaceFormatKHR, bool), Error> {
+    // The tone map writes sRGB-encoded bytes and a copy does not convert, so UNORM and SRGB images both work.
+    let wanted = [
+        (vk::Format::B8G8R8A8_UNORM, true),
+        (vk::Format::B8G8R8A8_SRGB, true),
+        (vk::Format::R8G8B8A8_UNORM, false),
+        (vk::Format::R8G8B8A8_SRGB, false),
+    ];
+    wanted
+        .iter()
+        .find_map(|&(f, bgra)| formats.iter().find(|s| s.format == f).map(|s| (*s, bgra)))
+        .ok_or_else(|| Error::Vulkan(format!("the window offers no 8-bit RGBA format: {formats:?}")))
+}
+
+fn pick_mode(modes: &[vk::PresentModeKHR]) -> vk::PresentModeKHR {
+    // Never wait for a vertical blank when one exists: the frame budget, not the display, paces the viewer.
+    [vk::PresentModeKHR::MAILBOX, vk::PresentModeKHR::IMMEDIATE]
+        .into_iter()
+        .find(|m| modes.contains(m))
+        .unwrap_or(vk::PresentModeKHR::FIFO)
+}
+
+/// The window's size, or `size` within the surface's limits when the surface leaves its size to the swapchain.
+fn pick_extent(caps: &vk::SurfaceCapabilitiesKHR, size: [u32; 2]) -> vk::Extent2D {
+    if caps.current_extent.width != u32::MAX {
+        caps.current_extent
+    } else {
+        vk::Extent2D {
+            width: size[0].clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+            height: size[1].clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+        }
+    }
+}
+
+fn pick_alpha(caps: &vk::SurfaceCapabilitiesKHR) -> vk::CompositeAlphaFlagsKHR {
+    [
+        vk::CompositeAlphaFlagsKHR::OPAQUE,
+        vk::CompositeAlphaFlagsKHR::INHERIT,
+        vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+        vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+    ]
+    .into_iter()
+    .find(|a| caps.supported_composite_alpha.contains(*a))
+    .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE)
 }
 
 /// Moves a swapchain image from one (layout, access) to another, after the transfer stage and before `dst_stage`.
