@@ -111,7 +111,6 @@ impl Swapchain {
         pixels: &Buffer,
         fill: impl FnOnce(vk::CommandBuffer, [u32; 2]),
     ) -> Result<bool, Error> {
-        let d = &self.device;
         let index = match unsafe {
             self.loader
                 .acquire_next_image(self.raw, 1_000_000_000, self.acquired, vk::Fence::null())
@@ -121,6 +120,30 @@ impl Swapchain {
             Err(e) => return Err(e.into()),
         };
         let image = self.images[index as usize];
+        self.record(image, pixels, fill)?;
+        let signals = [self.rendered[index as usize]];
+        self.submit(ctx, &signals)?;
+        let swapchains = [self.raw];
+        let indices = [index];
+        let present = vk::PresentInfoKHR::default()
+            .wait_semaphores(&signals)
+            .swapchains(&swapchains)
+            .image_indices(&indices);
+        match unsafe { self.loader.queue_present(ctx.queue, &present) } {
+            Ok(false) => Ok(true),
+            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(false),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Records `fill`, then the copy of `pixels` into `image` between the layouts the copy and the present need.
+    fn record(
+        &self,
+        image: vk::Image,
+        pixels: &Buffer,
+        fill: impl FnOnce(vk::CommandBuffer, [u32; 2]),
+    ) -> Result<(), Error> {
+        let d = &self.device;
         unsafe {
             d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
             d.begin_command_buffer(
@@ -163,30 +186,27 @@ impl Swapchain {
                 vk::PipelineStageFlags::BOTTOM_OF_PIPE,
             );
             d.end_command_buffer(self.cmd)?;
+        }
+        Ok(())
+    }
+
+    /// Runs the recorded commands once `acquired` is signalled, signals `signals` for the present, and waits for them.
+    fn submit(&self, ctx: &Context, signals: &[vk::Semaphore]) -> Result<(), Error> {
+        let d = &self.device;
+        unsafe {
             let waits = [self.acquired];
             let stages = [vk::PipelineStageFlags::TRANSFER];
-            let signals = [self.rendered[index as usize]];
             let cmds = [self.cmd];
             let submit = vk::SubmitInfo::default()
                 .wait_semaphores(&waits)
                 .wait_dst_stage_mask(&stages)
                 .command_buffers(&cmds)
-                .signal_semaphores(&signals);
+                .signal_semaphores(signals);
             d.reset_fences(&[self.fence])?;
             d.queue_submit(ctx.queue, &[submit], self.fence)?;
             d.wait_for_fences(&[self.fence], true, ctx.fence_timeout.as_nanos() as u64)?;
-            let swapchains = [self.raw];
-            let indices = [index];
-            let present = vk::PresentInfoKHR::default()
-                .wait_semaphores(&signals)
-                .swapchains(&swapchains)
-                .image_indices(&indices);
-            match self.loader.queue_present(ctx.queue, &present) {
-                Ok(false) => Ok(true),
-                Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(false),
-                Err(e) => Err(e.into()),
-            }
         }
+        Ok(())
     }
 }
 
