@@ -2,10 +2,10 @@
 use super::helper::{read_f32, write_f32, Helper};
 use super::{err, median, tracer};
 use crate::bench::terrain;
-use crate::bvh::Ray;
+use crate::bvh::{Ray, TraceHit};
 use crate::error::Error;
-use crate::render::Traversal;
-use crate::scene::Scene;
+use crate::render::{Renderer, Traversal};
+use crate::scene::{Scene, TriangleSoup};
 use crate::vk::DeviceChoice;
 use glam::Vec3;
 use serde_json::{json, Value};
@@ -92,18 +92,7 @@ pub fn compare_embree(
     let scene = terrain(side);
     let rays = random_rays(&scene, rays_n, 7);
     let soup = scene.flatten();
-    let tris: Vec<f32> = soup.positions().iter().flatten().flat_map(|p| p.to_array()).collect();
-    let ray_data: Vec<f32> = rays
-        .iter()
-        .flat_map(|r| r.origin.to_array().into_iter().chain(r.dir.to_array()))
-        .collect();
-    let (tri_path, ray_path, hit_path) = (h.path("tris.f32"), h.path("rays.f32"), h.path("hits.f32"));
-    write_f32(&tri_path, &tris)?;
-    write_f32(&ray_path, &ray_data)?;
-    let loaded = h
-        .call(json!({"cmd": "embree_load", "triangles": tri_path}))
-        .map_err(|e| err(format!("{e}; install it with `pip install embreex`")))?;
-    let embree_build_s = Helper::f64(&loaded, "build_s")?;
+    let embree_build_s = embree_load(&mut h, &soup, &rays)?;
     let first = traversals.first().copied().unwrap_or(Traversal::Compute);
     let device_choice = device;
     let mut r = tracer(&scene, device_choice, first)?;
@@ -115,12 +104,7 @@ pub fn compare_embree(
     // The first dispatch compiles the pipeline: traced once untimed.
     let (ours, _) = r.trace_timed(&rays, false, 1)?;
     let mut second = match traversals.get(1) {
-        Some(&t) => {
-            let mut q = tracer(&scene, device_choice, t)?;
-            let (hits, _) = q.trace_timed(&rays, false, 1)?;
-            let build_s = q.acceleration_structures().map_or(0.0, |(_, _, t)| t.as_secs_f64());
-            Some((q, hits, build_s))
-        }
+        Some(&t) => Some(beside(&scene, device_choice, t, &rays)?),
         None => None,
     };
     let mut result = EmbreeComparison {
@@ -135,13 +119,69 @@ pub fn compare_embree(
         },
         ..Default::default()
     };
+    let second_r = second.as_mut().map(|(q, _, _)| q);
+    let second_rates = time_rounds(&mut h, &mut r, second_r, &rays, rounds, &mut result)?;
+    result.ratio = median(result.rounds.iter().map(|(a, b)| a / b).collect());
+    let theirs = read_f32(&h.path("hits.f32"))?;
+    result.agreement = agreement(&ours, &theirs, rays.len());
+    result.ray_query = second.map(|(_, hits, build_s)| RayQueryRounds {
+        rays_per_s: second_rates,
+        build_s,
+        agreement: agreement(&hits, &theirs, rays.len()),
+    });
+    Ok(result)
+}
+
+/// Hands Embree the triangles and the rays, as files in the helper's folder, and has it build its BVH: returns that
+/// build's seconds.
+fn embree_load(h: &mut Helper, soup: &TriangleSoup, rays: &[Ray]) -> Result<f64, Error> {
+    let tris: Vec<f32> = soup.positions().iter().flatten().flat_map(|p| p.to_array()).collect();
+    let ray_data: Vec<f32> = rays
+        .iter()
+        .flat_map(|r| r.origin.to_array().into_iter().chain(r.dir.to_array()))
+        .collect();
+    let (tri_path, ray_path) = (h.path("tris.f32"), h.path("rays.f32"));
+    write_f32(&tri_path, &tris)?;
+    write_f32(&ray_path, &ray_data)?;
+    let loaded = h
+        .call(json!({"cmd": "embree_load", "triangles": tri_path}))
+        .map_err(|e| err(format!("{e}; install it with `pip install embreex`")))?;
+    Helper::f64(&loaded, "build_s")
+}
+
+/// The second traversal's renderer over `scene`, made right after the first's warm-up: the hits of its untimed first
+/// trace (which compiles its pipeline) and its structures' build seconds come with it.
+fn beside(
+    scene: &Scene,
+    device: &DeviceChoice,
+    traversal: Traversal,
+    rays: &[Ray],
+) -> Result<(Renderer, Vec<TraceHit>, f64), Error> {
+    let mut q = tracer(scene, device, traversal)?;
+    let (hits, _) = q.trace_timed(rays, false, 1)?;
+    let build_s = q.acceleration_structures().map_or(0.0, |(_, _, t)| t.as_secs_f64());
+    Ok((q, hits, build_s))
+}
+
+/// The timed rounds into `result`, interleaved: in each, pathwave, then the second traversal where there is one, then
+/// Embree (which writes its hits in the last round). Returns the second traversal's rays per second by round.
+fn time_rounds(
+    h: &mut Helper,
+    r: &mut Renderer,
+    mut second: Option<&mut Renderer>,
+    rays: &[Ray],
+    rounds: usize,
+    result: &mut EmbreeComparison,
+) -> Result<Vec<f64>, Error> {
+    let rays_n = rays.len();
+    let (ray_path, hit_path) = (h.path("rays.f32"), h.path("hits.f32"));
     let mut second_rates = Vec::new();
     let mut embree_t = Vec::new();
     for _ in 0..rounds {
-        let (_, times) = r.trace_timed(&rays, false, 2)?;
+        let (_, times) = r.trace_timed(rays, false, 2)?;
         let t_ours = median(times.iter().map(|t| t.as_secs_f64()).collect());
-        if let Some((q, _, _)) = &mut second {
-            let (_, times) = q.trace_timed(&rays, false, 2)?;
+        if let Some(q) = &mut second {
+            let (_, times) = q.trace_timed(rays, false, 2)?;
             second_rates.push(rays_n as f64 / median(times.iter().map(|t| t.as_secs_f64()).collect()));
         }
         let last = embree_t.len() + 1 == rounds;
@@ -152,27 +192,22 @@ pub fn compare_embree(
         result.rounds.push((rays_n as f64 / t_ours, rays_n as f64 / t_embree));
         embree_t.push(t_embree);
     }
-    result.ratio = median(result.rounds.iter().map(|(a, b)| a / b).collect());
-    let theirs = read_f32(&hit_path)?;
-    let agreement = |ours: &[crate::bvh::TraceHit]| {
-        let agree = ours
-            .iter()
-            .zip(&theirs)
-            .filter(|(a, &b)| {
-                let miss_a = a.tri == crate::constants::NO_HIT;
-                let miss_b = !b.is_finite();
-                (miss_a && miss_b) || (!miss_a && !miss_b && (a.t - b).abs() <= 1e-3 * b.abs().max(1e-3))
-            })
-            .count();
-        agree as f64 / rays.len().max(1) as f64
-    };
-    result.agreement = agreement(&ours);
-    result.ray_query = second.map(|(_, hits, build_s)| RayQueryRounds {
-        rays_per_s: second_rates,
-        build_s,
-        agreement: agreement(&hits),
-    });
-    Ok(result)
+    Ok(second_rates)
+}
+
+/// The share of `rays` whose hits agree with Embree's distances `theirs` (infinite for a miss): both miss, or both
+/// hit at the same distance within 1e-3 relative.
+fn agreement(ours: &[TraceHit], theirs: &[f32], rays: usize) -> f64 {
+    let agree = ours
+        .iter()
+        .zip(theirs)
+        .filter(|(a, &b)| {
+            let miss_a = a.tri == crate::constants::NO_HIT;
+            let miss_b = !b.is_finite();
+            (miss_a && miss_b) || (!miss_a && !miss_b && (a.t - b).abs() <= 1e-3 * b.abs().max(1e-3))
+        })
+        .count();
+    agree as f64 / rays.max(1) as f64
 }
 
 #[cfg(test)]
