@@ -5,7 +5,7 @@ use super::reference::{mitsuba_reference, mitsuba_render};
 use super::{err, median};
 use crate::error::Error;
 use crate::render::{LightSampler, RenderSettings, Renderer};
-use crate::scene;
+use crate::scene::{self, Scene};
 use crate::vk::{Context, DeviceChoice, Validation};
 use serde_json::json;
 use std::path::Path;
@@ -116,8 +116,6 @@ impl MitsubaComparison {
     }
 }
 
-/// Mitsuba 3 against pathwave at equal time on the Cornell box. One function past 80 lines: warm-up, calibration
-/// and the interleaved rounds share both renderers and the reference, and read best as the one procedure they are.
 /// What a Mitsuba comparison renders: a scene file (lit by emissive Lambertian triangles only), spectral or RGB,
 /// and pathwave's light selection.
 pub struct MitsubaCase<'a> {
@@ -129,6 +127,8 @@ pub struct MitsubaCase<'a> {
     pub reference_spp: u32,
 }
 
+/// Mitsuba 3 against pathwave at equal time on `case`'s scene: both calibrated to one time budget, then rounds of
+/// each, interleaved, scored against Mitsuba's converged reference.
 pub fn compare_mitsuba(
     python: &Path,
     device: &DeviceChoice,
@@ -148,63 +148,28 @@ pub fn compare_mitsuba(
     let (reference_spp, budget_s, rounds) = if quick { (256, 0.5, 2) } else { (reference_spp, 8.0, 3) };
     let mut h = Helper::start(python)?;
     let scene = scene::load(path, None)?;
-    let dir = h.dir.path().to_path_buf();
-    let (desc_path, desc) = write_mitsuba_scene(&scene, size, &dir)?;
-    let loaded = h
-        .call(json!({"cmd": "mitsuba_load", "scene": desc_path, "variant": variant}))
-        .map_err(|e| {
-            err(format!(
-                "{e}; Mitsuba 3 needs `pip install mitsuba` and, for {variant}, `apt-get install libllvm19`"
-            ))
-        })?;
-    let version = loaded["version"].as_str().unwrap_or("?").to_string();
+    let (desc, version) = load_in_mitsuba(&mut h, &scene, size, variant)?;
     let pixels = (size.0 * size.1) as usize;
-    let mitsuba_with =
-        |h: &mut Helper, sampler: &str, spp: u32, seed: u32| mitsuba_render(h, pixels, sampler, spp, seed);
-    let mitsuba = |h: &mut Helper, spp: u32, seed: u32| mitsuba_with(h, "independent", spp, seed);
     // The RGB reference keeps its old name; the spectral one is another image.
     let key_text = format!("{desc}{version}{reference_spp}{}", if spectral { variant } else { "" });
     let (ref_a, ref_b, reference_cached) = mitsuba_reference(&mut h, pixels, &key_text, reference_spp, progress)?;
+    let mut mitsuba = MitsubaSide { h, pixels };
 
     let ctx = Context::new(device, Validation::Off)?;
     let device = ctx.device_name();
-    let mut r = Renderer::with_context(&scene, ctx)?;
+    let r = Renderer::with_context(&scene, ctx)?;
     let sampler_name = (r.light_sampler_run(&RenderSettings {
         light_sampler,
         ..Default::default()
     }))
     .unwrap_or("none");
-    let mut pathwave = |spp: u32, seed: u32| -> Result<(f64, Vec<f32>, Vec<f32>), Error> {
-        let settings = RenderSettings {
-            width: size.0,
-            height: size.1,
-            spp,
-            seed,
-            spectral,
-            light_sampler,
-            ..Default::default()
-        };
-        let (film, stats) = r.render(&settings, &mut |_| {})?;
-        let img: Vec<f32> = film.mean().into_iter().flatten().collect();
-        let var: Vec<f32> = film.sample_variance().into_iter().flatten().collect();
-        Ok((stats.wall.as_secs_f64(), img, var))
+    let mut pathwave = PathwaveSide {
+        r,
+        size,
+        spectral,
+        light_sampler,
     };
-    // Warm-up, which also calibrates: both renderers compile on their first render, so the second one's time per
-    // sample sets each one's spp for the budget. pathwave's first four passes also choose its schedule on a CPU
-    // device (render::Schedule), so it warms up for four renders of one pass each.
-    progress("Mitsuba comparison: warming up");
-    let probe_spp = if quick { 4 } else { 16 };
-    for seed in 0..4 {
-        pathwave(probe_spp, 99 - seed)?;
-    }
-    let (t_ours, _, _) = pathwave(probe_spp, 95)?;
-    mitsuba(&mut h, probe_spp, 99)?;
-    let (t_theirs, _) = mitsuba(&mut h, probe_spp, 98)?;
-    mitsuba_with(&mut h, "ldsampler", probe_spp, 99)?;
-    let spp_for = |t: f64| ((budget_s / (t / probe_spp as f64)).round() as u32).clamp(1, 4096);
-    let (spp_ours, spp_theirs) = (spp_for(t_ours), spp_for(t_theirs));
-    // ldsampler takes a power of four; the nearest one to the budget (time is part of the figure either way).
-    let spp_ld = 1u32 << (2 * (spp_theirs as f64).log(4.0).round() as u32);
+    let spp = calibrate(&mut pathwave, &mut mitsuba, quick, budget_s, progress)?;
 
     let mut result = MitsubaComparison {
         device,
@@ -221,16 +186,128 @@ pub fn compare_mitsuba(
         reference_cached,
         ..Default::default()
     };
-    let reference_means = channel_means(&ref_a.iter().zip(&ref_b).map(|(a, b)| 0.5 * (a + b)).collect::<Vec<_>>());
+    let reference = (ref_a.as_slice(), ref_b.as_slice());
+    score_rounds(
+        &mut result,
+        &mut pathwave,
+        &mut mitsuba,
+        spp,
+        rounds,
+        reference,
+        progress,
+    )?;
+    Ok(result)
+}
+
+/// Writes `scene` into the helper's folder and has Mitsuba load it with `variant`: the text that names the scene's
+/// content, and Mitsuba's version.
+fn load_in_mitsuba(h: &mut Helper, scene: &Scene, size: (u32, u32), variant: &str) -> Result<(String, String), Error> {
+    let dir = h.dir.path().to_path_buf();
+    let (desc_path, desc) = write_mitsuba_scene(scene, size, &dir)?;
+    let loaded = h
+        .call(json!({"cmd": "mitsuba_load", "scene": desc_path, "variant": variant}))
+        .map_err(|e| {
+            err(format!(
+                "{e}; Mitsuba 3 needs `pip install mitsuba` and, for {variant}, `apt-get install libllvm19`"
+            ))
+        })?;
+    let version = loaded["version"].as_str().unwrap_or("?").to_string();
+    Ok((desc, version))
+}
+
+/// pathwave's side of a comparison: its renderer and what every one of its renders shares.
+struct PathwaveSide {
+    r: Renderer,
+    size: (u32, u32),
+    spectral: bool,
+    light_sampler: LightSampler,
+}
+
+impl PathwaveSide {
+    /// One render: its seconds, its pixels' means and their sample variances (RGB floats).
+    fn render(&mut self, spp: u32, seed: u32) -> Result<(f64, Vec<f32>, Vec<f32>), Error> {
+        let settings = RenderSettings {
+            width: self.size.0,
+            height: self.size.1,
+            spp,
+            seed,
+            spectral: self.spectral,
+            light_sampler: self.light_sampler,
+            ..Default::default()
+        };
+        let (film, stats) = self.r.render(&settings, &mut |_| {})?;
+        let img: Vec<f32> = film.mean().into_iter().flatten().collect();
+        let var: Vec<f32> = film.sample_variance().into_iter().flatten().collect();
+        Ok((stats.wall.as_secs_f64(), img, var))
+    }
+}
+
+/// Mitsuba's side: the helper with the scene loaded, and the image's pixel count.
+struct MitsubaSide {
+    h: Helper,
+    pixels: usize,
+}
+
+impl MitsubaSide {
+    fn render_with(&mut self, sampler: &str, spp: u32, seed: u32) -> Result<(f64, Vec<f32>), Error> {
+        mitsuba_render(&mut self.h, self.pixels, sampler, spp, seed)
+    }
+
+    /// A render with Mitsuba's default sampler, `independent`.
+    fn render(&mut self, spp: u32, seed: u32) -> Result<(f64, Vec<f32>), Error> {
+        self.render_with("independent", spp, seed)
+    }
+}
+
+/// Warm-up, which also calibrates: both renderers compile on their first render, so the second one's time per
+/// sample sets each one's spp for the budget. pathwave's first four passes also choose its schedule on a CPU
+/// device (render::Schedule), so it warms up for four renders of one pass each. Returns the spp of pathwave, of
+/// Mitsuba and of Mitsuba with ldsampler.
+fn calibrate(
+    pathwave: &mut PathwaveSide,
+    mitsuba: &mut MitsubaSide,
+    quick: bool,
+    budget_s: f64,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(u32, u32, u32), Error> {
+    progress("Mitsuba comparison: warming up");
+    let probe_spp = if quick { 4 } else { 16 };
+    for seed in 0..4 {
+        pathwave.render(probe_spp, 99 - seed)?;
+    }
+    let (t_ours, _, _) = pathwave.render(probe_spp, 95)?;
+    mitsuba.render(probe_spp, 99)?;
+    let (t_theirs, _) = mitsuba.render(probe_spp, 98)?;
+    mitsuba.render_with("ldsampler", probe_spp, 99)?;
+    let spp_for = |t: f64| ((budget_s / (t / probe_spp as f64)).round() as u32).clamp(1, 4096);
+    let (spp_ours, spp_theirs) = (spp_for(t_ours), spp_for(t_theirs));
+    // ldsampler takes a power of four; the nearest one to the budget (time is part of the figure either way).
+    let spp_ld = 1u32 << (2 * (spp_theirs as f64).log(4.0).round() as u32);
+    Ok((spp_ours, spp_theirs, spp_ld))
+}
+
+/// The rounds, each pathwave, Mitsuba, then Mitsuba with ldsampler at their calibrated spp, scored against the
+/// reference's halves; then over the rounds, the median ratios and the channel means' deviations, all into `result`.
+fn score_rounds(
+    result: &mut MitsubaComparison,
+    pathwave: &mut PathwaveSide,
+    mitsuba: &mut MitsubaSide,
+    (spp_ours, spp_theirs, spp_ld): (u32, u32, u32),
+    rounds: u32,
+    (ref_a, ref_b): (&[f32], &[f32]),
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), Error> {
+    let pixels = mitsuba.pixels;
+    let reference_means = channel_means(&ref_a.iter().zip(ref_b).map(|(a, b)| 0.5 * (a + b)).collect::<Vec<_>>());
     let (mut ours_means, mut ours_var, mut theirs_means) = ([0.0; 3], [0.0; 3], [0.0; 3]);
     for round in 0..rounds {
         progress(&format!("Mitsuba comparison: round {} of {rounds}", round + 1));
-        let (t_p, img_p, var_p) = pathwave(spp_ours, round)?;
-        let (t_m, img_m) = mitsuba(&mut h, spp_theirs, round)?;
-        let (t_l, img_l) = mitsuba_with(&mut h, "ldsampler", spp_ld, round)?;
-        let e_p = rel_mse(&img_p, &ref_a, &ref_b);
-        let e_m = rel_mse(&img_m, &ref_a, &ref_b);
-        let e_l = rel_mse(&img_l, &ref_a, &ref_b);
+        let (t_p, img_p, var_p) = pathwave.render(spp_ours, round)?;
+        let (t_m, img_m) = mitsuba.render(spp_theirs, round)?;
+        let (t_l, img_l) = mitsuba.render_with("ldsampler", spp_ld, round)?;
+        let e_p = rel_mse(&img_p, ref_a, ref_b);
+        let e_m = rel_mse(&img_m, ref_a, ref_b);
+        let e_l = rel_mse(&img_l, ref_a, ref_b);
         result
             .rounds
             .push([(spp_ours, t_p, e_p), (spp_theirs, t_m, e_m), (spp_ld, t_l, e_l)]);
@@ -258,7 +335,7 @@ pub fn compare_mitsuba(
         result.mean_sigma[c] = ours_var[c].sqrt() / reference_means[c];
         result.mitsuba_mean_deviation[c] = theirs_means[c] / reference_means[c] - 1.0;
     }
-    Ok(result)
+    Ok(())
 }
 
 /// relMSE of `img` against the reference mean `r`, less what the reference's own noise adds: `a` and `b` are the
