@@ -2,7 +2,8 @@
 use super::err;
 use super::reference::fnv_bytes;
 use crate::error::Error;
-use crate::scene::{self, Projection, Scene};
+use crate::scene::{self, Material, Projection, Scene, TextureRef, TriangleSoup};
+use glam::Vec3;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
@@ -20,79 +21,10 @@ pub(super) fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -
     let mut meshes = Vec::new();
     let mut content = Vec::new();
     for (k, m) in scene.materials.iter().enumerate() {
-        let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
-        let emissive_map = m.emissive_texture.filter(|r| {
-            let t = &scene.textures[r.texture];
-            r.tex_coord == 0 && r.transform == scene::texture::IDENTITY_TRANSFORM && !t.nearest && t.wrap_s == t.wrap_t
-        });
-        let others = m.texture_refs().iter().filter(|r| r.is_some()).count();
-        let textured = others > usize::from(emissive_map.is_some());
-        let tris: Vec<usize> = (0..soup.len()).filter(|&t| soup.material()[t] as usize == k).collect();
-        if tris.is_empty() {
-            continue;
+        if let Some((named, mesh)) = write_material(scene, &soup, k, m, dir)? {
+            content.push(named);
+            meshes.push(mesh);
         }
-        if !lambertian || textured || m.double_sided || m.alpha_tested() {
-            return Err(err(format!(
-                "material '{}' does not translate to Mitsuba (only single-sided Lambertian ones, untextured but for \
-                 their emission, do)",
-                m.name
-            )));
-        }
-        let uv = if emissive_map.is_some() {
-            "property float u\nproperty float v\n"
-        } else {
-            ""
-        };
-        let ply = dir.join(format!("mesh{k}.ply"));
-        let mut bytes = format!(
-            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
-             property float z\n{uv}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
-            3 * tris.len(),
-            tris.len()
-        )
-        .into_bytes();
-        for &t in &tris {
-            for c in 0..3 {
-                bytes.extend(soup.positions()[t][c].to_array().iter().flat_map(|x| x.to_le_bytes()));
-                if emissive_map.is_some() {
-                    let w = soup.texcoords()[t][c];
-                    bytes.extend([w.x, w.y].iter().flat_map(|x| x.to_le_bytes()));
-                }
-            }
-        }
-        for f in 0..tris.len() as i32 {
-            bytes.push(3);
-            bytes.extend([3 * f, 3 * f + 1, 3 * f + 2].iter().flat_map(|i| i.to_le_bytes()));
-        }
-        let e = m.emission;
-        let mut mesh = json!({
-            "ply": format!("{:016x}", fnv_bytes(&bytes)),
-            "reflectance": m.base_color.to_array(),
-            "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
-        });
-        if let Some(r) = emissive_map.filter(|_| e.max_element() > 0.0) {
-            let t = &scene.textures[r.texture];
-            let image = &scene.images[t.image];
-            let linear: Vec<[f32; 3]> = (image.texels.iter())
-                .map(|p| std::array::from_fn(|c| crate::output::srgb_decode(p[c] as f32 / 255.0) * e[c]))
-                .collect();
-            let exr = dir.join(format!("emission{k}.exr"));
-            crate::output::write_image(&exr, image.width, image.height, &linear, 0.0)?;
-            let wrap = match t.wrap_s {
-                scene::Wrap::Repeat => "repeat",
-                scene::Wrap::ClampToEdge => "clamp",
-                scene::Wrap::MirroredRepeat => "mirror",
-            };
-            let texels: Vec<u8> = linear.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
-            mesh["radiance_texture"] = json!({"exr": format!("{:016x}", fnv_bytes(&texels)), "wrap": wrap});
-            content.push(mesh.clone());
-            mesh["radiance_texture"]["exr"] = json!(exr);
-        } else {
-            content.push(mesh.clone());
-        }
-        mesh["ply"] = json!(ply);
-        std::fs::write(&ply, bytes).map_err(err)?;
-        meshes.push(mesh);
     }
     let Projection::Perspective { yfov } = camera.projection else {
         return Err(err("the comparison renderers are given perspective cameras only"));
@@ -110,4 +42,102 @@ pub(super) fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -
     let path = dir.join("scene.json");
     std::fs::write(&path, json!({"camera": camera, "meshes": meshes}).to_string()).map_err(err)?;
     Ok((path, json!({"camera": camera, "meshes": content}).to_string()))
+}
+
+/// Writes material `k`'s triangles as a PLY in `dir` (its emission texture as an EXR before it): the entry that names
+/// its content for the reference cache, and its entry in the description. None when no triangle has the material.
+fn write_material(
+    scene: &Scene,
+    soup: &TriangleSoup,
+    k: usize,
+    m: &Material,
+    dir: &Path,
+) -> Result<Option<(Value, Value)>, Error> {
+    let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
+    let emissive_map = m.emissive_texture.filter(|r| {
+        let t = &scene.textures[r.texture];
+        r.tex_coord == 0 && r.transform == scene::texture::IDENTITY_TRANSFORM && !t.nearest && t.wrap_s == t.wrap_t
+    });
+    let others = m.texture_refs().iter().filter(|r| r.is_some()).count();
+    let textured = others > usize::from(emissive_map.is_some());
+    let tris: Vec<usize> = (0..soup.len()).filter(|&t| soup.material()[t] as usize == k).collect();
+    if tris.is_empty() {
+        return Ok(None);
+    }
+    if !lambertian || textured || m.double_sided || m.alpha_tested() {
+        return Err(err(format!(
+            "material '{}' does not translate to Mitsuba (only single-sided Lambertian ones, untextured but for \
+             their emission, do)",
+            m.name
+        )));
+    }
+    let ply = dir.join(format!("mesh{k}.ply"));
+    let bytes = ply_bytes(soup, &tris, emissive_map.is_some());
+    let e = m.emission;
+    let mut mesh = json!({
+        "ply": format!("{:016x}", fnv_bytes(&bytes)),
+        "reflectance": m.base_color.to_array(),
+        "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
+    });
+    let named = if let Some(r) = emissive_map.filter(|_| e.max_element() > 0.0) {
+        let exr = dir.join(format!("emission{k}.exr"));
+        mesh["radiance_texture"] = write_emission(scene, r, e, &exr)?;
+        let named = mesh.clone();
+        mesh["radiance_texture"]["exr"] = json!(exr);
+        named
+    } else {
+        mesh.clone()
+    };
+    mesh["ply"] = json!(ply);
+    std::fs::write(&ply, bytes).map_err(err)?;
+    Ok(Some((named, mesh)))
+}
+
+/// A binary PLY of `soup`'s triangles `tris`, each with three vertices of its own, with texture coordinates when
+/// `with_uv`.
+fn ply_bytes(soup: &TriangleSoup, tris: &[usize], with_uv: bool) -> Vec<u8> {
+    let uv = if with_uv {
+        "property float u\nproperty float v\n"
+    } else {
+        ""
+    };
+    let mut bytes = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\n{uv}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        3 * tris.len(),
+        tris.len()
+    )
+    .into_bytes();
+    for &t in tris {
+        for c in 0..3 {
+            bytes.extend(soup.positions()[t][c].to_array().iter().flat_map(|x| x.to_le_bytes()));
+            if with_uv {
+                let w = soup.texcoords()[t][c];
+                bytes.extend([w.x, w.y].iter().flat_map(|x| x.to_le_bytes()));
+            }
+        }
+    }
+    for f in 0..tris.len() as i32 {
+        bytes.push(3);
+        bytes.extend([3 * f, 3 * f + 1, 3 * f + 2].iter().flat_map(|i| i.to_le_bytes()));
+    }
+    bytes
+}
+
+/// Writes emission texture `r` times the emissive factor `e`, linear, as the EXR `exr`: its entry in the description,
+/// named by its texels' hash, with the sampler's wrap mode.
+fn write_emission(scene: &Scene, r: TextureRef, e: Vec3, exr: &Path) -> Result<Value, Error> {
+    let t = &scene.textures[r.texture];
+    let image = &scene.images[t.image];
+    let linear: Vec<[f32; 3]> = (image.texels.iter())
+        .map(|p| std::array::from_fn(|c| crate::output::srgb_decode(p[c] as f32 / 255.0) * e[c]))
+        .collect();
+    crate::output::write_image(exr, image.width, image.height, &linear, 0.0)?;
+    let wrap = match t.wrap_s {
+        scene::Wrap::Repeat => "repeat",
+        scene::Wrap::ClampToEdge => "clamp",
+        scene::Wrap::MirroredRepeat => "mirror",
+    };
+    let texels: Vec<u8> = linear.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    Ok(json!({"exr": format!("{:016x}", fnv_bytes(&texels)), "wrap": wrap}))
 }
