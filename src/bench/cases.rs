@@ -4,7 +4,7 @@ use super::scenes::{instanced_terrain, terrain};
 use super::BenchOptions;
 use crate::error::Error;
 use crate::render::{BvhReads, Schedule, Traversal};
-use crate::scene;
+use crate::scene::{self, Scene};
 use crate::vk::{Context, Validation};
 use std::path::Path;
 use std::time::Instant;
@@ -45,10 +45,6 @@ pub(super) fn run_cases(
     let (spp_cornell, spp_glass, spp_mesh, side) = if o.quick { (4, 2, 1, 128) } else { (64, 32, 32, 708) };
     // The main cases once per traversal, each right after the other so the machine's load is shared alike; the
     // variations of the compute BVH's reads and schedules after the compute case.
-    let traced = |traversal| Variation {
-        traversal,
-        ..Default::default()
-    };
     let compute_only = traversals.first() == Some(&Traversal::Compute);
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
         progress(name);
@@ -61,32 +57,71 @@ pub(super) fn run_cases(
             cases.push(c);
         }
         if name == "cornell-box" && compute_only {
-            // The same render with the BVH read from storage buffers (the texel path's gain), and with each schedule
-            // fixed (the default on a CPU device tries both in its first passes), in this run.
-            let storage = Variation {
-                reads: Some(BvhReads::Storage),
-                ..Default::default()
-            };
-            cases.push(measure("cornell-storage", &scene, (256, 256), spp, o, storage)?);
-            for (name, schedule) in [
-                ("cornell-fused", Schedule::Fused),
-                ("cornell-wavefront", Schedule::Wavefront),
-            ] {
-                let fixed = Variation {
-                    schedule: Some(schedule),
-                    ..Default::default()
-                };
-                cases.push(measure(name, &scene, (256, 256), spp, o, fixed)?);
-            }
-            // Spectral transport's cost (--spectral): four wavelengths per path and every colour upsampled.
-            let spectral = Variation {
-                spectral: true,
-                ..Default::default()
-            };
-            cases.push(measure("cornell-spectral", &scene, (256, 256), spp, o, spectral)?);
+            cornell_variations(o, &scene, spp, cases)?;
         }
     }
     progress("terrain");
+    terrain_cases(o, traversals, side, spp_mesh, compute_only, cases)?;
+    // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
+    progress("instances");
+    instanced_cases(o, traversals, spp_mesh, cases)?;
+    if !o.quick && compute_only {
+        // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
+        // read through texel views, which is the only way this device can hold the scene.
+        progress("terrain past the storage range");
+        let big = terrain(1300);
+        let name = format!("terrain-{}k", big.triangle_count() / 1000);
+        cases.push(measure(&name, &big, (256, 256), 8, o, Variation::default())?);
+    }
+    Ok(())
+}
+
+/// The default render with `traversal`.
+fn traced(traversal: Traversal) -> Variation {
+    Variation {
+        traversal,
+        ..Default::default()
+    }
+}
+
+/// The Cornell box's variations of the compute BVH's render, after it.
+fn cornell_variations(o: &BenchOptions, scene: &Scene, spp: u32, cases: &mut Vec<CaseResult>) -> Result<(), Error> {
+    // The same render with the BVH read from storage buffers (the texel path's gain), and with each schedule
+    // fixed (the default on a CPU device tries both in its first passes), in this run.
+    let storage = Variation {
+        reads: Some(BvhReads::Storage),
+        ..Default::default()
+    };
+    cases.push(measure("cornell-storage", scene, (256, 256), spp, o, storage)?);
+    for (name, schedule) in [
+        ("cornell-fused", Schedule::Fused),
+        ("cornell-wavefront", Schedule::Wavefront),
+    ] {
+        let fixed = Variation {
+            schedule: Some(schedule),
+            ..Default::default()
+        };
+        cases.push(measure(name, scene, (256, 256), spp, o, fixed)?);
+    }
+    // Spectral transport's cost (--spectral): four wavelengths per path and every colour upsampled.
+    let spectral = Variation {
+        spectral: true,
+        ..Default::default()
+    };
+    cases.push(measure("cornell-spectral", scene, (256, 256), spp, o, spectral)?);
+    Ok(())
+}
+
+/// The terrain once per traversal, then (`compute_only`: the compute BVH's case came first) with the BVH read from
+/// storage buffers.
+fn terrain_cases(
+    o: &BenchOptions,
+    traversals: &[Traversal],
+    side: usize,
+    spp_mesh: u32,
+    compute_only: bool,
+    cases: &mut Vec<CaseResult>,
+) -> Result<(), Error> {
     let t = terrain(side);
     let name = format!("terrain-{}k", t.triangle_count() / 1000);
     for &traversal in traversals {
@@ -106,8 +141,16 @@ pub(super) fn run_cases(
         };
         cases.push(measure("terrain-storage", &t, (256, 256), spp_mesh, o, storage)?);
     }
-    // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
-    progress("instances");
+    Ok(())
+}
+
+/// The instanced terrain once per traversal, each case's process_s the time from before its scene is built.
+fn instanced_cases(
+    o: &BenchOptions,
+    traversals: &[Traversal],
+    spp_mesh: u32,
+    cases: &mut Vec<CaseResult>,
+) -> Result<(), Error> {
     let (count, mesh_side) = if o.quick { (400, 40) } else { (10_000, 160) };
     let name = format!("instances-{count}x{}k", 2 * mesh_side * mesh_side / 1000);
     for &traversal in traversals {
@@ -123,14 +166,6 @@ pub(super) fn run_cases(
         )?;
         c.process_s = Some(build.elapsed().as_secs_f64());
         cases.push(c);
-    }
-    if !o.quick && compute_only {
-        // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
-        // read through texel views, which is the only way this device can hold the scene.
-        progress("terrain past the storage range");
-        let big = terrain(1300);
-        let name = format!("terrain-{}k", big.triangle_count() / 1000);
-        cases.push(measure(&name, &big, (256, 256), 8, o, Variation::default())?);
     }
     Ok(())
 }

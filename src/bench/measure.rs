@@ -1,7 +1,7 @@
 //! One case measured: a render in this process (its times, rates, stages and memory), or a whole process's time.
 use super::{compare, BenchOptions};
 use crate::error::Error;
-use crate::render::{BvhReads, RenderSettings, Schedule, Traversal};
+use crate::render::{BvhReads, RenderSettings, RenderStats, Schedule, Traversal};
 use crate::scene::Scene;
 use std::path::Path;
 use std::process::Command;
@@ -83,21 +83,8 @@ pub(super) fn measure(
         ..Default::default()
     };
     let (film, stats) = r.render(&settings, &mut |_| {})?;
-    let extend_ms = stats.stage_ms.iter().find(|(l, _)| *l == "extend").map_or(0.0, |s| s.1);
-    // Stage times cover the passes after the first (or the only one): scale the ray count to match.
-    let steady_share = if stats.passes > 1 {
-        (stats.passes - 1) as f64 / stats.passes as f64
-    } else {
-        1.0
-    };
     let mean = film.mean();
-    // What the timed passes ran: on a CPU device the default tries both schedules before it keeps one.
-    let ran = |stage: &str| stats.stage_ms.iter().any(|(l, _)| *l == stage);
-    let schedule = match (ran("follow"), ran("extend")) {
-        (true, true) => "both",
-        (true, false) => "fused",
-        _ => "wavefront",
-    };
+    let schedule = schedule_ran(&stats);
     Ok(CaseResult {
         name: name.into(),
         device: device_name,
@@ -110,12 +97,7 @@ pub(super) fn measure(
         samples_per_s: stats.samples_per_sec(),
         extension_rays_per_s: stats.rays_per_sec_split().0,
         shadow_rays_per_s: stats.rays_per_sec_split().1,
-        // Only when every timed pass ran the wavefront: fused passes trace extension rays outside any extend stage.
-        extend_stage_rays_per_s: if extend_ms > 0.0 && schedule == "wavefront" {
-            stats.extension_rays as f64 * steady_share / (extend_ms * 1e-3)
-        } else {
-            0.0
-        },
+        extend_stage_rays_per_s: extend_stage_rays_per_s(&stats, schedule),
         stage_ms: stats.stage_ms.iter().map(|(l, ms)| (l.to_string(), *ms)).collect(),
         schedule: schedule.into(),
         bvh_build_s,
@@ -129,6 +111,33 @@ pub(super) fn measure(
             .acceleration_structures()
             .map(|(bytes, uncompacted, t)| (bytes, uncompacted, t.as_secs_f64())),
     })
+}
+
+/// What the timed passes ran: on a CPU device the default tries both schedules before it keeps one.
+fn schedule_ran(stats: &RenderStats) -> &'static str {
+    let ran = |stage: &str| stats.stage_ms.iter().any(|(l, _)| *l == stage);
+    match (ran("follow"), ran("extend")) {
+        (true, true) => "both",
+        (true, false) => "fused",
+        _ => "wavefront",
+    }
+}
+
+/// Extension rays per second of the extend stage's GPU time. Only when every timed pass ran the wavefront (`schedule`):
+/// fused passes trace extension rays outside any extend stage.
+fn extend_stage_rays_per_s(stats: &RenderStats, schedule: &str) -> f64 {
+    let extend_ms = stats.stage_ms.iter().find(|(l, _)| *l == "extend").map_or(0.0, |s| s.1);
+    // Stage times cover the passes after the first (or the only one): scale the ray count to match.
+    let steady_share = if stats.passes > 1 {
+        (stats.passes - 1) as f64 / stats.passes as f64
+    } else {
+        1.0
+    };
+    if extend_ms > 0.0 && schedule == "wavefront" {
+        stats.extension_rays as f64 * steady_share / (extend_ms * 1e-3)
+    } else {
+        0.0
+    }
 }
 
 /// Wall time of a whole `pathwave render` process.

@@ -16,7 +16,7 @@ use measure::process_time;
 pub use measure::CaseResult;
 pub use report::BenchReport;
 pub use scenes::{instanced_terrain, terrain};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 pub struct BenchOptions {
@@ -80,69 +80,17 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         false => Vec::new(),
     };
     if !o.only_compare {
-        progress("start-up");
-        process_time(&o.exe, &cornell, (64, 64), 1)?;
-        report.startup_s = Some(process_time(&o.exe, &cornell, (64, 64), 1)?);
-        run_cases(o, &traversals, &cornell, &glass, &mut report.cases, progress)?;
-        progress("light tree");
-        let mut glowing = terrain(if o.quick { 128 } else { 708 });
-        glowing.materials[0].emission = Vec3::ONE;
-        let tree = crate::render::gpu_scene::try_pack(&glowing)?.light_tree.stats;
-        report.light_tree = Some((tree.emitters, tree.depth, tree.build.as_secs_f64()));
+        run_fixed(o, &traversals, &cornell, &glass, &mut report, progress)?;
     }
     if o.compare.contains(&Compare::Embree) {
         progress("Embree comparison");
         report.embree = Some(compare::compare_embree(&o.python, &o.device, o.quick, &traversals)?);
     }
     if o.compare.contains(&Compare::Mitsuba) {
-        progress("Mitsuba comparison");
-        let case = |scene, spectral, light_sampler| compare::MitsubaCase {
-            scene,
-            spectral,
-            light_sampler,
-            size: (256, 256),
-            reference_spp: 8192,
-        };
-        let mitsuba = |case, progress: &mut dyn FnMut(&str)| {
-            compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)
-        };
-        report.mitsuba = Some(mitsuba(case(&cornell, false, o.light_sampler), progress)?);
-        progress("Mitsuba comparison, spectral");
-        report.mitsuba_spectral = Some(mitsuba(case(&cornell, true, o.light_sampler), progress)?);
-        // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
-        let halves = o.scenes.join("halves.gltf");
-        for scene in [&cornell, &glass, &halves] {
-            report
-                .adaptive
-                .push(adaptive::compare_adaptive(&o.device, scene, o.quick, progress)?);
-        }
+        against_mitsuba(o, &cornell, &glass, &mut report, progress)?;
     }
     if o.compare.contains(&Compare::Lights) {
-        // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid (hundreds of
-        // lamps, a few far bright panels), the city block (thousands of lit windows, most facing away) and the
-        // emissive panel (a screen's triangles under one emissive texture, mostly black).
-        for (name, file) in [
-            ("lamp grid", "lamp-grid.gltf"),
-            ("city block", "city-block.gltf"),
-            ("emissive panel", "emissive-panel.gltf"),
-        ] {
-            let scene = o.scenes.join(file);
-            for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
-                progress(&format!(
-                    "Mitsuba comparison, {name}, lights by {}",
-                    light_sampler.name()
-                ));
-                let case = compare::MitsubaCase {
-                    scene: &scene,
-                    spectral: false,
-                    light_sampler,
-                    size: (192, 128),
-                    reference_spp: 4096,
-                };
-                let m = compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)?;
-                report.mitsuba_lights.push(m);
-            }
-        }
+        against_mitsuba_lights(o, &mut report, progress)?;
     }
     report.device = (report.cases.first().map(|c| c.device.clone()))
         .or_else(|| report.embree.as_ref().map(|e| e.device.clone()))
@@ -150,4 +98,90 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         .unwrap_or_default();
     report.total = start.elapsed();
     Ok(report)
+}
+
+/// The start-up time (a first process warms the shader cache), the fixed cases, and the light tree's build over a
+/// terrain whose every triangle emits.
+fn run_fixed(
+    o: &BenchOptions,
+    traversals: &[Traversal],
+    cornell: &Path,
+    glass: &Path,
+    report: &mut BenchReport,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), Error> {
+    progress("start-up");
+    process_time(&o.exe, cornell, (64, 64), 1)?;
+    report.startup_s = Some(process_time(&o.exe, cornell, (64, 64), 1)?);
+    run_cases(o, traversals, cornell, glass, &mut report.cases, progress)?;
+    progress("light tree");
+    let mut glowing = terrain(if o.quick { 128 } else { 708 });
+    glowing.materials[0].emission = Vec3::ONE;
+    let tree = crate::render::gpu_scene::try_pack(&glowing)?.light_tree.stats;
+    report.light_tree = Some((tree.emitters, tree.depth, tree.build.as_secs_f64()));
+    Ok(())
+}
+
+/// Mitsuba on the Cornell box, RGB then spectral, then adaptive against uniform sampling on three scenes.
+fn against_mitsuba(
+    o: &BenchOptions,
+    cornell: &Path,
+    glass: &Path,
+    report: &mut BenchReport,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), Error> {
+    progress("Mitsuba comparison");
+    let case = |scene, spectral, light_sampler| compare::MitsubaCase {
+        scene,
+        spectral,
+        light_sampler,
+        size: (256, 256),
+        reference_spp: 8192,
+    };
+    let mitsuba =
+        |case, progress: &mut dyn FnMut(&str)| compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress);
+    report.mitsuba = Some(mitsuba(case(cornell, false, o.light_sampler), progress)?);
+    progress("Mitsuba comparison, spectral");
+    report.mitsuba_spectral = Some(mitsuba(case(cornell, true, o.light_sampler), progress)?);
+    // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
+    let halves = o.scenes.join("halves.gltf");
+    for scene in [cornell, glass, halves.as_path()] {
+        report
+            .adaptive
+            .push(adaptive::compare_adaptive(&o.device, scene, o.quick, progress)?);
+    }
+    Ok(())
+}
+
+fn against_mitsuba_lights(
+    o: &BenchOptions,
+    report: &mut BenchReport,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(), Error> {
+    // Many lights: each light sampler against Mitsuba's uniform emitter choice on the lamp grid (hundreds of
+    // lamps, a few far bright panels), the city block (thousands of lit windows, most facing away) and the
+    // emissive panel (a screen's triangles under one emissive texture, mostly black).
+    for (name, file) in [
+        ("lamp grid", "lamp-grid.gltf"),
+        ("city block", "city-block.gltf"),
+        ("emissive panel", "emissive-panel.gltf"),
+    ] {
+        let scene = o.scenes.join(file);
+        for light_sampler in [LightSampler::Bvh, LightSampler::Power, LightSampler::Uniform] {
+            progress(&format!(
+                "Mitsuba comparison, {name}, lights by {}",
+                light_sampler.name()
+            ));
+            let case = compare::MitsubaCase {
+                scene: &scene,
+                spectral: false,
+                light_sampler,
+                size: (192, 128),
+                reference_spp: 4096,
+            };
+            let m = compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress)?;
+            report.mitsuba_lights.push(m);
+        }
+    }
+    Ok(())
 }
