@@ -1,5 +1,5 @@
 // The light BVH on the device (FEATURE_LIGHT_TREE): a node's importance at a point, the descent that picks an emitter
-// and its pdf twin. src/bvh/lights.rs is the CPU twin and does the same arithmetic in the same order.
+// and its pdf twin. src/bvh/lights/pick.rs is the CPU twin and does the same arithmetic in the same order.
 #ifndef LIGHT_TREE_GLSL
 #define LIGHT_TREE_GLSL
 
@@ -13,7 +13,7 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
 
 // A bound on what the node's emitters can send to p on a surface with normal n (zero: no receiver term): power over
 // squared distance times the cosines left at the emitter (after the normal cone and the bounds' angular size) and at
-// the receiver. Zero only where no emitter below the node can light p (tested in src/bvh/lights.rs).
+// the receiver. Zero only where no emitter below the node can light p (tested in src/bvh/lights/tests.rs).
 float light_importance(uint node, bool two_sided, vec3 p, vec3 n) {
     vec4 sphere = light_node_sphere(node);
     vec4 cone = light_node_cone(node);
