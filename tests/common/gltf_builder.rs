@@ -3,6 +3,28 @@
 use glam::{Mat3, Quat, Vec3};
 use serde_json::{json, Value};
 
+/// Which way a `quad`'s front face turns: up (+y), down (-y), or towards +z (a camera on the +z axis).
+pub const FACING_UP: Option<[f32; 3]> = Some([0.0, 1.0, 0.0]);
+pub const FACING_DOWN: Option<[f32; 3]> = Some([0.0, -1.0, 0.0]);
+pub const FACING_Z: Option<[f32; 3]> = Some([0.0, 0.0, 1.0]);
+
+/// The corners of a level rectangle at height `y` over `x` and `z` (each from, to), in the order (x0, z0), (x1, z0),
+/// (x1, z1), (x0, z1).
+pub fn level(x: [f32; 2], y: f32, z: [f32; 2]) -> [[f32; 3]; 4] {
+    [[x[0], y, z[0]], [x[1], y, z[0]], [x[1], y, z[1]], [x[0], y, z[1]]]
+}
+
+/// A level square of half-side `half` about the y axis at height `y`: `level` over -half to half both ways.
+pub fn square(half: f32, y: f32) -> [[f32; 3]; 4] {
+    level([-half, half], y, [-half, half])
+}
+
+/// The corners of an upright rectangle at depth `z` over `x` and `y` (each from, to), in the order (x0, y0),
+/// (x1, y0), (x1, y1), (x0, y1).
+pub fn upright(x: [f32; 2], y: [f32; 2], z: f32) -> [[f32; 3]; 4] {
+    [[x[0], y[0], z], [x[1], y[0], z], [x[1], y[1], z], [x[0], y[1], z]]
+}
+
 #[derive(Default)]
 pub struct GltfBuilder {
     bin: Vec<u8>,
@@ -255,14 +277,7 @@ impl GltfBuilder {
         let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let pv = self.push_view(&pos_bytes, 34962);
         let iv = self.push_view(&idx_bytes, 34963);
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for p in positions {
-            for c in 0..3 {
-                lo[c] = lo[c].min(p[c]);
-                hi[c] = hi[c].max(p[c]);
-            }
-        }
+        let (lo, hi) = bounds(positions);
         self.accessors.push(json!({ "bufferView": pv, "componentType": 5126, "count": positions.len(), "type": "VEC3", "min": lo, "max": hi }));
         let pa = self.accessors.len() - 1;
         self.accessors
@@ -401,14 +416,7 @@ impl GltfBuilder {
     /// Gives the last mesh a morph target of position displacements (one per vertex) and the mesh default weights.
     pub fn add_morph_target(&mut self, displacements: &[[f32; 3]], weights: &[f32]) {
         let acc = self.float_accessor(displacements, "VEC3");
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for d in displacements {
-            for c in 0..3 {
-                lo[c] = lo[c].min(d[c]);
-                hi[c] = hi[c].max(d[c]);
-            }
-        }
+        let (lo, hi) = bounds(displacements);
         self.accessors[acc]["min"] = json!(lo);
         self.accessors[acc]["max"] = json!(hi);
         let mesh = self.meshes.last_mut().unwrap();
@@ -517,9 +525,8 @@ impl GltfBuilder {
     /// The stage the traversal tests place things on: a 6 m floor at y = 0 facing up, and a 2 m lamp 3 m above it
     /// facing down.
     pub fn floor_and_lamp(&mut self, floor: usize, lamp: usize) {
-        let square = |half: f32, y: f32| [[-half, y, -half], [half, y, -half], [half, y, half], [-half, y, half]];
-        self.quad("floor", square(3.0, 0.0), floor, Some([0.0, 1.0, 0.0]));
-        self.quad("lamp", square(1.0, 3.0), lamp, Some([0.0, -1.0, 0.0]));
+        self.quad("floor", square(3.0, 0.0), floor, FACING_UP);
+        self.quad("lamp", square(1.0, 3.0), lamp, FACING_DOWN);
     }
 
     /// A planar quad (corners in order around it); when `facing` is given the front face is turned towards it.
@@ -572,6 +579,23 @@ impl GltfBuilder {
             "rotation": rotation,
             "extensions": { "KHR_lights_punctual": { "light": self.lights.len() - 1 } },
         }));
+    }
+
+    /// A point light (KHR_lights_punctual) at `position`.
+    pub fn point_light(&mut self, color: [f32; 3], intensity: f32, position: [f32; 3]) {
+        self.punctual(
+            json!({ "type": "point" }),
+            color,
+            intensity,
+            position,
+            [0.0, 0.0, 0.0, 1.0],
+        );
+    }
+
+    /// A directional light (KHR_lights_punctual) on a node at `position` turned by `rotation`: it shines along the
+    /// turned -z.
+    pub fn directional_light(&mut self, color: [f32; 3], intensity: f32, position: [f32; 3], rotation: [f32; 4]) {
+        self.punctual(json!({ "type": "directional" }), color, intensity, position, rotation);
     }
 
     /// A perspective camera at `eye` looking at `target`; yfov in degrees.
@@ -694,6 +718,19 @@ impl GltfBuilder {
     pub fn write(&self, path: &std::path::Path) {
         std::fs::write(path, self.to_json()).unwrap();
     }
+}
+
+/// The smallest and the largest of `points` in each coordinate (an accessor's min and max).
+fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in points {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (lo, hi)
 }
 
 fn base64(data: &[u8]) -> String {

@@ -1,8 +1,7 @@
 //! The scenes in scenes/, as code: tests/scenes.rs checks the files match, examples/make_scenes.rs writes them.
 #![allow(dead_code)]
-use super::gltf_builder::GltfBuilder;
+use super::gltf_builder::{level, square, upright, GltfBuilder, FACING_DOWN, FACING_UP, FACING_Z};
 
-/// Every scene in scenes/ by file name.
 /// A node rotation that turns a light's -z (where spot and directional lights shine) straight down: a quarter turn
 /// about x.
 pub const POINTING_DOWN: [f32; 4] = [
@@ -12,6 +11,7 @@ pub const POINTING_DOWN: [f32; 4] = [
     std::f32::consts::FRAC_1_SQRT_2,
 ];
 
+/// Every scene in scenes/ by file name.
 pub fn all() -> Vec<(&'static str, GltfBuilder)> {
     vec![
         ("cornell-box.gltf", cornell_box()),
@@ -45,80 +45,36 @@ pub fn cornell_box() -> GltfBuilder {
     let quad = |b: &mut GltfBuilder, name: &str, q: [[f32; 3]; 4], m: usize, facing: Option<[f32; 3]>| {
         b.quad(name, q.map(p), m, facing)
     };
-    quad(
-        &mut b,
-        "floor",
-        [
-            [552.8, 0.0, 0.0],
-            [0.0, 0.0, 0.0],
-            [0.0, 0.0, 559.2],
-            [549.6, 0.0, 559.2],
-        ],
-        white,
-        inward([278.0, 0.0, 279.6]),
-    );
-    quad(
-        &mut b,
-        "ceiling",
-        [
-            [556.0, 548.8, 0.0],
-            [556.0, 548.8, 559.2],
-            [0.0, 548.8, 559.2],
-            [0.0, 548.8, 0.0],
-        ],
-        white,
-        inward([278.0, 548.8, 279.6]),
-    );
-    quad(
-        &mut b,
-        "back wall",
-        [
-            [549.6, 0.0, 559.2],
-            [0.0, 0.0, 559.2],
-            [0.0, 548.8, 559.2],
-            [556.0, 548.8, 559.2],
-        ],
-        white,
-        inward([278.0, 274.4, 559.2]),
-    );
-    quad(
-        &mut b,
-        "green wall",
-        [
-            [0.0, 0.0, 559.2],
-            [0.0, 0.0, 0.0],
-            [0.0, 548.8, 0.0],
-            [0.0, 548.8, 559.2],
-        ],
-        green,
-        inward([0.0, 274.4, 279.6]),
-    );
-    quad(
-        &mut b,
-        "red wall",
-        [
-            [552.8, 0.0, 0.0],
-            [549.6, 0.0, 559.2],
-            [556.0, 548.8, 559.2],
-            [556.0, 548.8, 0.0],
-        ],
-        red,
-        inward([556.0, 274.4, 279.6]),
-    );
-    quad(
-        &mut b,
-        "light",
-        [
-            [343.0, 548.7, 227.0],
-            [343.0, 548.7, 332.0],
-            [213.0, 548.7, 332.0],
-            [213.0, 548.7, 227.0],
-        ],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
-    let block = |b: &mut GltfBuilder, name: &str, top: [[f32; 3]; 4], height: f32| {
-        // Sides from each top edge down to the floor, then the top; faces point away from the block's axis.
+    // The room's corners (mm): the floor's, then the ceiling's, each from the front corner on the red side round.
+    let [f0, f1, f2, f3]: [[f32; 3]; 4] = [
+        [552.8, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 559.2],
+        [549.6, 0.0, 559.2],
+    ];
+    let [c0, c1, c2, c3]: [[f32; 3]; 4] = [
+        [556.0, 548.8, 0.0],
+        [556.0, 548.8, 559.2],
+        [0.0, 548.8, 559.2],
+        [0.0, 548.8, 0.0],
+    ];
+    let lamp = [[343.0, 227.0], [343.0, 332.0], [213.0, 332.0], [213.0, 227.0]].map(|[x, z]| [x, 548.7, z]);
+    for (name, corners, m, facing) in [
+        ("floor", [f0, f1, f2, f3], white, inward([278.0, 0.0, 279.6])),
+        ("ceiling", [c0, c1, c2, c3], white, inward([278.0, 548.8, 279.6])),
+        ("back wall", [f3, f2, c2, c1], white, inward([278.0, 274.4, 559.2])),
+        ("green wall", [f2, f1, c3, c2], green, inward([0.0, 274.4, 279.6])),
+        ("red wall", [f0, f3, c1, c0], red, inward([556.0, 274.4, 279.6])),
+        ("light", lamp, light, FACING_DOWN),
+    ] {
+        quad(&mut b, name, corners, m, facing);
+    }
+    // Each block: its top's corners (x, z) at its height; sides from each top edge down to the floor, then the top,
+    // faces pointing away from the block's axis.
+    let short = [[130.0, 65.0], [82.0, 225.0], [240.0, 272.0], [290.0, 114.0]];
+    let tall = [[423.0, 247.0], [265.0, 296.0], [314.0, 456.0], [472.0, 406.0]];
+    for (name, height, top) in [("short block", 165.0, short), ("tall block", 330.0, tall)] {
+        let top: [[f32; 3]; 4] = top.map(|[x, z]| [x, height, z]);
         let c = top
             .iter()
             .fold([0.0; 3], |a, v| [a[0] + v[0] / 4.0, 0.0, a[2] + v[2] / 4.0]);
@@ -131,32 +87,10 @@ pub fn cornell_box() -> GltfBuilder {
                 [d[0], 0.0, d[2]],
             ];
             let mid = [(a[0] + d[0]) / 2.0 - c[0], 0.0, (a[2] + d[2]) / 2.0 - c[2]];
-            quad(b, &format!("{name} side {i}"), q, white, Some(mid));
+            quad(&mut b, &format!("{name} side {i}"), q, white, Some(mid));
         }
-        quad(b, &format!("{name} top"), top, white, Some([0.0, 1.0, 0.0]));
-    };
-    block(
-        &mut b,
-        "short block",
-        [
-            [130.0, 165.0, 65.0],
-            [82.0, 165.0, 225.0],
-            [240.0, 165.0, 272.0],
-            [290.0, 165.0, 114.0],
-        ],
-        165.0,
-    );
-    block(
-        &mut b,
-        "tall block",
-        [
-            [423.0, 330.0, 247.0],
-            [265.0, 330.0, 296.0],
-            [314.0, 330.0, 456.0],
-            [472.0, 330.0, 406.0],
-        ],
-        330.0,
-    );
+        quad(&mut b, &format!("{name} top"), top, white, FACING_UP);
+    }
     b.camera(
         p([278.0, 273.0, -800.0]),
         p([278.0, 273.0, 0.0]),
@@ -177,83 +111,59 @@ pub fn furnace(le: f32, albedo: f32) -> GltfBuilder {
 
 /// A grey floor lit from above by one large and one small area light of equal power.
 pub fn two_lights() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    let floor = b.material("floor", [0.5; 3], [0.0; 3], false);
-    let big = b.material("big light", [0.0; 3], [1.0; 3], false);
-    let small = b.material("small light", [0.0; 3], [100.0; 3], false);
-    b.quad(
-        "floor",
-        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "big light",
-        [[-1.8, 1.0, -1.0], [-0.2, 1.0, -1.0], [-0.2, 1.0, 1.0], [-1.8, 1.0, 1.0]],
-        big,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.quad(
-        "small light",
-        [[0.9, 0.6, -0.16], [1.1, 0.6, -0.16], [1.1, 0.6, 0.16], [0.9, 0.6, 0.16]],
-        small,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
-    b
+    floor_and_two_lights([
+        ("big light", level([-1.8, -0.2], 1.0, [-1.0, 1.0]), 1.0),
+        ("small light", level([0.9, 1.1], 0.6, [-0.16, 0.16]), 100.0),
+    ])
 }
 
 /// Two square lights whose power differs by a known ratio (4:1 by area, 3:1 by radiance: 12:1 overall).
 pub fn unequal_lights() -> GltfBuilder {
+    floor_and_two_lights([
+        ("bright", level([-1.5, -0.5], 1.0, [-0.5, 0.5]), 3.0),
+        ("dim", level([0.5, 1.0], 1.0, [-0.25, 0.25]), 1.0),
+    ])
+}
+
+/// A grey floor 4 m square seen from above, under two black area lights facing down: each its name, corners and
+/// radiance.
+fn floor_and_two_lights(lights: [(&str, [[f32; 3]; 4], f32); 2]) -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let floor = b.material("floor", [0.5; 3], [0.0; 3], false);
-    let a = b.material("bright", [0.0; 3], [3.0; 3], false);
-    let c = b.material("dim", [0.0; 3], [1.0; 3], false);
-    b.quad(
-        "floor",
-        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "bright",
-        [[-1.5, 1.0, -0.5], [-0.5, 1.0, -0.5], [-0.5, 1.0, 0.5], [-1.5, 1.0, 0.5]],
-        a,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.quad(
-        "dim",
-        [[0.5, 1.0, -0.25], [1.0, 1.0, -0.25], [1.0, 1.0, 0.25], [0.5, 1.0, 0.25]],
-        c,
-        Some([0.0, -1.0, 0.0]),
-    );
+    let lamps = lights.map(|(name, _, radiance)| b.material(name, [0.0; 3], [radiance; 3], false));
+    b.quad("floor", square(2.0, 0.0), floor, FACING_UP);
+    for ((name, corners, _), m) in lights.into_iter().zip(lamps) {
+        b.quad(name, corners, m, FACING_DOWN);
+    }
     b.camera([0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 50.0);
     b
 }
 
 /// The grey floor and the large area light above it that the sphere grids stand on.
-fn sphere_stage(b: &mut GltfBuilder) {
+fn sphere_stage() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
     let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
     let light = b.material("light", [0.0; 3], [6.0; 3], false);
-    b.quad(
-        "floor",
-        [[-6.0, 0.0, -4.0], [6.0, 0.0, -4.0], [6.0, 0.0, 4.0], [-6.0, 0.0, 4.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "light",
-        [[-3.0, 5.0, -1.5], [3.0, 5.0, -1.5], [3.0, 5.0, 1.5], [-3.0, 5.0, 1.5]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("floor", level([-6.0, 6.0], 0.0, [-4.0, 4.0]), floor, FACING_UP);
+    b.quad("light", level([-3.0, 3.0], 5.0, [-1.5, 1.5]), light, FACING_DOWN);
+    b
+}
+
+/// The sphere grids' camera, which they add last.
+fn sphere_stage_camera(mut b: GltfBuilder) -> GltfBuilder {
+    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
+    b
+}
+
+/// Where the sphere of radius 0.5 in column `col` (of four, from the left) of the row at depth `z` stands.
+fn stage_spot(col: usize, z: f32) -> [f32; 3] {
+    [-1.8 + 1.2 * col as f32, 0.5, z]
 }
 
 /// Spheres of glTF metallic-roughness materials: roughness 0 to 1 across, dielectric (top row) and metal (bottom row),
 /// over a grey floor under one large area light.
 pub fn material_grid() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    sphere_stage(&mut b);
+    let mut b = sphere_stage();
     let roughness = [0.0, 0.25, 0.5, 0.75, 1.0];
     for (row, (metallic, color)) in [(0.0, [0.8, 0.1, 0.1]), (1.0, [0.95, 0.64, 0.54])].iter().enumerate() {
         for (col, &r) in roughness.iter().enumerate() {
@@ -267,8 +177,7 @@ pub fn material_grid() -> GltfBuilder {
             b.sphere(&name, [x, 0.5, z], 0.5, m);
         }
     }
-    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
-    b
+    sphere_stage_camera(b)
 }
 
 /// Caustics-prone glass on a white floor under a small bright light: a thick glass sphere (IOR 1.5), a thin pane, and a
@@ -280,18 +189,8 @@ pub fn glass() -> GltfBuilder {
     let sphere = b.glass_material("glass", [1.0; 3], 1.5, 0.0, false, None);
     let pane = b.glass_material("thin pane", [0.9, 1.0, 0.95], 1.5, 0.0, true, None);
     let amber = b.glass_material("rough amber", [1.0; 3], 1.55, 0.3, false, Some(([1.0, 0.6, 0.2], 0.5)));
-    b.quad(
-        "floor",
-        [[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "light",
-        [[-0.3, 4.0, -0.3], [0.3, 4.0, -0.3], [0.3, 4.0, 0.3], [-0.3, 4.0, 0.3]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("floor", square(5.0, 0.0), floor, FACING_UP);
+    b.quad("light", square(0.3, 4.0), light, FACING_DOWN);
     b.sphere("glass sphere", [-0.9, 0.7, 0.0], 0.7, sphere);
     b.quad(
         "pane",
@@ -311,32 +210,14 @@ pub fn punctual_lights() -> GltfBuilder {
     let floor = b.material("floor", [0.7; 3], [0.0; 3], false);
     let white = b.pbr_material("white plastic", [0.8; 3], 0.0, 0.4, [0.0; 3], false);
     let gold = b.pbr_material("gold", [1.0, 0.78, 0.34], 1.0, 0.3, [0.0; 3], false);
-    b.quad(
-        "floor",
-        [[-6.0, 0.0, -6.0], [6.0, 0.0, -6.0], [6.0, 0.0, 6.0], [-6.0, 0.0, 6.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", square(6.0, 0.0), floor, FACING_UP);
     b.sphere("white sphere", [-1.0, 0.5, 0.0], 0.5, white);
     b.sphere("gold sphere", [1.0, 0.5, 0.0], 0.5, gold);
-    let down = POINTING_DOWN;
-    b.punctual(
-        json!({ "type": "point" }),
-        [1.0, 0.8, 0.6],
-        4.0,
-        [-1.8, 1.6, 1.0],
-        [0.0, 0.0, 0.0, 1.0],
-    );
-    b.punctual(
-        json!({ "type": "spot", "spot": { "innerConeAngle": 0.25, "outerConeAngle": 0.45 } }),
-        [1.0; 3],
-        30.0,
-        [1.0, 3.0, 0.0],
-        down,
-    );
+    b.point_light([1.0, 0.8, 0.6], 4.0, [-1.8, 1.6, 1.0]);
+    let spot = json!({ "type": "spot", "spot": { "innerConeAngle": 0.25, "outerConeAngle": 0.45 } });
+    b.punctual(spot, [1.0; 3], 30.0, [1.0, 3.0, 0.0], POINTING_DOWN);
     let sun = -50f32.to_radians();
-    b.punctual(
-        json!({ "type": "directional" }),
+    b.directional_light(
         [0.6, 0.7, 1.0],
         0.8,
         [0.0; 3],
@@ -444,12 +325,7 @@ pub fn textured() -> GltfBuilder {
     let pm = b.material_json(pane);
     pm["alphaMode"] = json!("BLEND");
     pm["pbrMetallicRoughness"]["baseColorFactor"][3] = json!(0.5);
-    b.quad(
-        "veil",
-        [[-0.2, 0.0, 1.2], [1.4, 0.0, 1.2], [1.4, 1.2, 1.2], [-0.2, 1.2, 1.2]],
-        pane,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("veil", upright([-0.2, 1.4], [0.0, 1.2], 1.2), pane, FACING_Z);
 
     // The sign: a horizontal rainbow-ish gradient, brighter towards the middle.
     let gradient: Vec<[u8; 4]> = (0..32 * 8)
@@ -471,12 +347,7 @@ pub fn textured() -> GltfBuilder {
     );
     // Behind the screen, so its holes throw spots of light towards the camera.
     let light = b.material("light", [0.0; 3], [120.0; 3], false);
-    b.quad(
-        "light",
-        [[0.8, 3.0, -1.9], [1.2, 3.0, -1.9], [1.2, 3.0, -1.5], [0.8, 3.0, -1.5]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("light", level([0.8, 1.2], 3.0, [-1.9, -1.5]), light, FACING_DOWN);
     b.camera([0.3, 2.4, 5.2], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 45.0);
     b
 }
@@ -493,35 +364,10 @@ pub fn animated() -> GltfBuilder {
     let blue = b.material("blue", [0.1, 0.2, 0.7], [0.0; 3], true);
     let yellow = b.material("yellow", [0.8, 0.6, 0.1], [0.0; 3], false);
     let light = b.material("light", [0.8; 3], [12.0, 11.0, 9.0], false);
-    b.quad(
-        "floor",
-        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "back wall",
-        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 3.0, -2.0], [-2.0, 3.0, -2.0]],
-        white,
-        Some([0.0, 0.0, 1.0]),
-    );
-    b.quad(
-        "lamp",
-        [[-0.6, 2.9, -0.6], [0.6, 2.9, -0.6], [0.6, 2.9, 0.6], [-0.6, 2.9, 0.6]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.quad(
-        "blinker",
-        [
-            [1.2, 2.0, -1.99],
-            [1.8, 2.0, -1.99],
-            [1.8, 2.6, -1.99],
-            [1.2, 2.6, -1.99],
-        ],
-        light,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("floor", square(2.0, 0.0), white, FACING_UP);
+    b.quad("back wall", upright([-2.0, 2.0], [0.0, 3.0], -2.0), white, FACING_Z);
+    b.quad("lamp", square(0.6, 2.9), light, FACING_DOWN);
+    b.quad("blinker", upright([1.2, 1.8], [2.0, 2.6], -1.99), light, FACING_Z);
     let blinker = b.last_node();
     b.animate(
         "blink",
@@ -652,8 +498,7 @@ pub fn animated() -> GltfBuilder {
 /// KHR_materials_sheen (a dark blue base under a white sheen of roughness 0.3 and 0.8, a purple velvet, then an
 /// unlit sphere of KHR_materials_unlit).
 pub fn layers() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    sphere_stage(&mut b);
+    let mut b = sphere_stage();
     b.use_extension("KHR_materials_clearcoat");
     b.use_extension("KHR_materials_sheen");
     b.use_extension("KHR_materials_unlit");
@@ -667,7 +512,7 @@ pub fn layers() -> GltfBuilder {
         let m = b.pbr_material(name, color, metallic, roughness, [0.0; 3], false);
         b.material_json(m)["extensions"]["KHR_materials_clearcoat"] =
             serde_json::json!({ "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": coat });
-        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+        b.sphere(name, stage_spot(col, 0.7), 0.5, m);
     }
     let sheens = [
         ("white sheen 0.3 over blue", [0.05, 0.1, 0.4], [1.0, 1.0, 1.0], 0.3),
@@ -678,13 +523,12 @@ pub fn layers() -> GltfBuilder {
         let m = b.material(name, base, [0.0; 3], false);
         b.material_json(m)["extensions"]["KHR_materials_sheen"] =
             serde_json::json!({ "sheenColorFactor": sheen, "sheenRoughnessFactor": roughness });
-        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+        b.sphere(name, stage_spot(col, -0.7), 0.5, m);
     }
     let unlit = b.pbr_material("unlit", [0.9, 0.7, 0.2], 0.0, 1.0, [0.0; 3], false);
     b.material_json(unlit)["extensions"]["KHR_materials_unlit"] = serde_json::json!({});
     b.sphere("unlit", [1.8, 0.5, -0.7], 0.5, unlit);
-    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
-    b
+    sphere_stage_camera(b)
 }
 
 /// KHR_materials_anisotropy on UV spheres (the tangent runs around the equator): front row brushed aluminium of
@@ -692,8 +536,7 @@ pub fn layers() -> GltfBuilder {
 /// a brushed copper of roughness 0.1, an anisotropic white plastic and an anisotropic rough glass. Lit by the sphere
 /// stage's area light and a small point light, whose highlights show the stretch.
 pub fn anisotropy() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    sphere_stage(&mut b);
+    let mut b = sphere_stage();
     b.use_extension("KHR_materials_anisotropy");
     let quarter = std::f32::consts::FRAC_PI_2;
     let front = [
@@ -706,7 +549,7 @@ pub fn anisotropy() -> GltfBuilder {
         let m = b.pbr_material(name, [0.91, 0.92, 0.92], 1.0, 0.3, [0.0; 3], false);
         b.material_json(m)["extensions"]["KHR_materials_anisotropy"] =
             serde_json::json!({ "anisotropyStrength": strength, "anisotropyRotation": rotation });
-        b.textured_sphere(name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+        b.textured_sphere(name, stage_spot(col, 0.7), 0.5, m);
     }
     let copper = b.pbr_material("brushed copper", [0.95, 0.64, 0.54], 1.0, 0.1, [0.0; 3], false);
     let plastic = b.pbr_material("anisotropic plastic", [0.8, 0.8, 0.8], 0.0, 0.2, [0.0; 3], false);
@@ -715,25 +558,17 @@ pub fn anisotropy() -> GltfBuilder {
         b.material_json(m)["extensions"]["KHR_materials_anisotropy"] =
             serde_json::json!({ "anisotropyStrength": 0.8, "anisotropyRotation": 0.0 });
         let name = format!("back {col}");
-        b.textured_sphere(&name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+        b.textured_sphere(&name, stage_spot(col, -0.7), 0.5, m);
     }
-    b.punctual(
-        serde_json::json!({ "type": "point" }),
-        [1.0; 3],
-        30.0,
-        [2.5, 3.0, 3.0],
-        [0.0, 0.0, 0.0, 1.0],
-    );
-    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
-    b
+    b.point_light([1.0; 3], 30.0, [2.5, 3.0, 3.0]);
+    sphere_stage_camera(b)
 }
 
 /// KHR_materials_iridescence: front row a near-black plastic under a soap film (IOR 1.33) 200, 350, 500 and 700 nm
 /// thick; back row a grey metal under a film of IOR 1.8 and 300 nm, copper under 1.5 and 450 nm, and a white plastic
 /// under 2.0 and 250 nm. The sphere stage's area light and an environment-free sky: the colours are the films'.
 pub fn iridescence() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    sphere_stage(&mut b);
+    let mut b = sphere_stage();
     b.use_extension("KHR_materials_iridescence");
     let film = |b: &mut GltfBuilder, m: usize, ior: f32, thickness: f32| {
         b.material_json(m)["extensions"]["KHR_materials_iridescence"] = serde_json::json!({
@@ -744,7 +579,7 @@ pub fn iridescence() -> GltfBuilder {
         let name = format!("soap film {thickness} nm");
         let m = b.pbr_material(&name, [0.02, 0.02, 0.02], 0.0, 0.15, [0.0; 3], false);
         film(&mut b, m, 1.33, thickness);
-        b.sphere(&name, [-1.8 + 1.2 * col as f32, 0.5, 0.7], 0.5, m);
+        b.sphere(&name, stage_spot(col, 0.7), 0.5, m);
     }
     let back = [
         ("grey metal, film 1.8 300 nm", [0.6, 0.6, 0.6], 1.0, 1.8, 300.0),
@@ -754,18 +589,16 @@ pub fn iridescence() -> GltfBuilder {
     for (col, (name, color, metallic, ior, thickness)) in back.into_iter().enumerate() {
         let m = b.pbr_material(name, color, metallic, 0.25, [0.0; 3], false);
         film(&mut b, m, ior, thickness);
-        b.sphere(name, [-1.8 + 1.2 * col as f32, 0.5, -0.7], 0.5, m);
+        b.sphere(name, stage_spot(col, -0.7), 0.5, m);
     }
-    b.camera([0.0, 3.2, 6.5], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 32.0);
-    b
+    sphere_stage_camera(b)
 }
 
 /// KHR_materials_diffuse_transmission: front row solid spheres (KHR_materials_volume) of a white wax transmitting all
 /// of its diffuse lobe, one absorbing towards orange inside, and a green jade under a clear dielectric; back row thin
 /// white sheets (paper) passing 0.2, 0.5 and 1.0 of their diffuse light, lit from behind by a second area light.
 pub fn translucency() -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    sphere_stage(&mut b);
+    let mut b = sphere_stage();
     b.use_extension("KHR_materials_diffuse_transmission");
     b.use_extension("KHR_materials_volume");
     let translucent =
@@ -810,25 +643,10 @@ pub fn translucency() -> GltfBuilder {
         let m = b.material(&name, [0.9, 0.9, 0.85], [0.0; 3], true);
         translucent(&mut b, m, factor, [1.0, 0.95, 0.8], None);
         let x = -1.6 + 1.2 * col as f32;
-        b.quad(
-            &name,
-            [
-                [x, 0.0, -0.8],
-                [x + 1.0, 0.0, -0.8],
-                [x + 1.0, 1.4, -0.8],
-                [x, 1.4, -0.8],
-            ],
-            m,
-            Some([0.0, 0.0, 1.0]),
-        );
+        b.quad(&name, upright([x, x + 1.0], [0.0, 1.4], -0.8), m, FACING_Z);
     }
     let back = b.material("back light", [0.0; 3], [1.5; 3], false);
-    b.quad(
-        "back light",
-        [[-3.0, 0.2, -2.5], [3.0, 0.2, -2.5], [3.0, 2.0, -2.5], [-3.0, 2.0, -2.5]],
-        back,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("back light", upright([-3.0, 3.0], [0.2, 2.0], -2.5), back, FACING_Z);
     b.camera([0.0, 2.2, 6.5], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
 }
@@ -840,27 +658,10 @@ pub fn translucency() -> GltfBuilder {
 pub fn halves() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let grey = b.material("grey", [0.6; 3], [0.0; 3], true);
-    b.quad(
-        "floor",
-        [[-8.0, 0.0, -8.0], [8.0, 0.0, -8.0], [8.0, 0.0, 8.0], [-8.0, 0.0, 8.0]],
-        grey,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "roof",
-        [[0.0, 0.6, -8.0], [8.0, 0.6, -8.0], [8.0, 0.6, 3.0], [0.0, 0.6, 3.0]],
-        grey,
-        None,
-    );
+    b.quad("floor", square(8.0, 0.0), grey, FACING_UP);
+    b.quad("roof", level([0.0, 8.0], 0.6, [-8.0, 3.0]), grey, None);
     // A directional light shines along its node's -z: turned a quarter about x, straight down.
-    let down = POINTING_DOWN;
-    b.punctual(
-        serde_json::json!({ "type": "directional" }),
-        [1.0; 3],
-        3.0,
-        [0.0, 5.0, 0.0],
-        down,
-    );
+    b.directional_light([1.0; 3], 3.0, [0.0, 5.0, 0.0], POINTING_DOWN);
     b.camera([0.0, 0.4, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 60.0);
     b
 }
@@ -876,38 +677,14 @@ pub fn prism() -> GltfBuilder {
     let light = b.material("light", [0.0; 3], [30.0; 3], false);
     let glass = b.glass_material("flint", [1.0; 3], 1.6, 0.0, false, None);
     b.dispersion(glass, 1.5);
-    b.quad(
-        "floor",
-        [[-4.0, 0.0, -2.0], [4.0, 0.0, -2.0], [4.0, 0.0, 4.0], [-4.0, 0.0, 4.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "wall",
-        [[-4.0, 0.0, -1.5], [4.0, 0.0, -1.5], [4.0, 3.0, -1.5], [-4.0, 3.0, -1.5]],
-        wall,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("floor", level([-4.0, 4.0], 0.0, [-2.0, 4.0]), floor, FACING_UP);
+    b.quad("wall", upright([-4.0, 4.0], [0.0, 3.0], -1.5), wall, FACING_Z);
     for i in 0..7 {
         let x = -1.2 + 0.4 * i as f32;
-        b.quad(
-            &format!("stripe {i}"),
-            [
-                [x - 0.015, 0.2, -1.49],
-                [x + 0.015, 0.2, -1.49],
-                [x + 0.015, 2.2, -1.49],
-                [x - 0.015, 2.2, -1.49],
-            ],
-            stripe,
-            Some([0.0, 0.0, 1.0]),
-        );
+        let corners = upright([x - 0.015, x + 0.015], [0.2, 2.2], -1.49);
+        b.quad(&format!("stripe {i}"), corners, stripe, FACING_Z);
     }
-    b.quad(
-        "light",
-        [[-0.2, 3.5, 0.3], [0.2, 3.5, 0.3], [0.2, 3.5, 0.7], [-0.2, 3.5, 0.7]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("light", level([-0.2, 0.2], 3.5, [0.3, 0.7]), light, FACING_DOWN);
     // Upright, its apex towards the camera: rays enter a front face and leave by the back one, bent sideways.
     let (r, lo, hi) = (0.6f32, 0.3f32, 1.9f32);
     let corner = |deg: f32, y: f32| {
@@ -940,12 +717,7 @@ pub fn lamps() -> GltfBuilder {
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
     let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
     let glow = b.material("glow", [0.2; 3], [4.0, 3.0, 2.0], false);
-    b.quad(
-        "floor",
-        [[-3.0, 0.0, -3.0], [3.0, 0.0, -3.0], [3.0, 0.0, 3.0], [-3.0, 0.0, 3.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", square(3.0, 0.0), white, FACING_UP);
     b.uv_sphere("ball", [0.0, 0.5, 0.0], 0.5, grey, true);
     b.uv_sphere("bulb", [0.0, 0.0, 0.0], 0.3, glow, true);
     b.transform_last_node(
