@@ -1,6 +1,8 @@
 //! The command line as a user meets it: renders, determinism of the written file, and every kind of bad input.
 mod common;
 
+use common::gltf_builder::{square, upright, GltfBuilder, FACING_UP};
+use common::{cornell_arg, render_args};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -13,10 +15,6 @@ fn pathwave(args: &[&str]) -> Output {
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn cornell() -> String {
-    common::cornell().display().to_string()
 }
 
 /// Runs a render that must fail: non-zero exit, no panic, a message containing `needle`, and no output file.
@@ -44,16 +42,8 @@ fn assert_refused(args: &[&str], out: &Path, needle: &str) {
 fn renders_the_cornell_box_to_exr_and_png() {
     let dir = tempfile::tempdir().unwrap();
     let exr = dir.path().join("cb.exr");
-    let o = pathwave(&[
-        "render",
-        &cornell(),
-        "-o",
-        exr.to_str().unwrap(),
-        "--size",
-        "40x30",
-        "--spp",
-        "8",
-    ]);
+    let more = ["--size", "40x30", "--spp", "8"];
+    let o = pathwave(&render_args(cornell_arg(), exr.to_str().unwrap(), &more));
     assert!(o.status.success(), "{}", stderr(&o));
     let summary = stderr(&o);
     for word in ["samples/s", "Mrays/s", "GPU ms", "accumulate"] {
@@ -98,16 +88,8 @@ fn renders_the_cornell_box_to_exr_and_png() {
     );
 
     let png = dir.path().join("cb.png");
-    let o = pathwave(&[
-        "render",
-        &cornell(),
-        "-o",
-        png.to_str().unwrap(),
-        "--size",
-        "16x16",
-        "--spp",
-        "2",
-    ]);
+    let more = ["--size", "16x16", "--spp", "2"];
+    let o = pathwave(&render_args(cornell_arg(), png.to_str().unwrap(), &more));
     assert!(o.status.success(), "{}", stderr(&o));
     let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&png).unwrap()));
     let info = decoder.read_info().unwrap().info().clone();
@@ -119,18 +101,8 @@ fn same_seed_same_bytes_other_seed_other_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str, seed: &str| {
         let p = dir.path().join(name);
-        let o = pathwave(&[
-            "render",
-            &cornell(),
-            "-o",
-            p.to_str().unwrap(),
-            "--size",
-            "192x144",
-            "--spp",
-            "2",
-            "--seed",
-            seed,
-        ]);
+        let more = ["--size", "192x144", "--spp", "2", "--seed", seed];
+        let o = pathwave(&render_args(cornell_arg(), p.to_str().unwrap(), &more));
         assert!(o.status.success(), "{}", stderr(&o));
         std::fs::read(p).unwrap()
     };
@@ -149,40 +121,28 @@ fn bad_inputs_are_refused_cleanly() {
     let d = dir.path();
     let out = d.join("out.exr");
     let o = out.to_str().unwrap();
+    // `render SCENE -o out.exr MORE` must be refused naming `needle`.
+    let refused = |scene: &Path, more: &[&str], needle: &str| {
+        assert_refused(&render_args(scene.to_str().unwrap(), o, more), &out, needle)
+    };
 
-    let missing = d.join("missing.gltf");
-    assert_refused(
-        &["render", missing.to_str().unwrap(), "-o", o],
-        &out,
-        "missing.gltf: file not found",
-    );
+    refused(&d.join("missing.gltf"), &[], "missing.gltf: file not found");
 
     let not_gltf = d.join("notes.gltf");
     std::fs::write(&not_gltf, "these are not the droids").unwrap();
-    assert_refused(
-        &["render", not_gltf.to_str().unwrap(), "-o", o],
-        &out,
-        "notes.gltf: not a valid glTF",
-    );
+    refused(&not_gltf, &[], "notes.gltf: not a valid glTF");
 
     let truncated = d.join("truncated.gltf");
-    let text = std::fs::read_to_string(cornell()).unwrap();
+    let text = std::fs::read_to_string(common::cornell()).unwrap();
     std::fs::write(&truncated, &text[..text.len() / 2]).unwrap();
-    assert_refused(
-        &["render", truncated.to_str().unwrap(), "-o", o],
-        &out,
-        "truncated.gltf: not a valid glTF",
-    );
+    refused(&truncated, &[], "truncated.gltf: not a valid glTF");
 
     let no_bin = d.join("no-bin.gltf");
     let start = text.find("data:application/octet-stream;base64,").unwrap();
     let end = start + text[start..].find('"').unwrap();
     std::fs::write(&no_bin, format!("{}missing.bin{}", &text[..start], &text[end..])).unwrap();
-    assert_refused(
-        &["render", no_bin.to_str().unwrap(), "-o", o],
-        &out,
-        "no-bin.gltf: buffer 0 (missing.bin): cannot load buffer data",
-    );
+    let needle = "no-bin.gltf: buffer 0 (missing.bin): cannot load buffer data";
+    refused(&no_bin, &[], needle);
 
     let no_tris = d.join("no-triangles.gltf");
     std::fs::write(
@@ -190,93 +150,39 @@ fn bad_inputs_are_refused_cleanly() {
         r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"name":"empty"}]}"#,
     )
     .unwrap();
-    assert_refused(
-        &["render", no_tris.to_str().unwrap(), "-o", o],
-        &out,
-        "no-triangles.gltf: the scene has no triangles",
-    );
+    refused(&no_tris, &[], "no-triangles.gltf: the scene has no triangles");
 
-    assert_refused(&["render", &cornell(), "-o", o, "--size", "0x0"], &out, "--size");
-    assert_refused(&["render", &cornell(), "-o", o, "--spp", "-1"], &out, "--spp");
-    assert_refused(&["render", &cornell(), "-o", o, "--size", "big"], &out, "WIDTHxHEIGHT");
+    let cornell = common::cornell();
+    refused(&cornell, &["--size", "0x0"], "--size");
+    refused(&cornell, &["--spp", "-1"], "--spp");
+    refused(&cornell, &["--size", "big"], "WIDTHxHEIGHT");
     let txt = d.join("out.txt");
-    assert_refused(
-        &["render", &cornell(), "-o", txt.to_str().unwrap()],
-        &txt,
-        ".exr or .png",
-    );
+    let args = render_args(cornell_arg(), txt.to_str().unwrap(), &[]);
+    assert_refused(&args, &txt, ".exr or .png");
     let nodir = d.join("no/such/dir/out.exr");
-    assert_refused(
-        &[
-            "render",
-            &cornell(),
-            "-o",
-            nodir.to_str().unwrap(),
-            "--size",
-            "8x8",
-            "--spp",
-            "1",
-        ],
-        &nodir,
-        "does not exist",
-    );
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--device", "no-such-gpu"],
-        &out,
-        "no device matches",
-    );
+    let args = render_args(cornell_arg(), nodir.to_str().unwrap(), &["--size", "8x8", "--spp", "1"]);
+    assert_refused(&args, &nodir, "does not exist");
+    refused(&cornell, &["--device", "no-such-gpu"], "no device matches");
     let sky = d.join("sky.hdr");
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--env", sky.to_str().unwrap()],
-        &out,
-        "sky.hdr: cannot read",
-    );
+    refused(&cornell, &["--env", sky.to_str().unwrap()], "sky.hdr: cannot read");
     let txt_env = d.join("sky.txt");
     std::fs::write(&txt_env, "not an image").unwrap();
-    assert_refused(
-        &["render", &cornell(), "-o", o, "--env", txt_env.to_str().unwrap()],
-        &out,
-        "must be .hdr, .exr, .png, .jpg or .jpeg",
-    );
-    assert_refused(&["render", &cornell(), "-o", o, "--env-color", "1,2"], &out, "R,G,B");
-    assert_refused(
-        &[
-            "render",
-            &cornell(),
-            "-o",
-            o,
-            "--env-color",
-            "1,1,1",
-            "--env-intensity",
-            "-2",
-        ],
-        &out,
-        "intensity",
-    );
+    let needle = "must be .hdr, .exr, .png, .jpg or .jpeg";
+    refused(&cornell, &["--env", txt_env.to_str().unwrap()], needle);
+    refused(&cornell, &["--env-color", "1,2"], "R,G,B");
+    let more = ["--env-color", "1,1,1", "--env-intensity", "-2"];
+    refused(&cornell, &more, "intensity");
 }
 
 #[test]
 fn a_scene_without_lights_renders_black_with_a_warning() {
-    let mut b = common::gltf_builder::GltfBuilder::new();
+    let mut b = GltfBuilder::new();
     let m = b.material("grey", [0.5; 3], [0.0; 3], false);
-    b.quad(
-        "floor",
-        [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]],
-        m,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", square(1.0, 0.0), m, FACING_UP);
     let (dir, path) = common::write_temp(&b, "dark.gltf");
     let out = dir.path().join("dark.exr");
-    let o = pathwave(&[
-        "render",
-        path.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--size",
-        "8x8",
-        "--spp",
-        "2",
-    ]);
+    let more = ["--size", "8x8", "--spp", "2"];
+    let o = pathwave(&render_args(path.to_str().unwrap(), out.to_str().unwrap(), &more));
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(
@@ -293,7 +199,7 @@ fn a_scene_without_lights_renders_black_with_a_warning() {
 
 #[test]
 fn info_describes_scene_and_devices() {
-    let o = pathwave(&["info", &cornell()]);
+    let o = pathwave(&["info", cornell_arg()]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(text.contains("triangles   32"), "{text}");
@@ -307,33 +213,18 @@ fn info_describes_scene_and_devices() {
 #[test]
 fn environment_lights_the_scene_and_hide_env_keeps_it_from_the_camera() {
     // A floor seen from above with the sky behind it: the top rows see only the environment.
-    let mut b = common::gltf_builder::GltfBuilder::new();
+    let mut b = GltfBuilder::new();
     let m = b.material("grey", [0.5; 3], [0.0; 3], false);
-    b.quad(
-        "floor",
-        [
-            [-10.0, 0.0, -10.0],
-            [10.0, 0.0, -10.0],
-            [10.0, 0.0, 10.0],
-            [-10.0, 0.0, 10.0],
-        ],
-        m,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", square(10.0, 0.0), m, FACING_UP);
     b.camera([0.0, 0.5, 3.0], [0.0, 0.3, 0.0], [0.0, 1.0, 0.0], 40.0);
     let (dir, path) = common::write_temp(&b, "floor.gltf");
     let run = |name: &str, extra: &[&str]| {
         let out = dir.path().join(name);
-        let mut args = vec![
-            "render",
+        let mut args = render_args(
             path.to_str().unwrap(),
-            "-o",
             out.to_str().unwrap(),
-            "--size",
-            "16x16",
-            "--spp",
-            "8",
-        ];
+            &["--size", "16x16", "--spp", "8"],
+        );
         args.extend_from_slice(extra);
         let o = pathwave(&args);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -482,14 +373,9 @@ fn info_takes_a_census_of_a_folder() {
     let dir = tempfile::tempdir().unwrap();
     let nested = dir.path().join("nested");
     std::fs::create_dir(&nested).unwrap();
-    let mut b = common::gltf_builder::GltfBuilder::new();
+    let mut b = GltfBuilder::new();
     let m = b.material("m", [0.5; 3], [1.0; 3], false);
-    b.quad(
-        "q",
-        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
-        m,
-        None,
-    );
+    b.quad("q", upright([0.0, 1.0], [0.0, 1.0], 0.0), m, None);
     b.write(&dir.path().join("quad.gltf"));
     std::fs::write(nested.join("quad.glb"), b.to_glb()).unwrap();
     std::fs::write(nested.join("junk.gltf"), "not json").unwrap();

@@ -3,6 +3,7 @@
 mod common;
 
 use common::gltf_builder::GltfBuilder;
+use common::{cornell_arg, render_args};
 use pathwave::scene::{self, LoadOptions};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -180,10 +181,6 @@ fn assert_refused(args: &[&str], needles: &[&str]) {
     }
 }
 
-fn cornell() -> String {
-    common::cornell().display().to_string()
-}
-
 #[test]
 fn fifos_devices_and_folders_are_refused_before_they_are_opened() {
     let l = Layout::new();
@@ -216,14 +213,7 @@ fn fifos_devices_and_folders_are_refused_before_they_are_opened() {
     );
     let out = d.join("out.png");
     for env in [fifo_hdr, d.join("zero.hdr")] {
-        let args = [
-            "render",
-            &cornell(),
-            "-o",
-            out.to_str().unwrap(),
-            "--env",
-            env.to_str().unwrap(),
-        ];
+        let args = render_args(cornell_arg(), out.to_str().unwrap(), &["--env", env.to_str().unwrap()]);
         assert_refused(&args, &[&env.display().to_string(), not_regular]);
     }
     let path = l.with_uri("pipe.bin", false);
@@ -316,21 +306,13 @@ fn images_past_the_pixel_limit_are_refused_from_their_header() {
     let hdr = l.folder().join("big.hdr");
     std::fs::write(&hdr, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 16384 +X 16384\n").unwrap();
     let out = l.folder().join("out.png");
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
-        out.to_str().unwrap(),
-        "--env",
-        hdr.to_str().unwrap(),
-    ];
+    let args = render_args(cornell_arg(), out.to_str().unwrap(), &["--env", hdr.to_str().unwrap()]);
     assert_refused(&args, &["big.hdr: ", figure]);
     // An .exr map too, and the option reaches it.
     let exr = l.folder().join("sky.exr");
     pathwave::output::write_image(&exr, 80, 60, &vec![[1.0; 3]; 80 * 60], 0.0).unwrap();
-    let mut args = args.to_vec();
-    args[5] = exr.to_str().unwrap();
-    args.extend(["--max-texture-pixels", "4799"]);
+    let more = ["--env", exr.to_str().unwrap(), "--max-texture-pixels", "4799"];
+    let args = render_args(cornell_arg(), out.to_str().unwrap(), &more);
     assert_refused(
         &args,
         &[

@@ -4,7 +4,8 @@
 //! saved.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{level, square, GltfBuilder, FACING_DOWN, FACING_UP};
+use common::{cornell_arg, render_args};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -25,10 +26,6 @@ fn run(args: &[&str], env: &[(&str, &str)]) -> Output {
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn cornell() -> String {
-    common::cornell().display().to_string()
 }
 
 /// A run that must fail: non-zero exit, no panic, `needle` in the message, nothing left in `dir`.
@@ -91,21 +88,13 @@ fn every_bad_number_is_refused_naming_its_option() {
         ("--part", "4"),
     ];
     for (option, value) in cases {
-        assert_refused(&["render", &cornell(), "-o", o, option, value], &[], dir.path(), option);
+        let args = render_args(cornell_arg(), o, &[option, value]);
+        assert_refused(&args, &[], dir.path(), option);
     }
     // In range alone, out of range together.
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
-        o,
-        "--env-color",
-        "1e9,1,1",
-        "--env-intensity",
-        "100",
-    ];
+    let args = render_args(cornell_arg(), o, &["--env-color", "1e9,1,1", "--env-intensity", "100"]);
     assert_refused(&args, &[], dir.path(), "--env-color times --env-intensity");
-    let args = ["render", &cornell(), "-o", o, "--camera", "3"];
+    let args = render_args(cornell_arg(), o, &["--camera", "3"]);
     assert_refused(&args, &[], dir.path(), "--camera 3");
 }
 
@@ -113,16 +102,7 @@ fn every_bad_number_is_refused_naming_its_option() {
 fn every_bad_environment_word_is_refused_naming_its_variable() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.exr");
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
-        out.to_str().unwrap(),
-        "--size",
-        "8x8",
-        "--spp",
-        "1",
-    ];
+    let args = render_args(cornell_arg(), out.to_str().unwrap(), &["--size", "8x8", "--spp", "1"]);
     for (var, value) in [
         ("PATHWAVE_VALIDATION", "yes"),
         ("PATHWAVE_VALIDATION", "2"),
@@ -145,15 +125,20 @@ fn every_bad_environment_word_is_refused_naming_its_variable() {
 fn lit_quad(light: impl FnOnce(&mut GltfBuilder)) -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let white = b.material("white", [0.8; 3], [0.0; 3], false);
-    b.quad(
-        "floor",
-        [[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", level([-1.0, 1.0], 0.0, [1.0, -1.0]), white, FACING_UP);
     light(&mut b);
     b.camera([0.0, 1.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 40.0);
     b
+}
+
+/// Writes `b` as `name` and checks that rendering it is refused naming `needle`; returns the folder and the output
+/// the render was given.
+fn assert_render_refused(b: &GltfBuilder, name: &str, needle: &str) -> (tempfile::TempDir, PathBuf) {
+    let (dir, scene) = common::write_temp(b, name);
+    let out = dir.path().join("out.exr");
+    let args = render_args(scene.to_str().unwrap(), out.to_str().unwrap(), &[]);
+    assert_refused(&args, &[], dir.path(), needle);
+    (dir, out)
 }
 
 /// An uncompressed Radiance .hdr of 4x2 texels, every one (r, g, b, e) in RGBE.
@@ -169,61 +154,26 @@ fn write_hdr(path: &Path, rgbe: [u8; 4]) {
 fn radiance_that_could_overflow_is_refused_naming_the_item() {
     let emissive = lit_quad(|b| {
         let hot = b.material("sun", [0.0; 3], [3e38, 3e38, 3e38], false);
-        b.quad(
-            "lamp",
-            [[-0.2, 2.0, -0.2], [0.2, 2.0, -0.2], [0.2, 2.0, 0.2], [-0.2, 2.0, 0.2]],
-            hot,
-            Some([0.0, -1.0, 0.0]),
-        );
+        b.quad("lamp", square(0.2, 2.0), hot, FACING_DOWN);
     });
-    let (dir, scene) = common::write_temp(&emissive, "hot.gltf");
-    let out = dir.path().join("out.exr");
-    let o = out.to_str().unwrap();
-    assert_refused(
-        &["render", scene.to_str().unwrap(), "-o", o],
-        &[],
-        dir.path(),
-        "material 'sun'",
-    );
+    assert_render_refused(&emissive, "hot.gltf", "material 'sun'");
 
-    let punctual = lit_quad(|b| {
-        b.punctual(
-            json!({"type": "point"}),
-            [1.0; 3],
-            3e38,
-            [0.0, 2.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-        )
-    });
-    let (dir, scene) = common::write_temp(&punctual, "hot-point.gltf");
-    let out = dir.path().join("out.exr");
+    let punctual = lit_quad(|b| b.point_light([1.0; 3], 3e38, [0.0, 2.0, 0.0]));
+    let (dir, out) = assert_render_refused(&punctual, "hot-point.gltf", "light '#0'");
     let o = out.to_str().unwrap();
-    assert_refused(
-        &["render", scene.to_str().unwrap(), "-o", o],
-        &[],
-        dir.path(),
-        "light '#0'",
-    );
 
     // The largest RGBE exponent: finite (about 1.7e38), and Inf in the image before.
     let sky = dir.path().join("sky.hdr");
     write_hdr(&sky, [255, 255, 255, 255]);
-    let args = ["render", &cornell(), "-o", o, "--env", sky.to_str().unwrap()];
+    let args = render_args(cornell_arg(), o, &["--env", sky.to_str().unwrap()]);
     assert_refused(&args, &[], dir.path(), "sky.hdr: texel (0, 0)");
     // A bright but physical map still renders, finite.
     write_hdr(&sky, [128, 128, 128, 140]);
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
+    let args = render_args(
+        cornell_arg(),
         o,
-        "--env",
-        sky.to_str().unwrap(),
-        "--size",
-        "8x8",
-        "--spp",
-        "2",
-    ];
+        &["--env", sky.to_str().unwrap(), "--size", "8x8", "--spp", "2"],
+    );
     let run = run(&args, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
     let (_, _, px) = pathwave::output::read_exr(&out).unwrap();
@@ -240,7 +190,7 @@ fn radiance_that_could_overflow_is_refused_naming_the_item() {
         (v, 1.0f32, 1.0f32)
     })
     .unwrap();
-    let args = ["render", &cornell(), "-o", o, "--env", nan_sky.to_str().unwrap()];
+    let args = render_args(cornell_arg(), o, &["--env", nan_sky.to_str().unwrap()]);
     assert_refused(
         &args,
         &[],
@@ -257,23 +207,11 @@ fn a_camera_of_scale_zero_is_refused() {
     ] {
         let mut b = lit_quad(|b| {
             let lamp = b.material("lamp", [0.0; 3], [5.0; 3], false);
-            b.quad(
-                "lamp",
-                [[-0.2, 2.0, -0.2], [0.2, 2.0, -0.2], [0.2, 2.0, 0.2], [-0.2, 2.0, 0.2]],
-                lamp,
-                Some([0.0, -1.0, 0.0]),
-            );
+            b.quad("lamp", square(0.2, 2.0), lamp, FACING_DOWN);
         });
         b.transform_last_node(transform);
-        let (dir, scene) = common::write_temp(&b, name);
-        let out = dir.path().join("out.exr");
-        let args = ["render", scene.to_str().unwrap(), "-o", out.to_str().unwrap()];
-        assert_refused(
-            &args,
-            &[],
-            dir.path(),
-            &format!("{name}: camera 0: its node's world transform has scale 0"),
-        );
+        let needle = format!("{name}: camera 0: its node's world transform has scale 0");
+        assert_render_refused(&b, name, &needle);
     }
 }
 
@@ -285,33 +223,17 @@ fn outputs_are_checked_before_rendering_and_written_all_or_nothing() {
     // --spp 16777216 would take hours: refusing in well under that shows nothing was rendered.
     let slow = ["--spp", "16777216"];
     let start = Instant::now();
+    // The first output, then `second`: refused naming `needle`.
+    let refused = |second: &str, needle: &str| {
+        let args = render_args(cornell_arg(), f, &["-o", second, slow[0], slow[1]]);
+        assert_refused(&args, &[], dir.path(), needle);
+    };
     let missing = dir.path().join("no/such/dir/second.png");
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
-        f,
-        "-o",
-        missing.to_str().unwrap(),
-        slow[0],
-        slow[1],
-    ];
-    assert_refused(&args, &[], dir.path(), "second.png: directory");
+    refused(missing.to_str().unwrap(), "second.png: directory");
     let a_dir = dir.path().join("folder.png");
     std::fs::create_dir(&a_dir).unwrap();
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
-        f,
-        "-o",
-        a_dir.to_str().unwrap(),
-        slow[0],
-        slow[1],
-    ];
-    assert_refused(&args, &[], dir.path(), "folder.png: is a directory");
-    let args = ["render", &cornell(), "-o", f, "-o", "second.jpg", slow[0], slow[1]];
-    assert_refused(&args, &[], dir.path(), "second.jpg: unknown output format");
+    refused(a_dir.to_str().unwrap(), "folder.png: is a directory");
+    refused("second.jpg", "second.jpg: unknown output format");
     assert!(
         start.elapsed() < Duration::from_secs(20),
         "the outputs were not checked first"
@@ -367,17 +289,8 @@ fn non_finite_samples_are_dropped_counted_and_the_schedules_agree() {
         )
         .unwrap();
         let out = dir.path().join(format!("{stage}.exr"));
-        let args = [
-            "render",
-            &cornell(),
-            "-o",
-            out.to_str().unwrap(),
-            "--size",
-            "16x8",
-            "--spp",
-            "4",
-        ];
-        let o = run(&[&args[..], &["--shader-dir", folder.to_str().unwrap()]].concat(), &[]);
+        let more = ["--size", "16x8", "--spp", "4", "--shader-dir", folder.to_str().unwrap()];
+        let o = run(&render_args(cornell_arg(), out.to_str().unwrap(), &more), &[]);
         let err = stderr(&o);
         assert!(o.status.success(), "{err}");
         // Half of 128 pixels, 4 samples each.
@@ -419,16 +332,11 @@ fn project_scenes_have_no_non_finite_samples() {
 fn sigterm_writes_the_samples_done_so_far() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("partial.exr");
-    let args = [
-        "render",
-        &cornell(),
-        "-o",
+    let args = render_args(
+        cornell_arg(),
         out.to_str().unwrap(),
-        "--size",
-        "32x32",
-        "--spp",
-        "1000000",
-    ];
+        &["--size", "32x32", "--spp", "1000000"],
+    );
     // A signal before the render begins (loading, compiling) ends the process without an image, as it should; so
     // wait longer on a slow machine rather than fail.
     for wait in [3u64, 8, 20] {

@@ -92,6 +92,17 @@ pub fn cornell() -> PathBuf {
     scenes_dir().join("cornell-box.gltf")
 }
 
+/// The Cornell box's path as a command-line argument.
+pub fn cornell_arg() -> &'static str {
+    static ARG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ARG.get_or_init(|| cornell().display().to_string())
+}
+
+/// The arguments of `pathwave render SCENE -o OUT` followed by `more`.
+pub fn render_args<'a>(scene: &'a str, out: &'a str, more: &[&'a str]) -> Vec<&'a str> {
+    [&["render", scene, "-o", out][..], more].concat()
+}
+
 /// The Khronos glTF-Validator's test files, in shared/ beside the repository (absent: the tests that read it skip).
 pub const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
 
