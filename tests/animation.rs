@@ -2,7 +2,8 @@
 //! weights, a two-bone skin, against values worked out by hand; and the CLI's --time, --animation and --frames.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{square, GltfBuilder, FACING_DOWN, FACING_UP};
+use common::render_args;
 use glam::{Quat, Vec3};
 use pathwave::scene::{load, PoseTime, Scene};
 use serde_json::json;
@@ -25,18 +26,8 @@ fn lit_quad() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let light = b.material("light", [0.8; 3], [5.0; 3], false);
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
-    b.quad(
-        "lamp",
-        [[-1.0, 3.0, -1.0], [1.0, 3.0, -1.0], [1.0, 3.0, 1.0], [-1.0, 3.0, 1.0]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.quad(
-        "quad",
-        [[-0.5, 0.0, -0.5], [0.5, 0.0, -0.5], [0.5, 0.0, 0.5], [-0.5, 0.0, 0.5]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("lamp", square(1.0, 3.0), light, FACING_DOWN);
+    b.quad("quad", square(0.5, 0.0), white, FACING_UP);
     b
 }
 
@@ -116,14 +107,7 @@ fn an_animated_camera_moves_with_its_node() {
     let mut b = lit_quad();
     b.camera([0.0, 1.0, 5.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 40.0);
     let cam = b.last_node();
-    b.animate(
-        "dolly",
-        cam,
-        "translation",
-        "LINEAR",
-        &[0.0, 2.0],
-        &[0.0, 1.0, 5.0, 0.0, 1.0, 1.0],
-    );
+    b.slide("dolly", cam, [0.0, 2.0], [0.0, 1.0, 5.0], [0.0, 1.0, 1.0]);
     let (_dir, path) = common::write_temp(&b, "dolly.gltf");
     let scene = posed(&path, 1.0, None);
     let origin = scene.camera.unwrap().origin();
@@ -134,6 +118,12 @@ fn vertices(scene: &Scene) -> Vec<Vec3> {
     scene.flatten().positions().iter().flatten().copied().collect()
 }
 
+/// Asserts that a vertex of `scene` is at `at`.
+fn assert_vertex_at(scene: &Scene, at: Vec3) {
+    let all = vertices(scene);
+    assert!(all.iter().any(|v| close(*v, at)), "{all:?}");
+}
+
 /// Catches: morph weights not read, not animated, or applied without the weight.
 #[test]
 fn morph_target_weights_displace_vertices_by_their_weight() {
@@ -141,20 +131,10 @@ fn morph_target_weights_displace_vertices_by_their_weight() {
     b.add_morph_target(&[[0.0; 3], [0.0; 3], [0.0, 2.0, 0.0], [0.0; 3]], &[0.25]);
     let (_dir, still) = common::write_temp(&b, "still.gltf");
     // Without animation the mesh's default weight holds: the corner (0.5, 0, 0.5) is up by 0.25 * 2.
-    let scene = posed(&still, 0.0, None);
-    assert!(
-        vertices(&scene).iter().any(|v| close(*v, Vec3::new(0.5, 0.5, 0.5))),
-        "{:?}",
-        vertices(&scene)
-    );
+    assert_vertex_at(&posed(&still, 0.0, None), Vec3::new(0.5, 0.5, 0.5));
     b.animate("m", 1, "weights", "LINEAR", &[0.0, 1.0], &[0.0, 1.0]);
     let (_dir2, moving) = common::write_temp(&b, "morph.gltf");
-    let scene = posed(&moving, 0.75, None);
-    assert!(
-        vertices(&scene).iter().any(|v| close(*v, Vec3::new(0.5, 1.5, 0.5))),
-        "{:?}",
-        vertices(&scene)
-    );
+    assert_vertex_at(&posed(&moving, 0.75, None), Vec3::new(0.5, 1.5, 0.5));
     let scene = posed(&moving, 0.0, None);
     // Weight 0 at t = 0: every vertex is the quad's (y = 0) or the lamp's (y = 3).
     assert!(
@@ -162,6 +142,11 @@ fn morph_target_weights_displace_vertices_by_their_weight() {
         "{:?}",
         vertices(&scene)
     );
+}
+
+/// Every item of `items` twice in a row.
+fn doubled<T: Copy>(items: &[T]) -> Vec<T> {
+    items.iter().flat_map(|&v| [v, v]).collect()
 }
 
 /// A two-bone bar: vertices at y = 0 (bone 0), y = 1 (half each) and y = 2 (bone 1, jointed at y = 1), its upper
@@ -183,22 +168,9 @@ fn two_bone_bar() -> GltfBuilder {
     let root = b.node("bone 0", json!({}));
     let upper = b.node("bone 1", json!({ "translation": [0.0, 1.0, 0.0] }));
     b.add_child(root, upper);
-    let joints = [
-        [0, 0, 0, 0],
-        [0, 0, 0, 0],
-        [0, 1, 0, 0],
-        [0, 1, 0, 0],
-        [1, 0, 0, 0],
-        [1, 0, 0, 0],
-    ];
-    let weights = [
-        [1.0, 0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0, 0.0],
-        [0.5, 0.5, 0.0, 0.0],
-        [0.5, 0.5, 0.0, 0.0],
-        [1.0, 0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0, 0.0],
-    ];
+    // Both vertices of a level (y = 0, 1, 2) have the same joints and weights.
+    let joints: Vec<[u16; 4]> = doubled(&[[0, 0, 0, 0], [0, 1, 0, 0], [1, 0, 0, 0]]);
+    let weights: Vec<[f32; 4]> = doubled(&[[1.0, 0.0, 0.0, 0.0], [0.5, 0.5, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]);
     let ibm = [
         glam::Mat4::IDENTITY.to_cols_array(),
         glam::Mat4::from_translation(-Vec3::Y).to_cols_array(),
@@ -244,22 +216,8 @@ fn a_two_bone_skin_moves_vertices_by_their_blended_joints() {
 #[test]
 fn one_animation_plays_alone_when_picked() {
     let mut b = lit_quad();
-    b.animate(
-        "right",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
-    );
-    b.animate(
-        "up",
-        0,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
-    );
+    b.slide("right", 1, [0.0, 1.0], [0.0; 3], [1.0, 0.0, 0.0]);
+    b.slide("up", 0, [0.0, 1.0], [0.0; 3], [0.0, 1.0, 0.0]);
     let (_dir, path) = common::write_temp(&b, "two.gltf");
     let both = posed(&path, 1.0, None);
     assert!(close(translation_of(&both, 1), Vec3::X) && close(translation_of(&both, 0), Vec3::Y));
@@ -276,14 +234,7 @@ fn one_animation_plays_alone_when_picked() {
 #[test]
 fn a_channel_that_cannot_play_is_dropped_with_a_warning() {
     let mut b = lit_quad();
-    b.animate(
-        "bad",
-        1,
-        "translation",
-        "LINEAR",
-        &[1.0, 1.0],
-        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
-    );
+    b.slide("bad", 1, [1.0, 1.0], [0.0; 3], [1.0, 0.0, 0.0]);
     let (_dir, path) = common::write_temp(&b, "bad.gltf");
     let scene = load(&path, None).unwrap();
     assert!(
@@ -317,41 +268,19 @@ fn a_render_at_a_time_is_the_static_scene_at_that_pose() {
     // The baked file: the same scene, the quad's node where the animation has it at t = 0.5.
     let mut baked: serde_json::Value = serde_json::from_str(&moving.to_json()).unwrap();
     baked["nodes"][1]["translation"] = json!([0.25, 0.0, -0.125]);
-    moving.animate(
-        "a",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, 0.0, 0.5, 0.0, -0.25],
-    );
+    moving.slide("a", 1, [0.0, 1.0], [0.0; 3], [0.5, 0.0, -0.25]);
     let (dir, moving_path) = common::write_temp(&moving, "moving.gltf");
     let baked_path = dir.path().join("baked.gltf");
     std::fs::write(&baked_path, baked.to_string()).unwrap();
-    let out = |n: &str| dir.path().join(n).display().to_string();
-    let common_args = ["--size", "32x24", "--spp", "4"];
-    ok(&[
-        &[
-            "render",
-            moving_path.to_str().unwrap(),
-            "-o",
-            &out("t.exr"),
-            "--time",
-            "0.5",
-        ][..],
-        &common_args,
-    ]
-    .concat());
-    ok(&[
-        &["render", baked_path.to_str().unwrap(), "-o", &out("b.exr")][..],
-        &common_args,
-    ]
-    .concat());
-    ok(&[
-        &["render", moving_path.to_str().unwrap(), "-o", &out("t0.exr")][..],
-        &common_args,
-    ]
-    .concat());
+    // Renders `scene` to `name` with `time` (--time T or nothing) and the common options.
+    let render = |scene: &Path, name: &str, time: &[&str]| {
+        let out = dir.path().join(name).display().to_string();
+        let more = [time, &["--size", "32x24", "--spp", "4"]].concat();
+        ok(&render_args(scene.to_str().unwrap(), &out, &more));
+    };
+    render(&moving_path, "t.exr", &["--time", "0.5"]);
+    render(&baked_path, "b.exr", &[]);
+    render(&moving_path, "t0.exr", &[]);
     let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
     assert_eq!(
         read("t.exr"),
@@ -371,22 +300,15 @@ fn frames_are_single_renders_at_k_over_fps_and_resume_renders_only_missing_ones(
     let scene = scene.to_str().unwrap();
     let out = |n: &str| dir.path().join(n).display().to_string();
     let size = ["--size", "40x30", "--spp", "4"];
-    ok(&[
-        &[
-            "render",
-            scene,
-            "--frames",
-            "1..3",
-            "--fps",
-            "4",
-            "-o",
-            &out("f.###.exr"),
-            "-o",
-            &out("f.###.png"),
-        ][..],
-        &size,
-    ]
-    .concat());
+    // Frames 1 to 3 at 4 per second as EXR and PNG, with `resume` (--resume or nothing).
+    let render_frames = |resume: &[&str]| {
+        let (exr, png) = (out("f.###.exr"), out("f.###.png"));
+        let outputs = ["-o", exr.as_str(), "-o", png.as_str()];
+        let frames = ["render", scene, "--frames", "1..3", "--fps", "4"];
+        let args = [&frames[..], resume, &outputs, &size].concat();
+        ok(&args)
+    };
+    render_frames(&[]);
     for (k, t) in [(1, "0.25"), (2, "0.5"), (3, "0.75")] {
         ok(&[
             &["render", scene, "--time", t, "-o", &out(&format!("single{k}.exr"))][..],
@@ -406,23 +328,7 @@ fn frames_are_single_renders_at_k_over_fps_and_resume_renders_only_missing_ones(
         "the animation did not move between frames"
     );
     std::fs::remove_file(dir.path().join("f.002.png")).unwrap();
-    let log = ok(&[
-        &[
-            "render",
-            scene,
-            "--frames",
-            "1..3",
-            "--fps",
-            "4",
-            "--resume",
-            "-o",
-            &out("f.###.exr"),
-            "-o",
-            &out("f.###.png"),
-        ][..],
-        &size,
-    ]
-    .concat());
+    let log = render_frames(&["--resume"]);
     assert!(log.contains("1 rendered, 2 already there"), "{log}");
     assert_eq!(std::fs::read(dir.path().join("f.002.exr")).unwrap(), frames[1]);
 }
@@ -526,8 +432,8 @@ fn gpu_instancing_places_the_mesh_once_per_instance_after_the_nodes_transform() 
     std::fs::write(&separate, nodes.to_string()).unwrap();
     let out = |n: &str| dir.path().join(n).display().to_string();
     let size = ["--size", "32x24", "--spp", "4"];
-    ok(&[&["render", instanced.to_str().unwrap(), "-o", &out("a.exr")][..], &size].concat());
-    ok(&[&["render", separate.to_str().unwrap(), "-o", &out("b.exr")][..], &size].concat());
+    ok(&render_args(instanced.to_str().unwrap(), &out("a.exr"), &size));
+    ok(&render_args(separate.to_str().unwrap(), &out("b.exr"), &size));
     assert_eq!(
         std::fs::read(dir.path().join("a.exr")).unwrap(),
         std::fs::read(dir.path().join("b.exr")).unwrap()

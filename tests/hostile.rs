@@ -5,7 +5,7 @@
 //! mutations) go deeper; this is the one place that runs them all side by side and counts them.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{square, GltfBuilder, FACING_DOWN, FACING_UP};
 use serde_json::{json, Value};
 use std::path::Path;
 use std::process::Stdio;
@@ -47,27 +47,10 @@ fn base_builder() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let light = b.material("light", [0.8; 3], [4.0; 3], false);
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
-    b.quad(
-        "lamp",
-        [[-1.0, 2.0, -1.0], [1.0, 2.0, -1.0], [1.0, 2.0, 1.0], [-1.0, 2.0, 1.0]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
-    b.quad(
-        "floor",
-        [[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("lamp", square(1.0, 2.0), light, FACING_DOWN);
+    b.quad("floor", square(1.0, 0.0), white, FACING_UP);
     b.camera([0.0, 1.0, 3.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 50.0);
-    b.animate(
-        "a",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, 0.0, 0.1, 0.0, 0.0],
-    );
+    b.slide("a", 1, [0.0, 1.0], [0.0, 0.0, 0.0], [0.1, 0.0, 0.0]);
     b
 }
 

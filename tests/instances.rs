@@ -57,14 +57,7 @@ fn moving_spheres() -> Scene {
     let mut b = spheres();
     let turn = |a: f32| Quat::from_rotation_z(0.6) * Quat::from_rotation_x(a);
     let (r0, r1) = (turn(0.0).to_array(), turn(1.2).to_array());
-    b.animate(
-        "move",
-        2,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[-1.5, 0.5, 0.0, -1.1, 0.7, 0.3],
-    );
+    b.slide("move", 2, [0.0, 1.0], [-1.5, 0.5, 0.0], [-1.1, 0.7, 0.3]);
     b.animate("move", 2, "rotation", "LINEAR", &[0.0, 1.0], &[r0, r1].concat());
     b.animate(
         "move",
@@ -343,14 +336,7 @@ fn instanced_emitters_light_the_scene_as_placed_ones_do() {
     let packed = try_pack_with(&still, Instancing::Always).unwrap();
     assert_eq!(packed.light_count, 4, "one light per instance");
     let mut b = common::scenes::lamps();
-    b.animate(
-        "move",
-        2,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[-1.4, 1.2, 0.3, -0.8, 1.5, 0.6],
-    );
+    b.slide("move", 2, [0.0, 1.0], [-1.4, 1.2, 0.3], [-0.8, 1.5, 0.6]);
     b.animate(
         "move",
         3,
@@ -484,14 +470,7 @@ fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_bu
     for k in 0..25_600 {
         b.add_child(wind, k);
     }
-    b.animate(
-        "sway",
-        wind,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, 0.0, 0.3, 0.0, 0.1],
-    );
+    b.slide("sway", wind, [0.0, 1.0], [0.0, 0.0, 0.0], [0.3, 0.0, 0.1]);
     b.camera([0.0, 40.0, 120.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 45.0);
     let (dir, path) = common::write_temp(&b, "forest.gltf");
     let out = dir.path().join("forest.png");

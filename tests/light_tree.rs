@@ -253,14 +253,7 @@ fn instanced_and_punctual_emitters_through_the_tree_light_as_placed_ones_do() {
         "nine instances and four punctual lights"
     );
     let mut b = bulbs_and_punctual_lights();
-    b.animate(
-        "move",
-        3,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[1.3, 1.0, -0.4, 0.6, 1.4, 0.2],
-    );
+    b.slide("move", 3, [0.0, 1.0], [1.3, 1.0, -0.4], [0.6, 1.4, 0.2]);
     b.animate(
         "turn",
         2,

@@ -119,14 +119,7 @@ const TRAVEL: f32 = 0.8;
 
 /// Moves node 1 (the quad) by TRAVEL along x over [0, 1] s, from START_X.
 fn slide(b: &mut GltfBuilder) {
-    b.animate(
-        "move",
-        1,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
-    );
+    b.slide("move", 1, [0.0, 1.0], [START_X, 0.0, 0.0], [START_X + TRAVEL, 0.0, 0.0]);
 }
 
 /// The rotation tests' quad: its half size, and how far node 1 turns it about z over [0, 1] s.
@@ -174,14 +167,7 @@ fn a_moving_camera_blurs_a_still_quad_the_other_way() {
     // The quad sits where the moving one starts; the camera slides left, so the quad slides right in the image,
     // just as the node moved it in the test above.
     b.transform_node(1, json!({ "translation": [START_X, 0.0, 0.0] }));
-    b.animate(
-        "dolly",
-        2,
-        "translation",
-        "LINEAR",
-        &[0.0, 1.0],
-        &[0.0, 0.0, DISTANCE, -TRAVEL, 0.0, DISTANCE],
-    );
+    b.slide("dolly", 2, [0.0, 1.0], [0.0, 0.0, DISTANCE], [-TRAVEL, 0.0, DISTANCE]);
     let (_dir, path) = common::write_temp(&b, "dolly.gltf");
     assert_matches(
         "camera translation",
@@ -210,13 +196,12 @@ fn a_skinned_quad_moved_by_its_two_bones_blurs_the_same_way() {
     b.skin_last_mesh(&[bone0, bone1], &[identity, identity], &joints, &weights);
     b.transform_node(quad, json!({ "translation": [50.0, 0.0, 0.0] }));
     for bone in [bone0, bone1] {
-        b.animate(
+        b.slide(
             "walk",
             bone,
-            "translation",
-            "LINEAR",
-            &[0.0, 1.0],
-            &[START_X, 0.0, 0.0, START_X + TRAVEL, 0.0, 0.0],
+            [0.0, 1.0],
+            [START_X, 0.0, 0.0],
+            [START_X + TRAVEL, 0.0, 0.0],
         );
     }
     let (_dir, path) = common::write_temp(&b, "skinned.gltf");

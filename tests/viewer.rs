@@ -24,6 +24,20 @@ fn pathwave(program: &str) -> Command {
     c
 }
 
+/// The viewer on `scene` in a headless X server, for the options that follow.
+fn headless_viewer(scene: &Path) -> Command {
+    let mut c = pathwave("xvfb-run");
+    let args = [
+        "-a",
+        "-s",
+        "-screen 0 640x480x24",
+        env!("CARGO_BIN_EXE_pathwave"),
+        "view",
+    ];
+    c.args(args).arg(scene);
+    c
+}
+
 #[test]
 fn viewer_screenshot_is_the_headless_render() {
     if !xvfb_run() {
@@ -33,15 +47,7 @@ fn viewer_screenshot_is_the_headless_render() {
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.exr");
     let scene = common::scenes_dir().join("cornell-box.gltf");
-    let o = pathwave("xvfb-run")
-        .args([
-            "-a",
-            "-s",
-            "-screen 0 640x480x24",
-            env!("CARGO_BIN_EXE_pathwave"),
-            "view",
-        ])
-        .arg(&scene)
+    let o = headless_viewer(&scene)
         .args(["--size", "64x48", "--frames", "5", "--screenshot"])
         .arg(&shot)
         .output()
@@ -92,15 +98,7 @@ fn the_viewer_plays_an_animation() {
         return;
     }
     let scene = common::scenes_dir().join("animated.gltf");
-    let o = pathwave("xvfb-run")
-        .args([
-            "-a",
-            "-s",
-            "-screen 0 640x480x24",
-            env!("CARGO_BIN_EXE_pathwave"),
-            "view",
-        ])
-        .arg(&scene)
+    let o = headless_viewer(&scene)
         .args(["--size", "64x48", "--frames", "8", "--play", "--shutter", "0.05"])
         .output()
         .unwrap();
@@ -125,15 +123,7 @@ fn the_viewer_shows_a_debug_view_and_the_denoised_image() {
     let dir = tempfile::tempdir().unwrap();
     let scene = common::scenes_dir().join("cornell-box.gltf");
     let run = |mode: &[&str], shot: &Path| {
-        let o = pathwave("xvfb-run")
-            .args([
-                "-a",
-                "-s",
-                "-screen 0 640x480x24",
-                env!("CARGO_BIN_EXE_pathwave"),
-                "view",
-            ])
-            .arg(&scene)
+        let o = headless_viewer(&scene)
             .args(["--size", "64x48", "--screenshot"])
             .arg(shot)
             .args(if mode.contains(&"--frames") {

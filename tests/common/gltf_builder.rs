@@ -334,6 +334,12 @@ impl GltfBuilder {
         self.channel(animation, target, interpolation, times, values, width, false);
     }
 
+    /// A LINEAR translation channel of animation `animation` (created, by name, at first use) taking `node` from
+    /// `from` at `times[0]` to `to` at `times[1]`.
+    pub fn slide(&mut self, animation: &str, node: usize, times: [f32; 2], from: [f32; 3], to: [f32; 3]) {
+        self.animate(animation, node, "translation", "LINEAR", &times, &[from, to].concat());
+    }
+
     /// A KHR_animation_pointer channel: `values` (`width` floats a key: SCALAR, VEC2, VEC3 or VEC4) drive `pointer`;
     /// `as_bytes` writes them as unsigned bytes (a boolean's type). Marks the extension used.
     #[allow(clippy::too_many_arguments)]

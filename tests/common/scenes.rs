@@ -385,14 +385,7 @@ pub fn animated() -> GltfBuilder {
     for f in faces {
         b.add_child(cube, f);
     }
-    b.animate(
-        "move",
-        cube,
-        "translation",
-        "LINEAR",
-        &[0.0, 2.0],
-        &[-1.2, 0.0, 0.3, -0.6, 0.0, -0.6],
-    );
+    b.slide("move", cube, [0.0, 2.0], [-1.2, 0.0, 0.3], [-0.6, 0.0, -0.6]);
     let turn = |deg: f32| Quat::from_rotation_y(deg.to_radians()).to_array();
     let rotations: Vec<f32> = [0.0, 90.0, 180.0].iter().flat_map(|&d| turn(d)).collect();
     b.animate("move", cube, "rotation", "LINEAR", &[0.0, 1.0, 2.0], &rotations);
@@ -482,14 +475,7 @@ pub fn animated() -> GltfBuilder {
 
     b.camera([0.0, 1.4, 4.6], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 40.0);
     let camera = b.last_node();
-    b.animate(
-        "move",
-        camera,
-        "translation",
-        "LINEAR",
-        &[0.0, 2.0],
-        &[0.0, 1.4, 4.6, 0.0, 1.3, 3.8],
-    );
+    b.slide("move", camera, [0.0, 2.0], [0.0, 1.4, 4.6], [0.0, 1.3, 3.8]);
     b
 }
 
