@@ -3,6 +3,7 @@
 mod common;
 
 use common::gltf_builder::GltfBuilder;
+use common::screen;
 use common::stats::beyond_noise;
 use serde_json::{json, Value};
 
@@ -24,35 +25,23 @@ fn brushed(uvs: [[f32; 2]; 4], ext: Option<Value>, texel: Option<[u8; 4]>) -> Gl
         b.material_json(m)["extensions"]["KHR_materials_anisotropy"] = ext;
         b.use_extension("KHR_materials_anisotropy");
     }
-    b.textured_quad(
-        "quad",
-        [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
-        uvs,
-        m,
-    );
-    b.punctual(
-        json!({ "type": "point" }),
-        [1.0; 3],
-        4.0,
-        [0.3, 0.2, 0.8],
-        [0.0, 0.0, 0.0, 1.0],
-    );
-    let yfov = 2.0 * 0.5f32.atan();
-    b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
+    b.textured_quad("quad", screen::corners(1.0, 0.0), uvs, m);
+    b.point_light([1.0; 3], 4.0, [0.3, 0.2, 0.8]);
+    screen::view(&mut b);
     b
 }
 
 /// u grows along +x (the tangent), v along -y.
-const U_ALONG_X: [[f32; 2]; 4] = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
+const U_ALONG_X: [[f32; 2]; 4] = screen::UVS;
 /// u grows along +y.
 const U_ALONG_Y: [[f32; 2]; 4] = [[1.0, 0.0], [0.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
 
 fn render(b: &GltfBuilder, seed: u32) -> pathwave::Film {
-    let (_dir, path) = common::write_temp(b, "brushed.gltf");
-    let scene = pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
-    common::render(&mut r, &common::settings(N as u32, N as u32, 64, seed))
+    let scene = common::load_built(b, "brushed.gltf");
+    common::render(
+        &mut common::scene_renderer(&scene),
+        &common::settings(N as u32, N as u32, 64, seed),
+    )
 }
 
 /// How far the highlight reaches along x and along y: the image's second moments about its brightest pixel.

@@ -3,27 +3,13 @@
 //! colour for every estimator, and malformed extension JSON is refused with the material named.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{GltfBuilder, FACING_Z};
+use common::screen;
 use pathwave::scene::Environment;
 use serde_json::{json, Value};
 
 const N: usize = 8;
 const NEAREST: u32 = 9728;
-
-/// The camera of tests/textures.rs: the square [-1, 1]^2 at z = 0 fills its N x N view.
-fn view(b: &mut GltfBuilder) {
-    let yfov = 2.0 * 0.5f32.atan();
-    b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
-}
-
-fn screen_quad(b: &mut GltfBuilder, material: usize) {
-    b.textured_quad(
-        "quad",
-        [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
-        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
-        material,
-    );
-}
 
 /// A black base (no specular layer either) whose material gets `ext_name` = `ext`, with `slot` in it naming a 2x1
 /// nearest texture of `left` and `right` texels: the left half of the view sees the first, the right the second.
@@ -47,8 +33,8 @@ fn halves_over(
     ext[slot] = json!({ "index": t });
     b.material_json(m)["extensions"][ext_name] = ext;
     b.use_extension(ext_name);
-    screen_quad(&mut b, m);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     b
 }
 
@@ -59,15 +45,27 @@ fn render(
     estimator: pathwave::Estimator,
     depth: u32,
 ) -> pathwave::Film {
-    let (_dir, path) = common::write_temp(b, "layers.gltf");
-    let mut scene = pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut scene = common::load_built(b, "layers.gltf");
     scene.environment = env.map(Environment::constant);
-    let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     let mut s = common::settings(N as u32, N as u32, spp, 5);
     s.max_depth = Some(depth);
     s.estimator = estimator;
-    common::render(&mut r, &s)
+    common::render(&mut common::scene_renderer(&scene), &s)
+}
+
+/// `halves` in a white environment, one bounce by BSDF sampling at `spp`: `halves_of` the film, printed.
+fn white_halves(
+    ext_name: &'static str,
+    ext: Value,
+    slot: &str,
+    left: [u8; 4],
+    right: [u8; 4],
+    spp: u32,
+) -> [(f64, f64); 2] {
+    let b = halves(ext_name, ext, slot, left, right);
+    let [l, r] = halves_of(&render(&b, Some([1.0; 3]), spp, pathwave::Estimator::Bsdf, 1));
+    eprintln!("{slot}: left {l:?}, right {r:?}");
+    [l, r]
 }
 
 /// Mean of channel 0 and the largest per-pixel variance over the left and the right half of the view.
@@ -88,19 +86,15 @@ fn halves_of(film: &pathwave::Film) -> [(f64, f64); 2] {
 // wrong texture, channel or colour space, or a layer's texture ignored.
 #[test]
 fn clearcoat_and_sheen_textures_land_on_their_halves() {
-    let white = Some([1.0; 3]);
-    let bsdf = pathwave::Estimator::Bsdf;
-
     // clearcoatTexture's R scales the factor: no coat over black is black; a full smooth coat returns its Fresnel.
-    let b = halves(
+    let [l, r] = white_halves(
         "KHR_materials_clearcoat",
         json!({ "clearcoatFactor": 1.0 }),
         "clearcoatTexture",
         [0, 255, 255, 255],
         [255, 0, 0, 255],
+        16,
     );
-    let [l, r] = halves_of(&render(&b, white, 16, bsdf, 1));
-    eprintln!("clearcoatTexture: left {l:?}, right {r:?}");
     assert!(l.0 == 0.0, "no coat over black must be black, got {}", l.0);
     assert!(
         (0.035..0.07).contains(&r.0),
@@ -110,15 +104,14 @@ fn clearcoat_and_sheen_textures_land_on_their_halves() {
 
     // clearcoatRoughnessTexture's G scales the roughness: a smooth coat is a delta (no variance but the pixel
     // footprint's), a rough one is sampled.
-    let b = halves(
+    let [l, r] = white_halves(
         "KHR_materials_clearcoat",
         json!({ "clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 1.0 }),
         "clearcoatRoughnessTexture",
         [255, 0, 255, 255],
         [0, 255, 0, 255],
+        64,
     );
-    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
-    eprintln!("clearcoatRoughnessTexture: left {l:?}, right {r:?}");
     assert!(
         l.1 < 1e-6 && r.1 > 100.0 * l.1.max(1e-9),
         "smooth left, rough right: variances {} and {}",
@@ -127,15 +120,14 @@ fn clearcoat_and_sheen_textures_land_on_their_halves() {
     );
 
     // sheenColorTexture (sRGB) scales the colour: black sheen is none.
-    let b = halves(
+    let [l, r] = white_halves(
         "KHR_materials_sheen",
         json!({ "sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 1.0 }),
         "sheenColorTexture",
         [0, 0, 0, 255],
         [255, 255, 255, 255],
+        64,
     );
-    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
-    eprintln!("sheenColorTexture: left {l:?}, right {r:?}");
     assert!(
         l.0 == 0.0 && r.0 > 0.05,
         "black sheen left, white right: {} and {}",
@@ -144,15 +136,14 @@ fn clearcoat_and_sheen_textures_land_on_their_halves() {
     );
 
     // sheenRoughnessTexture's A scales the roughness: a smooth sheen reflects almost nothing seen head-on.
-    let b = halves(
+    let [l, r] = white_halves(
         "KHR_materials_sheen",
         json!({ "sheenColorFactor": [1.0, 1.0, 1.0], "sheenRoughnessFactor": 1.0 }),
         "sheenRoughnessTexture",
         [255, 255, 255, 0],
         [0, 0, 0, 255],
+        64,
     );
-    let [l, r] = halves_of(&render(&b, white, 64, bsdf, 1));
-    eprintln!("sheenRoughnessTexture: left {l:?}, right {r:?}");
     assert!(
         r.0 > 0.05 && l.0 < 0.3 * r.0,
         "smooth sheen left, rough right: {} and {}",
@@ -168,15 +159,14 @@ fn specular_and_transmission_textures_land_on_their_halves() {
     let white = Some([1.0; 3]);
     let bsdf = pathwave::Estimator::Bsdf;
     // specularTexture's A weighs the dielectric layer: over black, no layer is black.
-    let b = halves(
+    let [l, r] = white_halves(
         "KHR_materials_specular",
         json!({ "specularFactor": 1.0 }),
         "specularTexture",
         [255, 255, 255, 0],
         [0, 0, 0, 255],
+        16,
     );
-    let [l, r] = halves_of(&render(&b, white, 16, bsdf, 1));
-    eprintln!("specularTexture: left {l:?}, right {r:?}");
     assert!(
         l.0 == 0.0 && r.0 > 0.01,
         "no layer left, a layer right: {} and {}",
@@ -214,20 +204,7 @@ fn specular_and_transmission_textures_land_on_their_halves() {
     );
     // Smooth, so the sheet passes the card straight through (a rough one spreads it past the card's edges).
     b.material_json(0)["pbrMetallicRoughness"]["roughnessFactor"] = json!(0.0);
-    let card = b.pbr_material("card", [1.0, 0.0, 0.0], 0.0, 1.0, [0.0; 3], false);
-    b.material_json(card)["extensions"]["KHR_materials_unlit"] = json!({});
-    b.use_extension("KHR_materials_unlit");
-    b.quad(
-        "card",
-        [
-            [-3.0, 3.0, -1.0],
-            [-3.0, -3.0, -1.0],
-            [3.0, -3.0, -1.0],
-            [3.0, 3.0, -1.0],
-        ],
-        card,
-        Some([0.0, 0.0, 1.0]),
-    );
+    red_card_behind(&mut b, 3.0);
     let [l, r] = halves_of(&render(&b, None, 16, bsdf, 2));
     eprintln!("transmissionTexture: left {l:?}, right {r:?}");
     assert!(
@@ -236,6 +213,12 @@ fn specular_and_transmission_textures_land_on_their_halves() {
         l.0,
         r.0
     );
+}
+
+/// An unlit red card behind the screen (at z = -1, 2 `half` wide), facing it.
+fn red_card_behind(b: &mut GltfBuilder, half: f32) {
+    let card = b.unlit_material("card", [1.0, 0.0, 0.0]);
+    b.quad("card", screen::corners(half, -1.0), card, FACING_Z);
 }
 
 /// Mean RGB over the left and the right half of the view.
@@ -302,20 +285,7 @@ fn diffuse_transmission_textures_land_on_their_halves() {
             left,
             right,
         );
-        let card = b.pbr_material("card", [1.0, 0.0, 0.0], 0.0, 1.0, [0.0; 3], false);
-        b.material_json(card)["extensions"]["KHR_materials_unlit"] = json!({});
-        b.use_extension("KHR_materials_unlit");
-        b.quad(
-            "card",
-            [
-                [-30.0, 30.0, -1.0],
-                [-30.0, -30.0, -1.0],
-                [30.0, -30.0, -1.0],
-                [30.0, 30.0, -1.0],
-            ],
-            card,
-            Some([0.0, 0.0, 1.0]),
-        );
+        red_card_behind(&mut b, 30.0);
         let film = render(&b, None, 64, bsdf, 2);
         let [l, r] = halves_of(&film);
         let green_right = film.mean()[N - 1][1];
@@ -351,17 +321,9 @@ fn the_clear_coat_follows_its_own_normal_map() {
             "clearcoatNormalTexture": { "index": t }
         });
         b.use_extension("KHR_materials_clearcoat");
-        screen_quad(&mut b, m);
-        let l = glam::Vec3::new(1.0, 0.0, 1.0).normalize();
-        let rot = glam::Quat::from_rotation_arc(-glam::Vec3::Z, -l);
-        b.punctual(
-            json!({ "type": "directional" }),
-            [1.0; 3],
-            2.0,
-            [0.0, 0.0, 5.0],
-            rot.to_array(),
-        );
-        view(&mut b);
+        screen::quad(&mut b, m, 0.0);
+        screen::light_along(&mut b, -glam::Vec3::new(1.0, 0.0, 1.0).normalize());
+        screen::view(&mut b);
         let film = render(&b, None, 16, pathwave::Estimator::Mis, 1);
         let mean = film.mean().iter().map(|p| p[0] as f64).sum::<f64>() / (N * N) as f64;
         lit.push(mean);
@@ -388,8 +350,8 @@ fn unlit_surfaces_show_and_shed_their_colour() {
     let image = b.png_image(4, 1, &texels);
     let t = b.texture(image, json!({ "magFilter": NEAREST, "minFilter": NEAREST }));
     b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     let film = render(&b, Some([3.0, 2.0, 1.0]), 8, pathwave::Estimator::Mis, 8);
     let (mean, var) = (film.mean(), film.sample_variance());
     for j in 0..N {
@@ -414,18 +376,11 @@ fn unlit_surfaces_show_and_shed_their_colour() {
         pathwave::Estimator::Light,
     ] {
         let mut b = GltfBuilder::new();
-        let walls = b.pbr_material("walls", c, 0.0, 1.0, [0.0; 3], false);
-        b.material_json(walls)["extensions"]["KHR_materials_unlit"] = json!({});
-        b.use_extension("KHR_materials_unlit");
+        let walls = b.unlit_material("walls", c);
         let white = b.material("white", [1.0; 3], [0.0; 3], false);
         b.cube("room", [-4.0; 3], [4.0; 3], walls, true);
-        b.quad(
-            "card",
-            [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
-            white,
-            Some([0.0, 0.0, 1.0]),
-        );
-        view(&mut b);
+        b.quad("card", screen::corners(1.0, 0.0), white, FACING_Z);
+        screen::view(&mut b);
         let film = render(&b, None, 256, estimator, 1);
         let (m, se) = common::stats::image_mean_and_stderr(&film);
         eprintln!("{estimator:?}: card {m:.4} +- {se:.4}, want {}", c[0]);
@@ -496,8 +451,8 @@ fn malformed_layer_extensions_are_refused_naming_the_material() {
         let m = b.material("velvet", [0.5; 3], [0.0; 3], false);
         b.material_json(m)["extensions"][ext_name] = ext;
         b.use_extension(ext_name);
-        screen_quad(&mut b, m);
-        view(&mut b);
+        screen::quad(&mut b, m, 0.0);
+        screen::view(&mut b);
         let (_dir, path) = common::write_temp(&b, "bad.gltf");
         let e = pathwave::scene::load(&path, None)
             .map(|_| ())
@@ -536,8 +491,8 @@ fn the_films_ior_is_read_from_iridescence_ior() {
             "iridescenceThicknessMinimum": 50000.0, "iridescenceThicknessMaximum": 50000.0
         });
         b.use_extension("KHR_materials_iridescence");
-        screen_quad(&mut b, m);
-        view(&mut b);
+        screen::quad(&mut b, m, 0.0);
+        screen::view(&mut b);
         let f = render(&b, Some([1.0; 3]), 4, pathwave::Estimator::Bsdf, 1);
         let mean = f.mean();
         // The four pixels at the centre, seen 3.6 degrees off the normal.

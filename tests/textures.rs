@@ -3,7 +3,8 @@
 //! tangents), alpha MASK and BLEND for camera and shadow rays, and emissive textures in next-event estimation.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{upright, GltfBuilder, FACING_Z};
+use common::screen;
 use pathwave::scene::{texture::srgb_to_linear, Environment};
 use serde_json::json;
 
@@ -14,31 +15,14 @@ const REPEAT: u32 = 10497;
 const CLAMP: u32 = 33071;
 const MIRROR: u32 = 33648;
 
-/// A camera looking down -z at the square [-1, 1]^2 at z = 0, which fills its view: pixel (i, j) (row j from the
-/// top) covers uv in [i/N, (i+1)/N] x [j/N, (j+1)/N] on a quad whose top-left corner has uv (0, 0).
-fn view(b: &mut GltfBuilder) {
-    let yfov = 2.0 * 0.5f32.atan();
-    b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
-}
-
-fn screen_quad(b: &mut GltfBuilder, material: usize, z: f32) {
-    b.textured_quad(
-        "quad",
-        [[-1.0, 1.0, z], [-1.0, -1.0, z], [1.0, -1.0, z], [1.0, 1.0, z]],
-        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
-        material,
-    );
-}
-
+/// Renders `b` at N x N (16 samples per pixel, seed 3, unless `settings` says otherwise) in the uniform environment
+/// `env`.
 fn render(b: &GltfBuilder, env: Option<[f32; 3]>, settings: impl Fn(&mut pathwave::RenderSettings)) -> pathwave::Film {
-    let (_dir, path) = common::write_temp(b, "textured.gltf");
-    let mut scene = pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let mut scene = common::load_built(b, "textured.gltf");
     scene.environment = env.map(Environment::constant);
-    let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
     let mut s = common::settings(N as u32, N as u32, 16, 3);
     settings(&mut s);
-    common::render(&mut r, &s)
+    common::render(&mut common::scene_renderer(&scene), &s)
 }
 
 /// 4x4 texels, each a different colour (sRGB bytes).
@@ -107,8 +91,8 @@ fn nearest_texels_land_on_known_pixels_through_transforms_and_wrap_modes() {
             b.use_extension("KHR_texture_transform");
         }
         b.material_json(m)["emissiveTexture"] = info;
-        screen_quad(&mut b, m, 0.0);
-        view(&mut b);
+        screen::quad(&mut b, m, 0.0);
+        screen::view(&mut b);
         let film = render(&b, None, |s| s.max_depth = Some(0));
         let mean = film.mean();
         let mut wrong = Vec::new();
@@ -145,8 +129,8 @@ fn bilinear_filtering_interpolates_decoded_colour() {
     let image = b.png_image(2, 1, &[[0, 0, 0, 255], [255, 255, 255, 255]]);
     let t = b.texture(image, json!({ "magFilter": LINEAR, "wrapS": CLAMP, "wrapT": CLAMP }));
     b.material_json(m)["emissiveTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m, 0.0);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     let film = render(&b, None, |s| {
         s.max_depth = Some(0);
         s.spp = 64;
@@ -173,8 +157,8 @@ fn base_color_texture_is_the_albedo() {
     let image = b.png_image(4, 4, &texels);
     let t = b.texture(image, json!({ "magFilter": NEAREST }));
     b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m, 0.0);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     let film = render(&b, Some([1.0; 3]), |s| {
         s.max_depth = Some(1);
         s.estimator = pathwave::Estimator::Bsdf;
@@ -206,8 +190,8 @@ fn metallic_roughness_texture_reads_blue_and_green() {
     let image = b.png_image(4, 1, &texels);
     let t = b.texture(image, json!({ "magFilter": NEAREST }));
     b.material_json(m)["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m, 0.0);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     let film = render(&b, Some([1.0; 3]), |s| {
         s.max_depth = Some(1);
         s.estimator = pathwave::Estimator::Bsdf;
@@ -256,30 +240,21 @@ fn normal_maps_tilt_the_shading_normal_the_gltf_way() {
             let image = b.png_image(1, 1, &[[bytes[0], bytes[1], bytes[2], 255]]);
             let t = b.texture(image, json!({}));
             b.material_json(m)["normalTexture"] = json!({ "index": t });
-            let corners = [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]];
-            let uvs = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
+            let corners = screen::corners(1.0, 0.0);
             let tangents = [[1.0, 0.0, 0.0, 1.0f32]; 4];
             b.mesh_with_attributes(
                 "quad",
                 &corners,
                 None,
-                &uvs,
+                &screen::UVS,
                 given_tangents.then_some(&tangents[..]),
                 &[0, 1, 2, 0, 2, 3],
                 m,
             );
             // The light travels along -(l): l is 45 degrees from +z towards light_xy.
             let l = glam::DVec3::new(light_xy[0], light_xy[1], 1.0).normalize();
-            let dir = -l.as_vec3();
-            let rot = glam::Quat::from_rotation_arc(-glam::Vec3::Z, dir);
-            b.punctual(
-                json!({ "type": "directional" }),
-                [1.0; 3],
-                2.0,
-                [0.0, 0.0, 5.0],
-                rot.to_array(),
-            );
-            view(&mut b);
+            screen::light_along(&mut b, -l.as_vec3());
+            screen::view(&mut b);
             let film = render(&b, None, |s| s.max_depth = Some(1));
             let want = 1.0 / std::f64::consts::PI * 2.0 * decoded.dot(l);
             let label = format!(
@@ -300,17 +275,7 @@ fn normal_maps_tilt_the_shading_normal_the_gltf_way() {
 /// A white emitter behind the view's quad (at z = -1, facing the camera): what alpha lets through shows as 1.
 fn emitting_backdrop(b: &mut GltfBuilder) {
     let back = b.pbr_material("emitter", [0.0; 3], 0.0, 1.0, [1.0; 3], false);
-    b.quad(
-        "emitter",
-        [
-            [-3.0, -3.0, -1.0],
-            [3.0, -3.0, -1.0],
-            [3.0, 3.0, -1.0],
-            [-3.0, 3.0, -1.0],
-        ],
-        back,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("emitter", upright([-3.0, 3.0], [-3.0, 3.0], -1.0), back, FACING_Z);
 }
 
 fn alpha_material(b: &mut GltfBuilder, mode: &str, alpha: f32, cutoff: Option<f32>) -> usize {
@@ -336,7 +301,7 @@ fn alpha_mask_and_blend_hide_surfaces_from_camera_rays() {
     let image = b.png_image(4, 4, &texels);
     let t = b.texture(image, json!({ "magFilter": NEAREST }));
     b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m, 0.5);
+    screen::quad(&mut b, m, 0.5);
     emitting_backdrop(&mut b);
     // The occluder at z = 0.5 fills a wider view than N pixels: frame exactly it.
     let yfov = 2.0 * (1.0f32 / 1.5).atan();
@@ -355,7 +320,7 @@ fn alpha_mask_and_blend_hide_surfaces_from_camera_rays() {
 
     let mut b = GltfBuilder::new();
     let m = alpha_material(&mut b, "BLEND", 0.25, None);
-    screen_quad(&mut b, m, 0.5);
+    screen::quad(&mut b, m, 0.5);
     emitting_backdrop(&mut b);
     b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
     let film = render(&b, None, |s| {
@@ -383,26 +348,10 @@ fn alpha_mask_and_blend_apply_to_shadow_rays() {
     ] {
         let mut b = GltfBuilder::new();
         let floor = b.material("floor", [albedo as f32; 3], [0.0; 3], false);
-        b.quad(
-            "floor",
-            [[-5.0, -5.0, 0.0], [5.0, -5.0, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]],
-            floor,
-            Some([0.0, 0.0, 1.0]),
-        );
+        b.quad("floor", upright([-5.0, 5.0], [-5.0, 5.0], 0.0), floor, FACING_Z);
         let m = alpha_material(&mut b, mode, alpha, cutoff);
-        b.quad(
-            "sheet",
-            [[-5.0, -5.0, 2.0], [5.0, -5.0, 2.0], [5.0, 5.0, 2.0], [-5.0, 5.0, 2.0]],
-            m,
-            Some([0.0, 0.0, 1.0]),
-        );
-        b.punctual(
-            json!({ "type": "directional" }),
-            [1.0; 3],
-            e as f32,
-            [0.0, 0.0, 4.0],
-            [0.0, 0.0, 0.0, 1.0],
-        );
+        b.quad("sheet", upright([-5.0, 5.0], [-5.0, 5.0], 2.0), m, FACING_Z);
+        b.directional_light([1.0; 3], e as f32, [0.0, 0.0, 4.0], [0.0, 0.0, 0.0, 1.0]);
         b.camera([0.0, 0.0, 1.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0);
         let film = render(&b, None, |s| {
             s.max_depth = Some(1);
@@ -425,12 +374,7 @@ fn alpha_mask_and_blend_apply_to_shadow_rays() {
 fn emissive_textures_light_the_scene_the_same_for_both_estimators() {
     let mut b = GltfBuilder::new();
     let floor = b.material("floor", [0.8; 3], [0.0; 3], false);
-    b.quad(
-        "floor",
-        [[-2.0, -2.0, 0.0], [2.0, -2.0, 0.0], [2.0, 2.0, 0.0], [-2.0, 2.0, 0.0]],
-        floor,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("floor", upright([-2.0, 2.0], [-2.0, 2.0], 0.0), floor, FACING_Z);
     let light = b.pbr_material("light", [0.0; 3], 0.0, 1.0, [4.0; 3], false);
     let image = b.png_image(
         2,
@@ -479,7 +423,7 @@ fn emissive_textures_light_the_scene_the_same_for_both_estimators() {
 fn vertex_colours_multiply_the_base_colour() {
     let mut b = GltfBuilder::new();
     let m = b.material("quad", [0.5; 3], [0.0; 3], false);
-    screen_quad(&mut b, m, 0.0);
+    screen::quad(&mut b, m, 0.0);
     // Corners: top-left, bottom-left, bottom-right, top-right.
     let colors = [
         [1.0, 0.0, 0.0, 1.0],
@@ -488,7 +432,7 @@ fn vertex_colours_multiply_the_base_colour() {
         [1.0, 1.0, 1.0, 1.0],
     ];
     b.add_colors(&colors);
-    view(&mut b);
+    screen::view(&mut b);
     let film = render(&b, Some([1.0; 3]), |s| {
         s.max_depth = Some(1);
         s.estimator = pathwave::Estimator::Bsdf;
@@ -523,7 +467,7 @@ fn vertex_alpha_is_coverage_under_mask_and_blend() {
     for mode in ["MASK", "BLEND", "OPAQUE"] {
         let mut b = GltfBuilder::new();
         let m = alpha_material(&mut b, mode, 1.0, None);
-        screen_quad(&mut b, m, 0.5);
+        screen::quad(&mut b, m, 0.5);
         // Corners: top-left, bottom-left, bottom-right, top-right.
         b.add_colors(&[
             [1.0, 1.0, 1.0, 0.0],
@@ -567,8 +511,8 @@ fn a_missing_image_file_leaves_its_texture_out_with_a_warning() {
     let image = b.png_image(1, 1, &[[255, 0, 0, 255]]);
     let t = b.texture(image, json!({}));
     b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
-    screen_quad(&mut b, m, 0.0);
-    view(&mut b);
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
     let mut doc: serde_json::Value = serde_json::from_str(&b.to_json()).unwrap();
     doc["images"][0] = json!({ "uri": "gone.png", "name": "brick" });
     let dir = tempfile::tempdir().unwrap();
@@ -595,7 +539,7 @@ fn a_missing_image_file_leaves_its_texture_out_with_a_warning() {
     assert!(scene.materials[0].base_color_texture.is_none());
     // Its factor, 0.5 grey, under a white sky, one bounce by BSDF sampling: exactly 0.5.
     scene.environment = Some(Environment::constant([1.0; 3]));
-    let mut r = pathwave::Renderer::with_validation(&scene, &Default::default(), common::validation()).unwrap();
+    let mut r = common::scene_renderer(&scene);
     let mut s = common::settings(N as u32, N as u32, 4, 3);
     s.max_depth = Some(1);
     s.estimator = pathwave::Estimator::Bsdf;
@@ -645,8 +589,8 @@ fn specular_glossiness_renders_as_its_metal_rough_equivalent() {
                     b.material_json(m)["pbrMetallicRoughness"]["metallicRoughnessTexture"] = json!({ "index": second });
                 }
             }
-            screen_quad(&mut b, m, 0.0);
-            view(&mut b);
+            screen::quad(&mut b, m, 0.0);
+            screen::view(&mut b);
             b
         };
         let settings = |s: &mut pathwave::RenderSettings| s.spp = 64;

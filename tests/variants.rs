@@ -2,38 +2,32 @@
 //! library and the CLI; unknown names and broken mappings are refused naming them.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{GltfBuilder, FACING_Z};
+use common::screen;
 use serde_json::json;
 
 /// Two unlit quads side by side (exact colours to the camera): the left one blue, the right one white, and variants
 /// 'red' (left red), 'green' (both green) and 'plain' (mapping nothing).
 fn variants_scene() -> GltfBuilder {
     let mut b = GltfBuilder::new();
-    let unlit = |b: &mut GltfBuilder, name: &str, c: [f32; 3]| {
-        let m = b.pbr_material(name, c, 0.0, 1.0, [0.0; 3], false);
-        b.material_json(m)["extensions"]["KHR_materials_unlit"] = json!({});
-        m
-    };
-    let blue = unlit(&mut b, "blue", [0.0, 0.0, 1.0]);
-    let white = unlit(&mut b, "white", [1.0; 3]);
-    let red = unlit(&mut b, "red", [1.0, 0.0, 0.0]);
-    let green = unlit(&mut b, "green", [0.0, 1.0, 0.0]);
-    b.use_extension("KHR_materials_unlit");
+    let blue = b.unlit_material("blue", [0.0, 0.0, 1.0]);
+    let white = b.unlit_material("white", [1.0; 3]);
+    let red = b.unlit_material("red", [1.0, 0.0, 0.0]);
+    let green = b.unlit_material("green", [0.0, 1.0, 0.0]);
     b.use_extension("KHR_materials_variants");
     b.quad(
         "left",
         [[-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 1.0, 0.0]],
         blue,
-        Some([0.0, 0.0, 1.0]),
+        FACING_Z,
     );
     b.quad(
         "right",
         [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0]],
         white,
-        Some([0.0, 0.0, 1.0]),
+        FACING_Z,
     );
-    let yfov = 2.0 * 0.5f32.atan();
-    b.camera([0.0, 0.0, 2.0], [0.0; 3], [0.0, 1.0, 0.0], yfov.to_degrees());
+    screen::view(&mut b);
     b.set_root_extension(
         "KHR_materials_variants",
         json!({ "variants": [{ "name": "red" }, { "name": "green" }, { "name": "plain" }] }),
@@ -101,24 +95,17 @@ fn unknown_variants_and_broken_mappings_are_refused() {
         .to_string();
     assert!(e.contains("'blue'") && e.contains("'red', 'green', 'plain'"), "{e}");
 
-    let mut b = variants_scene();
-    b.set_primitive_extension(
-        1,
-        "KHR_materials_variants",
-        json!({ "mappings": [{ "material": 0, "variants": [7] }] }),
-    );
-    let (_dir, path) = common::write_temp(&b, "variants.gltf");
-    let e = pathwave::scene::load(&path, None).map(|_| ()).unwrap_err().to_string();
+    // The error loading the scene with the right quad's mappings replaced by `mappings`.
+    let refusal = |mappings: serde_json::Value| {
+        let mut b = variants_scene();
+        b.set_primitive_extension(1, "KHR_materials_variants", json!({ "mappings": mappings }));
+        let (_dir, path) = common::write_temp(&b, "variants.gltf");
+        pathwave::scene::load(&path, None).map(|_| ()).unwrap_err().to_string()
+    };
+    let e = refusal(json!([{ "material": 0, "variants": [7] }]));
     assert!(e.contains("variant 7") && e.contains("mesh 'right'"), "{e}");
 
-    let mut b = variants_scene();
-    b.set_primitive_extension(
-        1,
-        "KHR_materials_variants",
-        json!({ "mappings": [{ "material": 99, "variants": [0] }] }),
-    );
-    let (_dir, path) = common::write_temp(&b, "variants.gltf");
-    let e = pathwave::scene::load(&path, None).map(|_| ()).unwrap_err().to_string();
+    let e = refusal(json!([{ "material": 99, "variants": [0] }]));
     assert!(e.contains("material") && e.contains("mesh 'right'"), "{e}");
 }
 

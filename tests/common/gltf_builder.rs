@@ -66,6 +66,14 @@ impl GltfBuilder {
         i
     }
 
+    /// An unlit material (KHR_materials_unlit): the camera sees `color` as it is, whatever lights the scene.
+    pub fn unlit_material(&mut self, name: &str, color: [f32; 3]) -> usize {
+        let i = self.pbr_material(name, color, 0.0, 1.0, [0.0; 3], false);
+        self.materials[i]["extensions"]["KHR_materials_unlit"] = json!({});
+        self.use_extension("KHR_materials_unlit");
+        i
+    }
+
     /// A transmissive dielectric (KHR_materials_transmission, _ior, and _volume unless thin-walled), tinted `tint`,
     /// absorbing to `attenuation` colour over `distance` metres inside.
     pub fn glass_material(

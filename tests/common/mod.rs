@@ -5,6 +5,7 @@ pub mod mutate;
 pub mod rng;
 pub mod rt;
 pub mod scenes;
+pub mod screen;
 pub mod stats;
 
 use std::path::PathBuf;
@@ -90,6 +91,14 @@ pub fn pathwave_cli() -> std::process::Command {
 /// The project's Cornell box.
 pub fn cornell() -> PathBuf {
     scenes_dir().join("cornell-box.gltf")
+}
+
+/// Loads the scene `b` builds (written as `name` in a temporary folder), which must load without warnings.
+pub fn load_built(b: &gltf_builder::GltfBuilder, name: &str) -> pathwave::scene::Scene {
+    let (_dir, path) = write_temp(b, name);
+    let scene = pathwave::scene::load(&path, None).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    scene
 }
 
 /// The Cornell box's path as a command-line argument.

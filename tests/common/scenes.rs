@@ -511,8 +511,7 @@ pub fn layers() -> GltfBuilder {
             serde_json::json!({ "sheenColorFactor": sheen, "sheenRoughnessFactor": roughness });
         b.sphere(name, stage_spot(col, -0.7), 0.5, m);
     }
-    let unlit = b.pbr_material("unlit", [0.9, 0.7, 0.2], 0.0, 1.0, [0.0; 3], false);
-    b.material_json(unlit)["extensions"]["KHR_materials_unlit"] = serde_json::json!({});
+    let unlit = b.unlit_material("unlit", [0.9, 0.7, 0.2]);
     b.sphere("unlit", [1.8, 0.5, -0.7], 0.5, unlit);
     sphere_stage_camera(b)
 }
