@@ -127,27 +127,24 @@ fn the_cli_writes_the_denoised_image_and_the_noisy_one_beside_it() {
 fn without_the_library_denoise_fails_before_rendering_and_says_how_to_install_it() {
     let dir = tempfile::tempdir().unwrap();
     let out_path = dir.path().join("out.png");
-    let out = common::pathwave_cli()
-        .env("PATHWAVE_OIDN", dir.path().join("missing.so"))
-        .args(["render", common::cornell().to_str().unwrap(), "--denoise", "-o"])
-        .arg(&out_path)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    // A denoised render with PATHWAVE_OIDN at `library`: it must exit 1 writing nothing; returns its message.
+    let refused = |library: &std::path::Path| {
+        let out = common::pathwave_cli()
+            .env("PATHWAVE_OIDN", library)
+            .args(["render", common::cornell().to_str().unwrap(), "--denoise", "-o"])
+            .arg(&out_path)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(!out_path.exists());
+        err
+    };
+    let err = refused(&dir.path().join("missing.so"));
     assert!(err.contains("PATHWAVE_OIDN") && err.contains("missing.so"), "{err}");
-    assert!(!out_path.exists());
     // A file that is not OIDN: named, refused, no panic.
     let fake = dir.path().join("libOpenImageDenoise.so.2");
     std::fs::write(&fake, b"not a library").unwrap();
-    let out = common::pathwave_cli()
-        .env("PATHWAVE_OIDN", &fake)
-        .args(["render", common::cornell().to_str().unwrap(), "--denoise", "-o"])
-        .arg(&out_path)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    let err = refused(&fake);
     assert!(err.contains("cannot load it"), "{err}");
-    assert!(!out_path.exists());
 }

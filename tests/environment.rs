@@ -181,15 +181,7 @@ fn white_furnace(material: Material, spp: u32, smooth: bool) -> (f64, f64, usize
 #[test]
 fn energy_conserving_materials_vanish_in_a_white_furnace() {
     let cases = [
-        (
-            "lambert",
-            Material {
-                metallic: 0.0,
-                specular: 0.0,
-                ..Material::default()
-            },
-            0.0,
-        ),
+        ("lambert", common::lambert(), 0.0),
         (
             "plastic rough 0.5",
             Material {
@@ -287,11 +279,7 @@ fn energy_conserving_materials_vanish_in_a_white_furnace() {
 #[test]
 fn layered_materials_over_a_white_base_vanish_in_a_white_furnace() {
     use pathwave::scene::{Clearcoat, Sheen};
-    let lambert = Material {
-        metallic: 0.0,
-        specular: 0.0,
-        ..Material::default()
-    };
+    let lambert = common::lambert();
     let plastic = Material {
         metallic: 0.0,
         roughness: 0.5,
@@ -408,14 +396,12 @@ fn iridescent_materials_vanish_in_a_white_furnace() {
 fn diffuse_transmitters_vanish_in_a_white_furnace() {
     use pathwave::scene::DiffuseTransmission;
     let lambert = |factor: f32, thin: bool| Material {
-        metallic: 0.0,
-        specular: 0.0,
         thin_walled: thin,
         diffuse_transmission: DiffuseTransmission {
             factor,
             ..DiffuseTransmission::default()
         },
-        ..Material::default()
+        ..common::lambert()
     };
     let plastic = Material {
         metallic: 0.0,

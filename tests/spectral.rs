@@ -67,14 +67,7 @@ fn white_furnaces_stay_white_in_spectral_mode() {
     };
     // (A rough dielectric loses what its microfacets scatter more than once, in RGB as well: 1.4 % at roughness 0.3.)
     let cases = [
-        (
-            "lambert",
-            Material {
-                metallic: 0.0,
-                specular: 0.0,
-                ..Material::default()
-            },
-        ),
+        ("lambert", common::lambert()),
         ("glass sphere", glass(false)),
         ("thin glass shell", glass(true)),
         // Every wavelength bent its own way, each path keeping its hero alone past the first hit.
@@ -111,10 +104,8 @@ fn the_closed_furnace_stays_white_in_spectral_mode() {
 #[test]
 fn colours_keep_their_values_in_spectral_mode() {
     let lambert = |rgb: [f32; 3]| Material {
-        metallic: 0.0,
-        specular: 0.0,
         base_color: glam::Vec3::from(rgb),
-        ..Material::default()
+        ..common::lambert()
     };
     let mut r = common::scene_renderer(&sphere(lambert([0.8, 0.3, 0.1]), [1.0; 3]));
     let film = common::render(&mut r, &spectral(16, 16, 512, 5));

@@ -36,6 +36,15 @@ pub fn scene_renderer(scene: &pathwave::scene::Scene) -> pathwave::Renderer {
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// A Lambertian: the default material with neither metal nor a specular layer.
+pub fn lambert() -> pathwave::scene::Material {
+    pathwave::scene::Material {
+        metallic: 0.0,
+        specular: 0.0,
+        ..Default::default()
+    }
+}
+
 /// A faceted (or smooth) unit sphere of `material` filling a 30° view from distance 3, in a uniform environment of
 /// `env`: the white furnace's scene (tests/environment.rs, tests/spectral.rs).
 pub fn sphere_in_environment(
