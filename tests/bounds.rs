@@ -44,6 +44,36 @@ fn render(scene: &Path, out: &Path, extra: &[&str], schedule: &str) -> String {
     log
 }
 
+/// Runs `render` of the Cornell box into `out` at `size` and `spp` samples with the shaders in `shaders`, under the
+/// environment `env`, killing it after `limit`; the output and how long it ran.
+fn render_with_shaders(
+    env: &[(&str, &str)],
+    out: &Path,
+    size: &str,
+    spp: &str,
+    shaders: &Path,
+    limit: Duration,
+) -> (Output, Duration) {
+    let mut cmd = pathwave();
+    cmd.envs(env.iter().copied())
+        .arg("render")
+        .arg(cornell())
+        .arg("-o")
+        .arg(out)
+        .args(["--size", size, "--spp", spp, "--shader-dir"])
+        .arg(shaders);
+    run_within(&mut cmd, limit)
+}
+
+/// Puts `glsl` into shade.comp in `dir`, just before the path's vertex is declared.
+fn insert_into_shade(dir: &Path, glsl: &str) {
+    let path = dir.join("shade.comp");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let anchor = "    PathVertex v;";
+    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
+    std::fs::write(&path, src.replacen(anchor, &format!("{glsl}{anchor}"), 1)).unwrap();
+}
+
 /// The largest resident set of any child this process has waited for, in bytes.
 fn children_max_rss() -> u64 {
     let mut u: libc::rusage = unsafe { std::mem::zeroed() };
@@ -81,16 +111,7 @@ fn an_include_cycle_in_a_shader_folder_is_refused_fast() {
     let text = std::fs::read_to_string(&rng).unwrap();
     std::fs::write(&rng, format!("#include \"path.glsl\"\n{text}")).unwrap();
     let out = dir.path().join("never.exr");
-    let (o, took) = run_within(
-        pathwave()
-            .arg("render")
-            .arg(cornell())
-            .arg("-o")
-            .arg(&out)
-            .args(["--size", "8x8", "--spp", "1", "--shader-dir"])
-            .arg(dir.path()),
-        Duration::from_secs(60),
-    );
+    let (o, took) = render_with_shaders(&[], &out, "8x8", "1", dir.path(), Duration::from_secs(60));
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && !log.contains("panicked"), "{log}");
     assert!(
@@ -112,16 +133,12 @@ fn an_include_cycle_in_a_shader_folder_is_refused_fast() {
 
 /// Makes shade.comp spend a long time per path: iterations stay under lavapipe's loop budget, each one heavy.
 fn make_shade_slow(dir: &Path) {
-    let path = dir.join("shade.comp");
-    let src = std::fs::read_to_string(&path).unwrap();
-    let anchor = "    PathVertex v;";
-    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
     let slow = "#define S x = sin(x) * 0.999 + cos(x * 1.001);\n\
                 #define S8 S S S S S S S S\n\
                 float x = float(path);\n\
                 for (uint i = 0u; i < frame.width * 900u; i++) { S8 S8 S8 S8 S8 S8 S8 S8 }\n\
                 if (x == 12345.0) path_set(PATH_RADIANCE, path, vec4(x));\n";
-    std::fs::write(&path, src.replacen(anchor, &format!("{slow}{anchor}"), 1)).unwrap();
+    insert_into_shade(dir, slow);
 }
 
 /// The timeout used to be reported only once the device went idle (94 s with a 20 s limit), and never on a hung
@@ -138,18 +155,8 @@ fn a_stage_that_runs_long_ends_at_the_gpu_timeout() {
     }
     make_shade_slow(dir.path());
     let out = dir.path().join("never.exr");
-    let (o, took) = run_within(
-        pathwave()
-            .env("PATHWAVE_GPU_TIMEOUT_SECS", "2")
-            .env("PATHWAVE_SCHEDULE", "wavefront")
-            .arg("render")
-            .arg(cornell())
-            .arg("-o")
-            .arg(&out)
-            .args(["--size", "64x64", "--spp", "4", "--shader-dir"])
-            .arg(dir.path()),
-        Duration::from_secs(60),
-    );
+    let env = [("PATHWAVE_GPU_TIMEOUT_SECS", "2"), ("PATHWAVE_SCHEDULE", "wavefront")];
+    let (o, took) = render_with_shaders(&env, &out, "64x64", "4", dir.path(), Duration::from_secs(60));
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && !log.contains("panicked"), "{log}");
     assert!(log.contains("did not finish within 2 s"), "{log}");
@@ -272,27 +279,14 @@ fn a_file_too_big_to_read_within_the_budget_is_refused_before_reading() {
 fn a_stage_that_spends_the_loop_budget_is_an_error_not_a_wrong_image() {
     let dir = tempfile::tempdir().unwrap();
     pathwave::shaders::export_builtin(dir.path()).unwrap();
-    let path = dir.path().join("shade.comp");
-    let src = std::fs::read_to_string(&path).unwrap();
-    let anchor = "    PathVertex v;";
-    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
     // Endless as far as the compiler can tell: the bound depends on the frame, and x never reaches it.
     let endless = "float x = float(path);\n\
                    for (uint i = 0u; i < frame.width + 1u; i += 0u) { x = x * 0.5 + 1.0; }\n\
                    if (x == 12345.0) path_set(PATH_RADIANCE, path, vec4(x));\n";
-    std::fs::write(&path, src.replacen(anchor, &format!("{endless}{anchor}"), 1)).unwrap();
+    insert_into_shade(dir.path(), endless);
     let out = dir.path().join("never.exr");
-    let (o, took) = run_within(
-        pathwave()
-            .env("PATHWAVE_SCHEDULE", "wavefront")
-            .arg("render")
-            .arg(cornell())
-            .arg("-o")
-            .arg(&out)
-            .args(["--size", "16x16", "--spp", "1", "--shader-dir"])
-            .arg(dir.path()),
-        Duration::from_secs(120),
-    );
+    let env = [("PATHWAVE_SCHEDULE", "wavefront")];
+    let (o, took) = render_with_shaders(&env, &out, "16x16", "1", dir.path(), Duration::from_secs(120));
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && !log.contains("panicked"), "{log}");
     assert!(log.contains("loop budget"), "{log}");

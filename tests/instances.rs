@@ -86,12 +86,7 @@ fn rays(n: usize, seed: u64) -> Vec<Ray> {
         .map(|_| {
             let origin = Vec3::new(rng.next() * 6.0 - 3.0, rng.next() * 2.0 + 0.2, 4.0);
             let target = Vec3::new(rng.next() * 4.0 - 2.0, rng.next() * 1.6, rng.next() * 3.0 - 1.5);
-            Ray {
-                origin,
-                dir: (target - origin).normalize(),
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-            }
+            common::ray_towards(origin, target)
         })
         .collect()
 }

@@ -5,7 +5,7 @@
 //! the same bytes, and a shutter of 0 costing nothing.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{upright, GltfBuilder, FACING_Z};
 use glam::{Quat, Vec2, Vec3};
 use pathwave::scene::{load, PoseTime};
 use serde_json::json;
@@ -34,21 +34,20 @@ fn footprint(px: u32, py: u32) -> (Vec2, Vec2) {
     (Vec2::new(x0, y0), Vec2::new(x1, y1))
 }
 
-/// A unit-radiance quad of half size `half` about the origin on its own node (node 1) facing +z, and the camera
-/// (node 2) on +z; node 0 is nothing but a root the tests may use.
-fn emitter(half: Vec2) -> GltfBuilder {
+/// A black quad of half size `half` about the origin emitting `emission` (material `name`) on its own node (node 1)
+/// facing +z, and the camera (node 2) on +z; node 0 is nothing but a root the tests may use.
+fn quad_in_view(half: Vec2, name: &str, emission: [f32; 3]) -> GltfBuilder {
     let mut b = GltfBuilder::new();
     b.node("root", json!({}));
-    let light = b.material("light", [0.0; 3], [1.0; 3], false);
-    let (x, y) = (half.x, half.y);
-    b.quad(
-        "quad",
-        [[-x, -y, 0.0], [x, -y, 0.0], [x, y, 0.0], [-x, y, 0.0]],
-        light,
-        Some([0.0, 0.0, 1.0]),
-    );
+    let m = b.material(name, [0.0; 3], emission, false);
+    b.quad("quad", upright([-half.x, half.x], [-half.y, half.y], 0.0), m, FACING_Z);
     b.camera([0.0, 0.0, DISTANCE], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], YFOV_DEG);
     b
+}
+
+/// A unit-radiance quad of half size `half` in `quad_in_view`.
+fn emitter(half: Vec2) -> GltfBuilder {
+    quad_in_view(half, "light", [1.0; 3])
 }
 
 /// The image rendered with the shutter open over [0, 1] s.
@@ -113,6 +112,19 @@ fn assert_matches(what: &str, got: &[f32], want: &[f32]) {
     assert!(blurred >= 40, "{what}: only {blurred} pixels are partly covered");
 }
 
+/// Writes `b` as `name`, renders it with `render` and checks the image against the coverage of `covered` (`what`
+/// names the case).
+fn assert_blur(
+    what: &str,
+    b: &GltfBuilder,
+    name: &str,
+    render: fn(&Path) -> Vec<f32>,
+    covered: impl Fn(Vec2, f32) -> bool,
+) {
+    let (_dir, path) = common::write_temp(b, name);
+    assert_matches(what, &render(&path), &expected(covered));
+}
+
 const HALF: Vec2 = Vec2::new(0.25, 0.25);
 const START_X: f32 = -0.6;
 const TRAVEL: f32 = 0.8;
@@ -151,11 +163,12 @@ fn inside_moving_quad(p: Vec2, t: f32) -> bool {
 fn a_node_moving_linearly_blurs_into_its_time_averaged_coverage() {
     let mut b = emitter(HALF);
     slide(&mut b);
-    let (_dir, path) = common::write_temp(&b, "moving.gltf");
-    assert_matches(
+    assert_blur(
         "node translation",
-        &render_blurred(&path),
-        &expected(inside_moving_quad),
+        &b,
+        "moving.gltf",
+        render_blurred,
+        inside_moving_quad,
     );
 }
 
@@ -168,11 +181,12 @@ fn a_moving_camera_blurs_a_still_quad_the_other_way() {
     // just as the node moved it in the test above.
     b.transform_node(1, json!({ "translation": [START_X, 0.0, 0.0] }));
     b.slide("dolly", 2, [0.0, 1.0], [0.0, 0.0, DISTANCE], [-TRAVEL, 0.0, DISTANCE]);
-    let (_dir, path) = common::write_temp(&b, "dolly.gltf");
-    assert_matches(
+    assert_blur(
         "camera translation",
-        &render_blurred(&path),
-        &expected(inside_moving_quad),
+        &b,
+        "dolly.gltf",
+        render_blurred,
+        inside_moving_quad,
     );
 }
 
@@ -204,11 +218,12 @@ fn a_skinned_quad_moved_by_its_two_bones_blurs_the_same_way() {
             [START_X + TRAVEL, 0.0, 0.0],
         );
     }
-    let (_dir, path) = common::write_temp(&b, "skinned.gltf");
-    assert_matches(
+    assert_blur(
         "skinned translation",
-        &render_blurred(&path),
-        &expected(inside_moving_quad),
+        &b,
+        "skinned.gltf",
+        render_blurred,
+        inside_moving_quad,
     );
 }
 
@@ -218,25 +233,14 @@ fn a_skinned_quad_moved_by_its_two_bones_blurs_the_same_way() {
 fn a_rotating_quad_blurs_into_its_swept_coverage() {
     let mut b = emitter(SPIN_HALF);
     spin(&mut b);
-    let (_dir, path) = common::write_temp(&b, "spin.gltf");
-    assert_matches("rotation", &render_blurred(&path), &expected(inside_spinning_quad));
+    assert_blur("rotation", &b, "spin.gltf", render_blurred, inside_spinning_quad);
 }
 
 /// `emitter`'s scene with a black quad (node 1) against a white environment, so a pixel's value is one less the
 /// coverage, and the quad's mesh placed again far outside the view (node 3): two instances, which the renderer may
 /// keep in object space under the two-level BVH, moving by their transforms.
 fn occluder(half: Vec2) -> GltfBuilder {
-    let mut b = GltfBuilder::new();
-    b.node("root", json!({}));
-    let black = b.material("black", [0.0; 3], [0.0; 3], false);
-    let (x, y) = (half.x, half.y);
-    b.quad(
-        "quad",
-        [[-x, -y, 0.0], [x, -y, 0.0], [x, y, 0.0], [-x, y, 0.0]],
-        black,
-        Some([0.0, 0.0, 1.0]),
-    );
-    b.camera([0.0, 0.0, DISTANCE], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], YFOV_DEG);
+    let mut b = quad_in_view(half, "black", [0.0; 3]);
     b.place_last_mesh("far copy", json!({ "translation": [0.0, 10.0, 0.0] }));
     b
 }
@@ -278,11 +282,12 @@ fn render_blurred_instanced(path: &Path) -> Vec<f32> {
 fn an_instance_moving_linearly_blurs_into_its_time_averaged_coverage() {
     let mut b = occluder(HALF);
     slide(&mut b);
-    let (_dir, path) = common::write_temp(&b, "moving-instance.gltf");
-    assert_matches(
+    assert_blur(
         "instance translation",
-        &render_blurred_instanced(&path),
-        &expected(inside_moving_quad),
+        &b,
+        "moving-instance.gltf",
+        render_blurred_instanced,
+        inside_moving_quad,
     );
 }
 
@@ -291,11 +296,12 @@ fn an_instance_moving_linearly_blurs_into_its_time_averaged_coverage() {
 fn a_rotating_instance_blurs_into_its_swept_coverage() {
     let mut b = occluder(SPIN_HALF);
     spin(&mut b);
-    let (_dir, path) = common::write_temp(&b, "spinning-instance.gltf");
-    assert_matches(
+    assert_blur(
         "instance rotation",
-        &render_blurred_instanced(&path),
-        &expected(inside_spinning_quad),
+        &b,
+        "spinning-instance.gltf",
+        render_blurred_instanced,
+        inside_spinning_quad,
     );
 }
 
@@ -338,12 +344,7 @@ fn moving_triangles_are_found_where_brute_force_finds_them_at_every_time() {
         .map(|_| {
             let target = Vec3::new(rng.next() * 2.4 - 1.2, rng.next() * 0.8 - 0.4, 0.0);
             let origin = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, 1.5);
-            pathwave::bvh::Ray {
-                origin,
-                dir: (target - origin).normalize(),
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-            }
+            common::ray_towards(origin, target)
         })
         .collect();
     let segments = pathwave::constants::MOTION_SEGMENTS as f32;
@@ -477,12 +478,7 @@ fn a_turning_bar_is_found_all_along_its_arc() {
         let rays: Vec<pathwave::bvh::Ray> = (targets.iter())
             .map(|(p, _)| {
                 let q = (turn * *p).extend(0.0);
-                pathwave::bvh::Ray {
-                    origin,
-                    dir: (q - origin).normalize(),
-                    tmin: 0.0,
-                    tmax: f32::INFINITY,
-                }
+                common::ray_towards(origin, q)
             })
             .collect();
         let gpu = device.probe_trace_at(&rays, false, time).unwrap();

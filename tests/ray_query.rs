@@ -272,12 +272,7 @@ fn alpha_tested_triangles_stop_rays_where_brute_force_says_under_both_traversals
         .map(|_| {
             let origin = Vec3::new(rng.next() * 6.0 - 3.0, rng.next() * 2.0 + 0.2, 4.0);
             let target = Vec3::new(rng.next() * 4.4 - 2.2, rng.next() * 1.6, rng.next() * 2.0 - 1.2);
-            Ray {
-                origin,
-                dir: (target - origin).normalize(),
-                tmin: 0.0,
-                tmax: f32::INFINITY,
-            }
+            common::ray_towards(origin, target)
         })
         .collect();
     let trace = |instancing, traversal, any_hit| {

@@ -149,6 +149,16 @@ pub fn write_temp(b: &gltf_builder::GltfBuilder, name: &str) -> (tempfile::TempD
     (dir, path)
 }
 
+/// A ray from `origin` through `target`, unbounded.
+pub fn ray_towards(origin: glam::Vec3, target: glam::Vec3) -> pathwave::bvh::Ray {
+    pathwave::bvh::Ray {
+        origin,
+        dir: (target - origin).normalize(),
+        tmin: 0.0,
+        tmax: f32::INFINITY,
+    }
+}
+
 /// The scene's triangles where its animation places them at `time` (a fraction of its shutter), posed at that very
 /// time: the exact placement, independent of how the renderer interpolates between the shutter's keys.
 pub fn exact_tri_verts(scene: &pathwave::scene::Scene, time: f32) -> Vec<pathwave::layout::TriVerts> {
