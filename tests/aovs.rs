@@ -2,7 +2,7 @@
 //! albedo and normal of what it reflects, depth and position are the analytic ones, normals are unit and face the
 //! camera; AOVs are the same bytes with either schedule and leave the image's bytes alone; and the CLI writes them.
 mod common;
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{upright, GltfBuilder, FACING_Z};
 use common::{render, scene_renderer, settings};
 use glam::Vec3;
 use pathwave::{Film, RenderSettings, Schedule};
@@ -143,17 +143,7 @@ fn depth_is_the_distance_along_the_camera_ray() {
     let mut b = GltfBuilder::new();
     let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
     // A plane at z = -5 facing a camera at the origin, covering the middle of the view only.
-    b.quad(
-        "plane",
-        [
-            [-1.0, -1.0, -5.0],
-            [1.0, -1.0, -5.0],
-            [1.0, 1.0, -5.0],
-            [-1.0, 1.0, -5.0],
-        ],
-        grey,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("plane", upright([-1.0, 1.0], [-1.0, 1.0], -5.0), grey, FACING_Z);
     b.camera([0.0; 3], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 40.0);
     let scene = load(&b);
     let mut r = scene_renderer(&scene);

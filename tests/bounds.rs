@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{cornell, pathwave_cli as pathwave};
+use common::{cornell, insert_into_shade, pathwave_cli as pathwave};
 
 /// Runs `cmd`, killing it after `limit`; the output and how long it ran. A run that had to be killed fails the test.
 fn run_within(cmd: &mut Command, limit: Duration) -> (Output, Duration) {
@@ -63,15 +63,6 @@ fn render_with_shaders(
         .args(["--size", size, "--spp", spp, "--shader-dir"])
         .arg(shaders);
     run_within(&mut cmd, limit)
-}
-
-/// Puts `glsl` into shade.comp in `dir`, just before the path's vertex is declared.
-fn insert_into_shade(dir: &Path, glsl: &str) {
-    let path = dir.join("shade.comp");
-    let src = std::fs::read_to_string(&path).unwrap();
-    let anchor = "    PathVertex v;";
-    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
-    std::fs::write(&path, src.replacen(anchor, &format!("{glsl}{anchor}"), 1)).unwrap();
 }
 
 /// The largest resident set of any child this process has waited for, in bytes.
@@ -147,12 +138,7 @@ fn make_shade_slow(dir: &Path) {
 fn a_stage_that_runs_long_ends_at_the_gpu_timeout() {
     let dir = tempfile::tempdir().unwrap();
     pathwave::shaders::export_builtin(dir.path()).unwrap();
-    for f in std::fs::read_dir(dir.path()).unwrap() {
-        let p = f.unwrap().path();
-        if p.extension().is_some_and(|e| e == "comp") && !p.ends_with("shade.comp") {
-            std::fs::remove_file(p).unwrap();
-        }
-    }
+    common::keep_only_shade(dir.path());
     make_shade_slow(dir.path());
     let out = dir.path().join("never.exr");
     let env = [("PATHWAVE_GPU_TIMEOUT_SECS", "2"), ("PATHWAVE_SCHEDULE", "wavefront")];

@@ -1,7 +1,7 @@
 //! Camera and emission conventions, checked exactly with max depth 0 (only the emission the camera sees).
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{upright, GltfBuilder, FACING_Z};
 
 fn render_direct(b: &GltfBuilder, width: u32, height: u32) -> Vec<[f32; 3]> {
     let (_dir, path) = common::write_temp(b, "scene.gltf");
@@ -21,12 +21,7 @@ fn emission_leaves_the_front_face_only_unless_double_sided() {
     ] {
         let mut b = GltfBuilder::new();
         let m = b.material("emitter", [0.5; 3], [2.0; 3], double_sided);
-        b.quad(
-            "emitter",
-            [[-5.0, -5.0, 0.0], [5.0, -5.0, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]],
-            m,
-            Some([0.0, 0.0, 1.0]),
-        );
+        b.quad("emitter", upright([-5.0, 5.0], [-5.0, 5.0], 0.0), m, FACING_Z);
         b.camera([0.0, 0.0, eye_z], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 30.0);
         let px = render_direct(&b, 8, 8);
         assert!(
@@ -45,23 +40,8 @@ fn yfov_is_vertical_and_the_width_follows_the_aspect_ratio() {
     let mut b = GltfBuilder::new();
     let strip = b.material("strip", [0.0; 3], [1.0; 3], false);
     let top = b.material("top", [0.0; 3], [3.0; 3], false);
-    b.quad(
-        "strip",
-        [
-            [-0.5, -0.4, -1.0],
-            [0.5, -0.4, -1.0],
-            [0.5, 0.4, -1.0],
-            [-0.5, 0.4, -1.0],
-        ],
-        strip,
-        Some([0.0, 0.0, 1.0]),
-    );
-    b.quad(
-        "top",
-        [[-9.0, 0.5, -1.0], [9.0, 0.5, -1.0], [9.0, 9.0, -1.0], [-9.0, 9.0, -1.0]],
-        top,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("strip", upright([-0.5, 0.5], [-0.4, 0.4], -1.0), strip, FACING_Z);
+    b.quad("top", upright([-9.0, 9.0], [0.5, 9.0], -1.0), top, FACING_Z);
     b.camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 90.0);
     let (w, h) = (40usize, 20usize);
     let px = render_direct(&b, w as u32, h as u32);
@@ -87,12 +67,7 @@ fn orthographic_strips(eye_z: f32, perspective: bool) -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let m = b.material("strip", [0.0; 3], [1.0; 3], false);
     for (name, y, z) in [("near", [0.15, 0.85], -1.0), ("far", [-0.85, -0.15], -6.0)] {
-        b.quad(
-            name,
-            [[-0.5, y[0], z], [0.5, y[0], z], [0.5, y[1], z], [-0.5, y[1], z]],
-            m,
-            Some([0.0, 0.0, 1.0]),
-        );
+        b.quad(name, upright([-0.5, 0.5], y, z), m, FACING_Z);
     }
     // xmag 3 disagrees with the image's aspect ratio on purpose: the width follows the image, as for yfov.
     b.orthographic_camera([0.0, 0.0, eye_z], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 3.0, 1.0);
@@ -166,23 +141,8 @@ fn camera_picks_between_an_orthographic_and_a_perspective_camera() {
 fn two_edges() -> GltfBuilder {
     let mut b = GltfBuilder::new();
     let m = b.material("emitter", [0.0; 3], [1.0; 3], false);
-    b.quad(
-        "near",
-        [[-5.0, 0.0, -2.0], [0.0, 0.0, -2.0], [0.0, 5.0, -2.0], [-5.0, 5.0, -2.0]],
-        m,
-        Some([0.0, 0.0, 1.0]),
-    );
-    b.quad(
-        "far",
-        [
-            [-20.0, -20.0, -8.0],
-            [0.0, -20.0, -8.0],
-            [0.0, 0.0, -8.0],
-            [-20.0, 0.0, -8.0],
-        ],
-        m,
-        Some([0.0, 0.0, 1.0]),
-    );
+    b.quad("near", upright([-5.0, 0.0], [0.0, 5.0], -2.0), m, FACING_Z);
+    b.quad("far", upright([-20.0, 0.0], [-20.0, 0.0], -8.0), m, FACING_Z);
     b.camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 60.0);
     b
 }

@@ -3,7 +3,7 @@
 //! nested instances; instanced images against flattened ones; and a scene of many instances within its memory bound.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{square, GltfBuilder, FACING_DOWN};
 use common::stats::{beyond_noise, image_mean_and_stderr};
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
@@ -508,12 +508,7 @@ fn a_file_of_25600_nodes_sharing_one_80k_triangle_mesh_renders_within_a_small_bu
 fn instanced_normal_maps_shade_like_placed_ones() {
     let mut b = GltfBuilder::new();
     let light = b.material("light", [0.8; 3], [5.0; 3], false);
-    b.quad(
-        "lamp",
-        [[-2.0, 3.0, -2.0], [2.0, 3.0, -2.0], [2.0, 3.0, 2.0], [-2.0, 3.0, 2.0]],
-        light,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("lamp", square(2.0, 3.0), light, FACING_DOWN);
     // Ridges: normals tilted along u in alternate columns and along v in all, so the map's effect depends on both the
     // tangent's direction and the bitangent's sign.
     let size = 16;

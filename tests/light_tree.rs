@@ -2,6 +2,7 @@
 //! three light samplers (bvh, power, uniform) with the three estimators converging to one image on many lights.
 mod common;
 
+use common::gltf_builder::{square, FACING_DOWN, FACING_UP};
 use common::stats::image_mean_and_stderr;
 use pathwave::constants::{LIGHT_KIND_SHIFT, LIGHT_KIND_TRIANGLE, LIGHT_NODE_LEAF, LIGHT_NONE};
 use pathwave::layout::LightSelectRecord;
@@ -190,12 +191,7 @@ fn bulbs_and_punctual_lights() -> common::gltf_builder::GltfBuilder {
     b.place_last_mesh("plain 3", json!({ "translation": [2.2, 2.5, 1.5] }));
     // A one-sided panel facing up in its mesh, turned over, mirrored and tilted to light the floor: its instances'
     // normal cones must follow their transforms, or the floor falls outside them.
-    b.quad(
-        "panel",
-        [[-0.3, 0.0, -0.3], [0.3, 0.0, -0.3], [0.3, 0.0, 0.3], [-0.3, 0.0, 0.3]],
-        glow,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("panel", square(0.3, 0.0), glow, FACING_UP);
     b.transform_last_node(
         json!({ "translation": [-1.0, 2.0, 0.5], "rotation": Quat::from_rotation_x(3.1).to_array() }),
     );
@@ -208,20 +204,8 @@ fn bulbs_and_punctual_lights() -> common::gltf_builder::GltfBuilder {
         json!({ "translation": [1.8, 1.5, 1.0], "rotation": Quat::from_rotation_z(2.5).to_array() }),
     );
     let down = common::scenes::POINTING_DOWN;
-    b.punctual(
-        json!({"type": "point"}),
-        [1.0, 0.9, 0.8],
-        3.0,
-        [1.5, 1.5, 1.5],
-        [0.0, 0.0, 0.0, 1.0],
-    );
-    b.punctual(
-        json!({"type": "point"}),
-        [0.6, 0.8, 1.0],
-        2.0,
-        [-1.5, 0.8, 1.8],
-        [0.0, 0.0, 0.0, 1.0],
-    );
+    b.point_light([1.0, 0.9, 0.8], 3.0, [1.5, 1.5, 1.5]);
+    b.point_light([0.6, 0.8, 1.0], 2.0, [-1.5, 0.8, 1.8]);
     let spot = json!({"type": "spot", "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}});
     b.punctual(spot.clone(), [1.0, 1.0, 1.0], 8.0, [-0.8, 2.5, -0.5], down);
     b.punctual(spot, [1.0, 0.5, 0.3], 6.0, [1.2, 2.0, 1.0], down);
@@ -310,12 +294,7 @@ fn screen_with_a_logo() -> (common::gltf_builder::GltfBuilder, Vec<[u8; 4]>) {
         .collect();
     let mut b = common::gltf_builder::GltfBuilder::new();
     let white = b.material("white", [0.7; 3], [0.0; 3], false);
-    b.quad(
-        "floor",
-        [[-2.0, 0.0, -2.0], [2.0, 0.0, -2.0], [2.0, 0.0, 2.0], [-2.0, 0.0, 2.0]],
-        white,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("floor", square(2.0, 0.0), white, FACING_UP);
     let screen = b.material("screen", [0.0; 3], [1.0; 3], false);
     let image = b.png_image(n as u32, n as u32, &texels);
     let texture = b.texture(image, json!({"magFilter": 9729, "minFilter": 9729}));
@@ -609,18 +588,8 @@ fn shadow_rays_end_at_the_light_they_aim_at() {
     let floor = b.material("floor", [ALBEDO as f32; 3], [0.0; 3], false);
     let lamp = b.material("lamp", [0.0; 3], [1.0; 3], false);
     let y1 = Y0 + H as f32;
-    b.quad(
-        "floor",
-        [[-4.0, Y0, -4.0], [4.0, Y0, -4.0], [4.0, Y0, 4.0], [-4.0, Y0, 4.0]],
-        floor,
-        Some([0.0, 1.0, 0.0]),
-    );
-    b.quad(
-        "lamp",
-        [[-1.0, y1, -1.0], [1.0, y1, -1.0], [1.0, y1, 1.0], [-1.0, y1, 1.0]],
-        lamp,
-        Some([0.0, -1.0, 0.0]),
-    );
+    b.quad("floor", square(4.0, Y0), floor, FACING_UP);
+    b.quad("lamp", square(1.0, y1), lamp, FACING_DOWN);
     // Between the two, looking down at a 0.2 m patch of the floor under the lamp's centre.
     b.orthographic_camera([0.0, Y0 + 0.25, 0.0], [0.0, Y0, 0.0], [0.0, 0.0, -1.0], 0.1, 0.1);
     let (_dir, path) = common::write_temp(&b, "facing.gltf");

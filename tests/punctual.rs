@@ -2,7 +2,7 @@
 //! analytic irradiance (I cos(theta) / d^2, the spec's cone falloff, E cos(theta)) pixel by pixel.
 mod common;
 
-use common::gltf_builder::GltfBuilder;
+use common::gltf_builder::{square, GltfBuilder, FACING_UP};
 use glam::{DVec3, Vec3};
 use serde_json::json;
 
@@ -32,17 +32,7 @@ fn check(
 ) {
     let mut b = GltfBuilder::new();
     let m = b.material("plane", [ALBEDO as f32; 3], [0.0; 3], false);
-    b.quad(
-        "plane",
-        [
-            [-10.0, 0.0, -10.0],
-            [10.0, 0.0, -10.0],
-            [10.0, 0.0, 10.0],
-            [-10.0, 0.0, 10.0],
-        ],
-        m,
-        Some([0.0, 1.0, 0.0]),
-    );
+    b.quad("plane", square(10.0, 0.0), m, FACING_UP);
     b.punctual(light, [1.0; 3], intensity, position, rotation);
     b.camera([0.0, HEIGHT as f32, 0.0], [0.0; 3], [0.0, 0.0, -1.0], YFOV_DEG as f32);
     let (_dir, path) = common::write_temp(&b, "punctual.gltf");

@@ -3,6 +3,7 @@
 //! them apart. Tests that need ray queries run pathwave under that driver's ICD file.
 mod common;
 
+use common::gltf_builder::upright;
 use std::path::PathBuf;
 use std::process::Output;
 
@@ -211,18 +212,8 @@ fn alpha_scene() -> (tempfile::TempDir, PathBuf) {
         }
     }
     b.floor_and_lamp(white, light);
-    b.quad(
-        "kept",
-        [[-2.0, 0.2, 0.5], [-0.5, 0.2, 0.5], [-0.5, 1.6, 0.5], [-2.0, 1.6, 0.5]],
-        kept,
-        None,
-    );
-    b.quad(
-        "cut",
-        [[0.5, 0.2, 0.8], [2.0, 0.2, 0.8], [2.0, 1.6, 0.8], [0.5, 1.6, 0.8]],
-        cut,
-        None,
-    );
+    b.quad("kept", upright([-2.0, -0.5], [0.2, 1.6], 0.5), kept, None);
+    b.quad("cut", upright([0.5, 2.0], [0.2, 1.6], 0.8), cut, None);
     b.uv_sphere("ball", [0.0, 0.0, 0.0], 0.45, blend, true);
     b.transform_last_node(json!({ "translation": [0.0, 0.6, 0.0] }));
     b.place_last_mesh(

@@ -185,13 +185,7 @@ fn node_visibility_is_read_by_its_schemas_name() {
         let parent = b.last_node();
         b.quad("child quad", c, m, None);
         let child = b.last_node();
-        b.punctual(
-            json!({"type": "point"}),
-            [1.0; 3],
-            1.0,
-            [0.0, 2.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-        );
+        b.point_light([1.0; 3], 1.0, [0.0, 2.0, 0.0]);
         let light = b.last_node();
         b.camera([0.0, 0.0, 3.0], [0.0; 3], [0.0, 1.0, 0.0], 40.0);
         let camera = b.last_node();

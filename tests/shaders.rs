@@ -5,7 +5,7 @@ mod common;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::Stdio;
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -37,17 +37,24 @@ fn exported() -> tempfile::TempDir {
 /// Makes the shade stage end every path with one radiance, whatever it hit. Only the wavefront runs shade.comp, so
 /// the renderer must switch to it for the edit to show.
 fn make_shade_constant(dir: &Path) {
-    let path = dir.join("shade.comp");
-    let src = std::fs::read_to_string(&path).unwrap();
-    let anchor = "    PathVertex v;";
-    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
     let [r, g, b] = CONSTANT;
-    let patched = src.replacen(
-        anchor,
-        &format!("    path_set(PATH_RADIANCE, path, vec4({r}, {g}, {b}, 0.0));\n    return;\n{anchor}"),
-        1,
+    common::insert_into_shade(
+        dir,
+        &format!("    path_set(PATH_RADIANCE, path, vec4({r}, {g}, {b}, 0.0));\n    return;\n"),
     );
-    std::fs::write(&path, patched).unwrap();
+}
+
+/// `render SCENE -o OUT` with `args`, then the shaders in `shaders`.
+fn render_with_shaders(scene: &Path, out: &Path, args: &[&str], shaders: &Path) -> Command {
+    let mut c = pathwave();
+    c.arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(out)
+        .args(args)
+        .arg("--shader-dir")
+        .arg(shaders);
+    c
 }
 
 fn break_shade(dir: &Path) -> usize {
@@ -100,22 +107,12 @@ fn exported_stages_reproduce_the_builtin_image() {
 #[test]
 fn an_edited_stage_replaces_the_builtin_and_a_broken_one_is_refused() {
     let dir = exported();
-    for f in std::fs::read_dir(dir.path()).unwrap() {
-        let p = f.unwrap().path();
-        if p.extension().is_some_and(|e| e == "comp") && !p.ends_with("shade.comp") {
-            std::fs::remove_file(p).unwrap(); // only the stage under test is overridden
-        }
-    }
+    common::keep_only_shade(dir.path());
     make_shade_constant(dir.path());
     let out = tempfile::tempdir().unwrap();
     let exr = out.path().join("constant.exr");
-    let o = pathwave()
-        .arg("render")
-        .arg(cornell())
-        .arg("-o")
-        .arg(&exr)
-        .args(["--size", "16x16", "--spp", "2", "--shader-dir"])
-        .arg(dir.path())
+    let size = ["--size", "16x16", "--spp", "2"];
+    let o = render_with_shaders(&cornell(), &exr, &size, dir.path())
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
@@ -127,13 +124,7 @@ fn an_edited_stage_replaces_the_builtin_and_a_broken_one_is_refused() {
 
     let line = break_shade(dir.path());
     let broken = out.path().join("broken.exr");
-    let o = pathwave()
-        .arg("render")
-        .arg(cornell())
-        .arg("-o")
-        .arg(&broken)
-        .args(["--size", "16x16", "--spp", "2", "--shader-dir"])
-        .arg(dir.path())
+    let o = render_with_shaders(&cornell(), &broken, &size, dir.path())
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
@@ -194,13 +185,8 @@ fn watch_rebuilds_on_change_and_survives_a_compile_error() {
     let dir = exported();
     let out = tempfile::tempdir().unwrap();
     let exr = out.path().join("watched.exr");
-    let mut child = pathwave()
-        .arg("render")
-        .arg(cornell())
-        .arg("-o")
-        .arg(&exr)
-        .args(["--size", "16x16", "--spp", "2", "--watch", "--shader-dir"])
-        .arg(dir.path())
+    let watch = ["--size", "16x16", "--spp", "2", "--watch"];
+    let mut child = render_with_shaders(&cornell(), &exr, &watch, dir.path())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
@@ -267,13 +253,8 @@ fn the_bvh_cost_example_renders_a_false_colour_image() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("examples/shaders/bvh-cost");
     let out = tempfile::tempdir().unwrap();
     let exr = out.path().join("cost.exr");
-    let o = pathwave()
-        .arg("render")
-        .arg(common::scenes_dir().join("material-grid.gltf"))
-        .arg("-o")
-        .arg(&exr)
-        .args(["--size", "32x24", "--spp", "1", "--shader-dir"])
-        .arg(&dir)
+    let grid = common::scenes_dir().join("material-grid.gltf");
+    let o = render_with_shaders(&grid, &exr, &["--size", "32x24", "--spp", "1"], &dir)
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);

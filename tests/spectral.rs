@@ -3,6 +3,7 @@
 //! spectral mode. Each compares per-channel means against their standard errors (fixed seeds).
 mod common;
 
+use common::gltf_builder::{upright, FACING_Z};
 use pathwave::scene::{Material, Scene};
 use pathwave::{Film, RenderSettings, Renderer};
 
@@ -216,12 +217,7 @@ fn dispersion_separates_red_and_blue_by_snells_law() {
             b.dispersion(glass, dispersion);
         }
         let w = 0.0015;
-        b.quad(
-            "line",
-            [[-w, -1.0, -1.5], [w, -1.0, -1.5], [w, 1.0, -1.5], [-w, 1.0, -1.5]],
-            line,
-            Some([0.0, 0.0, 1.0]),
-        );
+        b.quad("line", upright([-w, w], [-1.0, 1.0], -1.5), line, FACING_Z);
         let (s, c) = (theta.sin() as f32, theta.cos() as f32);
         let (n, u) = (glam::Vec3::new(s, 0.0, c), glam::Vec3::new(c, 0.0, -s));
         let mut corners = Vec::new();

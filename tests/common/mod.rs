@@ -121,6 +121,26 @@ pub fn render_args<'a>(scene: &'a str, out: &'a str, more: &[&'a str]) -> Vec<&'
     [&["render", scene, "-o", out][..], more].concat()
 }
 
+/// Puts `glsl` into shade.comp in the exported shader folder `dir`, just before the path's vertex is declared.
+pub fn insert_into_shade(dir: &std::path::Path, glsl: &str) {
+    let path = dir.join("shade.comp");
+    let src = std::fs::read_to_string(&path).unwrap();
+    let anchor = "    PathVertex v;";
+    assert!(src.contains(anchor), "shade.comp changed; update this test's anchor");
+    std::fs::write(&path, src.replacen(anchor, &format!("{glsl}{anchor}"), 1)).unwrap();
+}
+
+/// Removes every stage but shade.comp from the exported shader folder `dir`: only the stage under test is
+/// overridden.
+pub fn keep_only_shade(dir: &std::path::Path) {
+    for f in std::fs::read_dir(dir).unwrap() {
+        let p = f.unwrap().path();
+        if p.extension().is_some_and(|e| e == "comp") && !p.ends_with("shade.comp") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+}
+
 /// The Khronos glTF-Validator's test files, in shared/ beside the repository (absent: the tests that read it skip).
 pub const CORPUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/gltf-validator-corpus");
 
