@@ -22,6 +22,12 @@ fn film(scene: &Scene, w: u32, h: u32, spp: u32, seed: u32) -> ExactFilm {
     render(&mut r, &s).exact.unwrap()
 }
 
+/// A converged plain render (float film, no statistics) of `r`'s scene, taken as exact.
+fn converged(r: &mut pathwave::Renderer, w: u32, h: u32, spp: u32, seed: u32) -> Side {
+    let mean = render(r, &settings(w, h, spp, seed)).mean();
+    Side::Exact(mean.iter().map(|p| p.map(f64::from)).collect())
+}
+
 fn compare(candidate: &Side, reference: &Side, w: u32, h: u32) -> Report {
     statistical(w, h, candidate, reference, &Options::default()).unwrap()
 }
@@ -107,12 +113,7 @@ fn false_alarms_stay_at_alpha_on_real_renders() {
     for name in ["cornell-box.gltf", "glass.gltf", "lamp-grid.gltf"] {
         let scene = load(name);
         let mut r = scene_renderer(&scene);
-        let converged: Vec<[f64; 3]> = render(&mut r, &settings(w, h, 16384, 7_000_000))
-            .mean()
-            .iter()
-            .map(|p| p.map(f64::from))
-            .collect();
-        let exact = Side::Exact(converged);
+        let exact = converged(&mut r, w, h, 16384, 7_000_000);
         for spp in [16, 64, 256] {
             let (mut against_ref, mut pairs) = (Vec::new(), Vec::new());
             let mut previous = None;
@@ -200,12 +201,7 @@ fn a_three_percent_albedo_change_is_caught() {
     assert!(compare(&sampled(&same), &sampled(&reference), w, h).consistent);
     // A converged plain reference (float film, no statistics): taken as exact.
     let mut r = scene_renderer(&original);
-    let converged: Vec<[f64; 3]> = render(&mut r, &settings(w, h, 8192, 9))
-        .mean()
-        .iter()
-        .map(|p| p.map(f64::from))
-        .collect();
-    let exact = Side::Exact(converged);
+    let exact = converged(&mut r, w, h, 8192, 9);
     let report = compare(&sampled(&changed), &exact, w, h);
     eprintln!("against the exact reference:\n{}", report.summary());
     assert!(!report.consistent, "not caught against an exact reference");

@@ -43,12 +43,17 @@ fn assert_pixels_near(film: &Film, expected: f64, z: f64) {
     );
 }
 
+/// A renderer of the furnace room emitting `le` and reflecting `albedo`.
+fn furnace_renderer(le: f32, albedo: f32) -> pathwave::Renderer {
+    let (_dir, path) = common::write_temp(&furnace(le, albedo), "furnace.gltf");
+    common::renderer(&path)
+}
+
 // 16x16 pixels: with a family-wise false-alarm rate of 1e-3 over 256 pixels, z = 4.6 per pixel (normal tails;
 // 512 samples per pixel make the mean close to normal).
 #[test]
 fn furnace_unbounded_depth_converges_to_le_over_one_minus_albedo() {
-    let (_dir, path) = common::write_temp(&furnace(0.5, 0.5), "furnace.gltf");
-    let mut r = common::renderer(&path);
+    let mut r = furnace_renderer(0.5, 0.5);
     let film = common::render(&mut r, &common::settings(16, 16, 512, 7));
     assert_pixels_near(&film, 0.5 / (1.0 - 0.5), 4.6);
 }
@@ -56,8 +61,7 @@ fn furnace_unbounded_depth_converges_to_le_over_one_minus_albedo() {
 #[test]
 fn furnace_high_albedo_needs_many_bounces() {
     // a = 0.8: Le / (1 - a) = 1.0 needs ~20 bounces on average to reach; a truncated path would fall short.
-    let (_dir, path) = common::write_temp(&furnace(0.2, 0.8), "furnace.gltf");
-    let mut r = common::renderer(&path);
+    let mut r = furnace_renderer(0.2, 0.8);
     let film = common::render(&mut r, &common::settings(8, 8, 1024, 11));
     assert_pixels_near(&film, 0.2 / (1.0 - 0.8), 4.6);
 }
@@ -65,8 +69,7 @@ fn furnace_high_albedo_needs_many_bounces() {
 #[test]
 fn furnace_with_max_depth_sums_exactly_that_many_bounces() {
     // With max depth D the estimator sums Le * a^k for k = 0..=D.
-    let (_dir, path) = common::write_temp(&furnace(0.5, 0.5), "furnace.gltf");
-    let mut r = common::renderer(&path);
+    let mut r = furnace_renderer(0.5, 0.5);
     for depth in [0u32, 1, 2] {
         let mut s = common::settings(8, 8, 256, 3);
         s.max_depth = Some(depth);

@@ -4,7 +4,7 @@
 mod common;
 
 use common::gltf_builder::{square, GltfBuilder, FACING_DOWN};
-use common::stats::{beyond_noise, image_mean_and_stderr};
+use common::stats::{assert_same_within_noise, beyond_noise};
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
 use pathwave::constants::{FEATURE_INSTANCES, FEATURE_MOTION, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE};
@@ -357,17 +357,7 @@ fn instanced_emitters_light_the_scene_as_placed_ones_do() {
         };
         let flat = common::render(&mut renderer(scene, Instancing::Never), &s);
         let inst = common::render(&mut renderer(scene, Instancing::Always), &s);
-        let bad = beyond_noise(&inst, &flat, 1e-3);
-        // The image means within four standard errors of their difference (each an upper bound: see
-        // image_mean_and_stderr), which a mirrored emitter's front turned exceeds.
-        let ((mi, si), (mf, sf)) = (image_mean_and_stderr(&inst), image_mean_and_stderr(&flat));
-        let z = (mi - mf) / (si * si + sf * sf).sqrt();
-        eprintln!("{what}: {bad} channels beyond noise, means {mi} against {mf}, z {z:.2}");
-        assert!(bad <= 3, "{what}: {bad} pixel channels differ beyond noise");
-        assert!(
-            z.abs() < 4.0,
-            "{what}: mean {mi} against {mf}, {z:.1} standard errors apart"
-        );
+        assert_same_within_noise(what, &inst, &flat);
     }
 }
 

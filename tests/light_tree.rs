@@ -264,15 +264,7 @@ fn instanced_and_punctual_emitters_through_the_tree_light_as_placed_ones_do() {
         let mut r = renderer_with(scene, Instancing::Always);
         assert_eq!(r.light_sampler_run(&s(LightSampler::Bvh, 7)), Some("bvh"));
         let tree = common::render(&mut r, &s(LightSampler::Bvh, 7));
-        let bad = common::stats::beyond_noise(&tree, &flat, 1e-3);
-        let ((mt, st), (mf, sf)) = (image_mean_and_stderr(&tree), image_mean_and_stderr(&flat));
-        let z = (mt - mf) / (st * st + sf * sf).sqrt();
-        eprintln!("{what}: {bad} channels beyond noise, means {mt} against {mf}, z {z:.2}");
-        assert!(bad <= 3, "{what}: {bad} pixel channels differ beyond noise");
-        assert!(
-            z.abs() < 4.0,
-            "{what}: mean {mt} against {mf}, {z:.1} standard errors apart"
-        );
+        common::stats::assert_same_within_noise(what, &tree, &flat);
     }
 }
 

@@ -103,3 +103,18 @@ pub fn beyond_noise(a: &pathwave::Film, b: &pathwave::Film, floor: f32) -> u32 {
     }
     bad
 }
+
+/// Asserts that `a` renders what `b` does within noise (`what` names the case): at most three pixel channels
+/// `beyond_noise` (floor 1e-3), and image means within four standard errors of their difference (each an upper bound:
+/// see `image_mean_and_stderr`), which a mirrored emitter's front turned exceeds.
+pub fn assert_same_within_noise(what: &str, a: &pathwave::Film, b: &pathwave::Film) {
+    let bad = beyond_noise(a, b, 1e-3);
+    let ((ma, sa), (mb, sb)) = (image_mean_and_stderr(a), image_mean_and_stderr(b));
+    let z = (ma - mb) / (sa * sa + sb * sb).sqrt();
+    eprintln!("{what}: {bad} channels beyond noise, means {ma} against {mb}, z {z:.2}");
+    assert!(bad <= 3, "{what}: {bad} pixel channels differ beyond noise");
+    assert!(
+        z.abs() < 4.0,
+        "{what}: mean {ma} against {mb}, {z:.1} standard errors apart"
+    );
+}
