@@ -178,6 +178,24 @@ fn white_furnace(material: Material, spp: u32, smooth: bool) -> (f64, f64, usize
     (sum / count as f64, (v / (count * count) as f64).sqrt(), count)
 }
 
+/// `white_furnace` of `material` at 128 samples per pixel, printed under `name`, the sphere filling most of the view:
+/// the mean and its standard error.
+fn furnace_of(name: &str, material: Material) -> (f64, f64) {
+    let (mean, se, pixels) = white_furnace(material, 128, false);
+    eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
+    assert!(pixels > 50, "{name}: the sphere should fill most of the view");
+    (mean, se)
+}
+
+/// Asserts that a furnace's `mean` (standard error `se`) neither creates energy nor loses more than `allowance`.
+fn assert_keeps_energy(name: &str, mean: f64, se: f64, allowance: f64) {
+    assert!(mean <= 1.0 + 4.0 * se + 1e-6, "{name}: {mean} +- {se} creates energy");
+    assert!(
+        mean >= 1.0 - allowance - 4.0 * se,
+        "{name}: {mean} +- {se} loses energy"
+    );
+}
+
 #[test]
 fn energy_conserving_materials_vanish_in_a_white_furnace() {
     let cases = [
@@ -264,11 +282,7 @@ fn energy_conserving_materials_vanish_in_a_white_furnace() {
         );
         // Each is energy-conserving by construction; the tables (compensation, coat layering) may cost up to
         // `table_error`, which the BSDF tests measure per direction.
-        assert!(mean <= 1.0 + 4.0 * se + 1e-6, "{name}: {mean} +- {se} creates energy");
-        assert!(
-            mean >= 1.0 - table_error - 4.0 * se,
-            "{name}: {mean} +- {se} loses energy"
-        );
+        assert_keeps_energy(name, mean, se, table_error);
     }
 }
 
@@ -314,14 +328,8 @@ fn layered_materials_over_a_white_base_vanish_in_a_white_furnace() {
         ),
     ];
     for (name, material, table_error) in cases {
-        let (mean, se, pixels) = white_furnace(material, 128, false);
-        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
-        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
-        assert!(mean <= 1.0 + 4.0 * se + 1e-6, "{name}: {mean} +- {se} creates energy");
-        assert!(
-            mean >= 1.0 - table_error - 4.0 * se,
-            "{name}: {mean} +- {se} loses energy"
-        );
+        let (mean, se) = furnace_of(name, material);
+        assert_keeps_energy(name, mean, se, table_error);
     }
 }
 
@@ -347,11 +355,8 @@ fn anisotropic_materials_vanish_in_a_white_furnace() {
         ("white metal 0.3 strength 0.6", stretched(1.0, 0.3, 0.6)),
         ("white plastic 0.2 strength 0.8", stretched(0.0, 0.2, 0.8)),
     ] {
-        let (mean, se, pixels) = white_furnace(material, 128, false);
-        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
-        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
-        assert!(mean <= 1.0 + 4.0 * se + 1e-6, "{name}: {mean} +- {se} creates energy");
-        assert!(mean >= 1.0 - 0.01 - 4.0 * se, "{name}: {mean} +- {se} loses energy");
+        let (mean, se) = furnace_of(name, material);
+        assert_keeps_energy(name, mean, se, 0.01);
     }
 }
 
@@ -378,9 +383,7 @@ fn iridescent_materials_vanish_in_a_white_furnace() {
         ("white plastic 0.3 under film 1.3 400 nm", filmed(0.3, 1.3, 400.0), 0.02),
         ("white plastic 0.6 under film 2.2 150 nm", filmed(0.6, 2.2, 150.0), 0.02),
     ] {
-        let (mean, se, pixels) = white_furnace(material, 128, false);
-        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
-        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
+        let (mean, se) = furnace_of(name, material);
         assert!(
             (mean - 1.0).abs() <= allowance + 4.0 * se,
             "{name}: {mean} +- {se} is not 1"
@@ -419,9 +422,7 @@ fn diffuse_transmitters_vanish_in_a_white_furnace() {
         ("solid white plastic 0.4, 0.7 through", plastic),
     ] {
         // The default depth (64 bounces, Russian roulette from the third) is unbounded for this purpose.
-        let (mean, se, pixels) = white_furnace(material, 128, false);
-        eprintln!("{name}: {mean:.4} +- {se:.4} over {pixels} pixels");
-        assert!(pixels > 50, "{name}: the sphere should fill most of the view");
+        let (mean, se) = furnace_of(name, material);
         assert!(
             (mean - 1.0).abs() <= 0.005 + 4.0 * se,
             "{name}: {mean} +- {se} is not 1"

@@ -34,18 +34,14 @@ fn render(out: &Path, scene: &str, width: u32, env: &[(&str, &str)], args: &[&st
         .lines()
         .find(|l| l.contains(" extension + "))
         .unwrap_or_else(|| panic!("no summary: {err}"));
-    let rays = summary
-        .split_once(" Mrays/s (")
-        .map_or("", |(_, r)| r)
-        .split(')')
-        .next()
-        .unwrap_or("");
-    let device = summary
-        .split_once(" on ")
-        .map_or("", |(_, d)| d)
-        .split(':')
-        .next()
-        .unwrap_or("");
+    // The part of the summary after `after`, up to `until` (empty when `after` is missing).
+    let field = |after: &str, until: char| {
+        (summary.split_once(after).map_or("", |(_, r)| r))
+            .split(until)
+            .next()
+            .unwrap_or("")
+    };
+    let (rays, device) = (field(" Mrays/s (", ')'), field(" on ", ':'));
     Render {
         bytes: std::fs::read(out).unwrap(),
         rays: rays.to_string(),
