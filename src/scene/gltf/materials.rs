@@ -36,6 +36,18 @@ struct SpecGloss {
 
 const SPEC_GLOSS: &str = "KHR_materials_pbrSpecularGlossiness";
 
+/// The metallic-roughness part of a material as it renders (specular-glossiness's when the material has it), with
+/// its alpha.
+struct Base {
+    color: [f32; 4],
+    slots: Slots,
+    alpha: f32,
+    alpha_mode: AlphaMode,
+    dielectric: Dielectric,
+    metallic: f32,
+    roughness: f32,
+}
+
 /// KHR_materials_transmission and KHR_materials_volume.
 struct Transmission {
     transmission: f32,
@@ -50,65 +62,16 @@ impl Loader<'_> {
             .name()
             .map(str::to_string)
             .unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
-        let pbr = m.pbr_metallic_roughness();
-        let c = pbr.base_color_factor();
-        let strength = m.emissive_strength().unwrap_or(1.0);
-        let emission = Vec3::from(m.emissive_factor()) * strength;
-        if !emission.is_finite() {
-            return Err(scene_err(
-                self.path,
-                format!("material '{name}': the emission {emission} is not finite"),
-            ));
-        }
-        if emission.max_element() > crate::scene::RADIANCE_MAX {
-            return Err(scene_err(
-                self.path,
-                format!(
-                    "material '{name}': the emission {emission} (emissiveFactor times emissiveStrength) is above \
-                     the radiance limit of {:e} per channel",
-                    crate::scene::RADIANCE_MAX
-                ),
-            ));
-        }
-        let mut slots = self.slots(&name, m)?;
-        let mut c = c;
-        // Specular-glossiness, when the material has it, is what its author meant (the extension's best practice):
-        // the diffuse colour is the base colour of a dielectric whose F0 is the specular colour, with roughness
-        // 1 - glossiness and no metal. The glossiness texture's alpha becomes a roughness texture of its own.
-        let spec_gloss = self.spec_gloss(&name, m)?;
-        if let Some(sg) = &spec_gloss {
-            c = sg.diffuse;
-            slots.base_color = sg.diffuse_texture;
-            slots.metallic_roughness = match sg.texture {
-                Some(r) => Some(self.roughness_from_glossiness(&name, r, sg.glossiness)?),
-                None => None,
-            };
-        }
-        if m.occlusion_texture().is_some() {
-            self.warn(format!(
-                "material '{name}': occlusionTexture is ignored (a path tracer computes occlusion)"
-            ));
-        }
-        let alpha = c[3].clamp(0.0, 1.0);
-        let alpha_mode = self.alpha_mode(&name, m, alpha, slots.base_color)?;
-        let mut d = self.dielectric(&name, m)?;
-        let mut roughness = pbr.roughness_factor().clamp(0.0, 1.0);
-        let mut metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-        if let Some(sg) = &spec_gloss {
-            // KHR_materials_specular's colour scales the IOR's F0 (clamped at 1): this one makes F0 the specular
-            // colour itself, texture included (RGB, sRGB, as the specular colour texture is read).
-            let r = (d.ior - 1.0) / (d.ior + 1.0);
-            if r * r < 1e-6 {
-                d.ior = 1.5;
-            }
-            let f0 = ((d.ior - 1.0) / (d.ior + 1.0)).powi(2);
-            d.specular = 1.0;
-            d.specular_color = sg.specular / f0;
-            d.specular_texture = None;
-            d.specular_color_texture = sg.texture;
-            metallic = 0.0;
-            roughness = if sg.texture.is_some() { 1.0 } else { 1.0 - sg.glossiness };
-        }
+        let emission = self.emission(&name, m)?;
+        let Base {
+            color: c,
+            slots,
+            alpha,
+            alpha_mode,
+            dielectric: d,
+            metallic,
+            roughness,
+        } = self.base(&name, m)?;
         let t = self.transmission(&name, m)?;
         let clearcoat = self.clearcoat(&name, m)?;
         let sheen = self.sheen(&name, m)?;
@@ -167,6 +130,84 @@ impl Loader<'_> {
             unlit,
         });
         Ok(())
+    }
+
+    /// The emission: emissiveFactor times KHR_materials_emissive_strength, refused when not finite or above the
+    /// radiance limit.
+    fn emission(&self, name: &str, m: &gltf::Material) -> Result<Vec3, Error> {
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emission = Vec3::from(m.emissive_factor()) * strength;
+        if !emission.is_finite() {
+            return Err(scene_err(
+                self.path,
+                format!("material '{name}': the emission {emission} is not finite"),
+            ));
+        }
+        if emission.max_element() > crate::scene::RADIANCE_MAX {
+            return Err(scene_err(
+                self.path,
+                format!(
+                    "material '{name}': the emission {emission} (emissiveFactor times emissiveStrength) is above \
+                     the radiance limit of {:e} per channel",
+                    crate::scene::RADIANCE_MAX
+                ),
+            ));
+        }
+        Ok(emission)
+    }
+
+    /// The metallic-roughness part of the material with its alpha mode: specular-glossiness's in its place when the
+    /// material has that extension.
+    fn base(&mut self, name: &str, m: &gltf::Material) -> Result<Base, Error> {
+        let pbr = m.pbr_metallic_roughness();
+        let mut c = pbr.base_color_factor();
+        let mut slots = self.slots(name, m)?;
+        // Specular-glossiness, when the material has it, is what its author meant (the extension's best practice):
+        // the diffuse colour is the base colour of a dielectric whose F0 is the specular colour, with roughness
+        // 1 - glossiness and no metal. The glossiness texture's alpha becomes a roughness texture of its own.
+        let spec_gloss = self.spec_gloss(name, m)?;
+        if let Some(sg) = &spec_gloss {
+            c = sg.diffuse;
+            slots.base_color = sg.diffuse_texture;
+            slots.metallic_roughness = match sg.texture {
+                Some(r) => Some(self.roughness_from_glossiness(name, r, sg.glossiness)?),
+                None => None,
+            };
+        }
+        if m.occlusion_texture().is_some() {
+            self.warn(format!(
+                "material '{name}': occlusionTexture is ignored (a path tracer computes occlusion)"
+            ));
+        }
+        let alpha = c[3].clamp(0.0, 1.0);
+        let alpha_mode = self.alpha_mode(name, m, alpha, slots.base_color)?;
+        let mut d = self.dielectric(name, m)?;
+        let mut roughness = pbr.roughness_factor().clamp(0.0, 1.0);
+        let mut metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        if let Some(sg) = &spec_gloss {
+            // KHR_materials_specular's colour scales the IOR's F0 (clamped at 1): this one makes F0 the specular
+            // colour itself, texture included (RGB, sRGB, as the specular colour texture is read).
+            let r = (d.ior - 1.0) / (d.ior + 1.0);
+            if r * r < 1e-6 {
+                d.ior = 1.5;
+            }
+            let f0 = ((d.ior - 1.0) / (d.ior + 1.0)).powi(2);
+            d.specular = 1.0;
+            d.specular_color = sg.specular / f0;
+            d.specular_texture = None;
+            d.specular_color_texture = sg.texture;
+            metallic = 0.0;
+            roughness = if sg.texture.is_some() { 1.0 } else { 1.0 - sg.glossiness };
+        }
+        Ok(Base {
+            color: c,
+            slots,
+            alpha,
+            alpha_mode,
+            dielectric: d,
+            metallic,
+            roughness,
+        })
     }
 
     /// KHR_materials_clearcoat, read from its JSON (the gltf crate does not model it).
