@@ -30,6 +30,65 @@ struct Compressed {
     filter: String,
 }
 
+impl Compressed {
+    /// The view's fields, refused when a required one is missing or a text one is not a string.
+    fn read(ext: &Value, err: &impl Fn(&str) -> Error) -> Result<Self, Error> {
+        let text = |key: &str, default: &str| -> Result<String, Error> {
+            match ext.get(key) {
+                None => Ok(default.to_string()),
+                Some(v) => v
+                    .as_str()
+                    .map(str::to_string)
+                    .ok_or_else(|| err(&format!("{key} is not a string"))),
+            }
+        };
+        Ok(Compressed {
+            source: field(ext, "buffer").ok_or_else(|| err("has no source buffer"))?,
+            offset: field(ext, "byteOffset").unwrap_or(0),
+            length: field(ext, "byteLength").ok_or_else(|| err("has no byteLength"))?,
+            stride: field(ext, "byteStride").ok_or_else(|| err("has no byteStride"))?,
+            count: field(ext, "count").ok_or_else(|| err("has no count"))?,
+            mode: text("mode", "")?,
+            filter: text("filter", "NONE")?,
+        })
+    }
+
+    /// Refuses a mode, byteStride, count and filter that do not go together; `name` is the extension read, as only
+    /// KHR's has the COLOR filter.
+    fn check(&self, name: &str, err: &impl Fn(&str) -> Error) -> Result<(), Error> {
+        let (mode, filter) = (self.mode.as_str(), self.filter.as_str());
+        let stride_ok = match mode {
+            "ATTRIBUTES" => self.stride.is_multiple_of(4) && (4..=256).contains(&self.stride),
+            "TRIANGLES" | "INDICES" => self.stride == 2 || self.stride == 4,
+            _ => return Err(err(&format!("mode '{mode}' is not ATTRIBUTES, TRIANGLES or INDICES"))),
+        };
+        if !stride_ok {
+            return Err(err(&format!("byteStride {} does not suit mode {mode}", self.stride)));
+        }
+        if mode == "TRIANGLES" && !self.count.is_multiple_of(3) {
+            return Err(err(&format!(
+                "count {} of a TRIANGLES view is not a multiple of 3",
+                self.count
+            )));
+        }
+        let filter_ok = match filter {
+            "NONE" => true,
+            "OCTAHEDRAL" => mode == "ATTRIBUTES" && (self.stride == 4 || self.stride == 8),
+            "QUATERNION" => mode == "ATTRIBUTES" && self.stride == 8,
+            "EXPONENTIAL" => mode == "ATTRIBUTES",
+            "COLOR" => name == KHR && mode == "ATTRIBUTES" && (self.stride == 4 || self.stride == 8),
+            _ => false,
+        };
+        if !filter_ok {
+            return Err(err(&format!(
+                "filter '{filter}' does not apply to mode {mode} with byteStride {}",
+                self.stride
+            )));
+        }
+        Ok(())
+    }
+}
+
 fn field(ext: &Value, key: &str) -> Option<usize> {
     ext.get(key)
         .and_then(Value::as_u64)
@@ -45,53 +104,9 @@ pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf:
             (None, None) => continue,
         };
         let err = |m: &str| scene_err(path, format!("bufferView {} ({name}): {m}", view.index()));
-        let text = |key: &str, default: &str| -> Result<String, Error> {
-            match ext.get(key) {
-                None => Ok(default.to_string()),
-                Some(v) => v
-                    .as_str()
-                    .map(str::to_string)
-                    .ok_or_else(|| err(&format!("{key} is not a string"))),
-            }
-        };
-        let c = Compressed {
-            source: field(ext, "buffer").ok_or_else(|| err("has no source buffer"))?,
-            offset: field(ext, "byteOffset").unwrap_or(0),
-            length: field(ext, "byteLength").ok_or_else(|| err("has no byteLength"))?,
-            stride: field(ext, "byteStride").ok_or_else(|| err("has no byteStride"))?,
-            count: field(ext, "count").ok_or_else(|| err("has no count"))?,
-            mode: text("mode", "")?,
-            filter: text("filter", "NONE")?,
-        };
+        let c = Compressed::read(ext, &err)?;
+        c.check(name, &err)?;
         let (mode, filter) = (c.mode.as_str(), c.filter.as_str());
-        let stride_ok = match mode {
-            "ATTRIBUTES" => c.stride.is_multiple_of(4) && (4..=256).contains(&c.stride),
-            "TRIANGLES" | "INDICES" => c.stride == 2 || c.stride == 4,
-            _ => return Err(err(&format!("mode '{mode}' is not ATTRIBUTES, TRIANGLES or INDICES"))),
-        };
-        if !stride_ok {
-            return Err(err(&format!("byteStride {} does not suit mode {mode}", c.stride)));
-        }
-        if mode == "TRIANGLES" && !c.count.is_multiple_of(3) {
-            return Err(err(&format!(
-                "count {} of a TRIANGLES view is not a multiple of 3",
-                c.count
-            )));
-        }
-        let filter_ok = match filter {
-            "NONE" => true,
-            "OCTAHEDRAL" => mode == "ATTRIBUTES" && (c.stride == 4 || c.stride == 8),
-            "QUATERNION" => mode == "ATTRIBUTES" && c.stride == 8,
-            "EXPONENTIAL" => mode == "ATTRIBUTES",
-            "COLOR" => name == KHR && mode == "ATTRIBUTES" && (c.stride == 4 || c.stride == 8),
-            _ => false,
-        };
-        if !filter_ok {
-            return Err(err(&format!(
-                "filter '{filter}' does not apply to mode {mode} with byteStride {}",
-                c.stride
-            )));
-        }
         let size = c
             .count
             .checked_mul(c.stride)
@@ -130,7 +145,7 @@ pub(super) fn decompress(path: &Path, doc: &gltf::Document, buffers: &mut [gltf:
             )));
         }
         // SAFETY: as above; each filter reads and writes count elements of `stride` bytes in place, its stride
-        // checked against what it accepts.
+        // checked against what it accepts (`Compressed::check`).
         unsafe {
             match filter {
                 "OCTAHEDRAL" => ::meshopt::ffi::meshopt_decodeFilterOct(out, c.count, c.stride),
