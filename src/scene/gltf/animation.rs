@@ -74,42 +74,16 @@ impl Loader<'_> {
 
     /// One channel, an error for a malformed accessor, or why its keys cannot play (the inner Err).
     fn channel(&self, target: Target, sampler: &gltf::animation::Sampler) -> Result<Result<Channel, String>, Error> {
-        let mut interpolation = match sampler.interpolation() {
-            gltf::animation::Interpolation::Step => Interpolation::Step,
-            gltf::animation::Interpolation::Linear => Interpolation::Linear,
-            gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+        let interpolation = match key_interpolation(target, sampler) {
+            Ok(interpolation) => interpolation,
+            Err(why) => return Ok(Err(why)),
         };
-        if let Target::Visible(_) = target {
-            // Visibility is on or off: its keys hold until the next, whatever the sampler says.
-            if interpolation == Interpolation::CubicSpline {
-                return Ok(Err(
-                    "its visibility keys are a cubic spline, which a boolean cannot follow".into(),
-                ));
-            }
-            interpolation = Interpolation::Step;
-        }
         let (input, output) = (sampler.input(), sampler.output());
         let inputs = self.check_accessor(&input, "animation input", &[DataType::F32], Dimensions::Scalar, false)?;
-        let (types, dims): (&[DataType], Dimensions) = match target.width() {
-            Some(2) => (&[DataType::F32], Dimensions::Vec2),
-            Some(3) => (&[DataType::F32], Dimensions::Vec3),
-            Some(4) if target.rotation() => (&NORMALIZED_INTS, Dimensions::Vec4),
-            Some(4) => (&[DataType::F32], Dimensions::Vec4),
-            None => (&NORMALIZED_INTS, Dimensions::Scalar),
-            _ if matches!(target, Target::Visible(_)) => (&[DataType::F32, DataType::U8], Dimensions::Scalar),
-            _ => (&[DataType::F32], Dimensions::Scalar),
-        };
-        let outputs = if matches!(target, Target::Node(..)) {
-            self.check_accessor(&output, "animation output", types, dims, true)?
-        } else if !types.contains(&output.data_type()) || output.dimensions() != dims {
-            // A pointer's type is its property's; another is the file's mistake, dropped as its channel.
-            return Ok(Err(format!(
-                "its output is {:?} of {:?}, where its property takes {dims:?} of {types:?}",
-                output.dimensions(),
-                output.data_type()
-            )));
-        } else {
-            self.check_accessor(&output, "animation output", types, dims, output.normalized())?
+        let (types, dims) = output_types(target);
+        let outputs = match self.check_output(target, &output, types, dims)? {
+            Ok(outputs) => outputs,
+            Err(why) => return Ok(Err(why)),
         };
         if inputs == Contents::Zeros {
             return Ok(Err("its input accessor has no data".into()));
@@ -141,19 +115,8 @@ impl Loader<'_> {
                 output.count() / elements
             }
         };
-        let values: Vec<f32> = if outputs == Contents::Zeros {
-            vec![0.0; output.count() * dims.multiplicity()]
-        } else {
-            let read = match dims {
-                Dimensions::Vec2 => self.read_floats::<2>(&output).map(|v| v.concat()),
-                Dimensions::Vec3 => self.read_floats::<3>(&output).map(|v| v.concat()),
-                Dimensions::Vec4 => self.read_floats::<4>(&output).map(|v| v.concat()),
-                _ => self.read_scalars(&output),
-            };
-            match read {
-                Some(v) => v,
-                None => return Ok(Err("its output accessor cannot be read".into())),
-            }
+        let Some(values) = self.output_values(&output, outputs, dims) else {
+            return Ok(Err("its output accessor cannot be read".into()));
         };
         if values.len() != times.len() * per_key * width {
             return Ok(Err(format!(
@@ -183,6 +146,44 @@ impl Loader<'_> {
                 width,
             },
         }))
+    }
+
+    /// What the output accessor holds, checked against `types` and `dims`: an error for a malformed accessor, why
+    /// the channel cannot play (the inner Err) for a pointer's output of another type than its property's.
+    fn check_output(
+        &self,
+        target: Target,
+        output: &gltf::Accessor,
+        types: &[DataType],
+        dims: Dimensions,
+    ) -> Result<Result<Contents, String>, Error> {
+        let outputs = if matches!(target, Target::Node(..)) {
+            self.check_accessor(output, "animation output", types, dims, true)?
+        } else if !types.contains(&output.data_type()) || output.dimensions() != dims {
+            // A pointer's type is its property's; another is the file's mistake, dropped as its channel.
+            return Ok(Err(format!(
+                "its output is {:?} of {:?}, where its property takes {dims:?} of {types:?}",
+                output.dimensions(),
+                output.data_type()
+            )));
+        } else {
+            self.check_accessor(output, "animation output", types, dims, output.normalized())?
+        };
+        Ok(Ok(outputs))
+    }
+
+    /// The output's values, `dims` at a time (zeros for an accessor without data); None when they cannot be read.
+    fn output_values(&self, output: &gltf::Accessor, outputs: Contents, dims: Dimensions) -> Option<Vec<f32>> {
+        if outputs == Contents::Zeros {
+            Some(vec![0.0; output.count() * dims.multiplicity()])
+        } else {
+            match dims {
+                Dimensions::Vec2 => self.read_floats::<2>(output).map(|v| v.concat()),
+                Dimensions::Vec3 => self.read_floats::<3>(output).map(|v| v.concat()),
+                Dimensions::Vec4 => self.read_floats::<4>(output).map(|v| v.concat()),
+                _ => self.read_scalars(output),
+            }
+        }
     }
 
     /// EXT_mesh_gpu_instancing's per-instance transforms of a node (empty without the extension): TRANSLATION,
@@ -391,5 +392,36 @@ impl Loader<'_> {
             p.skin.push(JointSet { joints, weights });
         }
         Ok(())
+    }
+}
+
+/// The keys' interpolation: STEP for visibility whatever the sampler says, and why the channel cannot play when
+/// visibility's keys are a cubic spline.
+fn key_interpolation(target: Target, sampler: &gltf::animation::Sampler) -> Result<Interpolation, String> {
+    let mut interpolation = match sampler.interpolation() {
+        gltf::animation::Interpolation::Step => Interpolation::Step,
+        gltf::animation::Interpolation::Linear => Interpolation::Linear,
+        gltf::animation::Interpolation::CubicSpline => Interpolation::CubicSpline,
+    };
+    if let Target::Visible(_) = target {
+        // Visibility is on or off: its keys hold until the next, whatever the sampler says.
+        if interpolation == Interpolation::CubicSpline {
+            return Err("its visibility keys are a cubic spline, which a boolean cannot follow".into());
+        }
+        interpolation = Interpolation::Step;
+    }
+    Ok(interpolation)
+}
+
+/// The component types and dimensions a channel's output may have for what it drives.
+fn output_types(target: Target) -> (&'static [DataType], Dimensions) {
+    match target.width() {
+        Some(2) => (&[DataType::F32], Dimensions::Vec2),
+        Some(3) => (&[DataType::F32], Dimensions::Vec3),
+        Some(4) if target.rotation() => (&NORMALIZED_INTS, Dimensions::Vec4),
+        Some(4) => (&[DataType::F32], Dimensions::Vec4),
+        None => (&NORMALIZED_INTS, Dimensions::Scalar),
+        _ if matches!(target, Target::Visible(_)) => (&[DataType::F32, DataType::U8], Dimensions::Scalar),
+        _ => (&[DataType::F32], Dimensions::Scalar),
     }
 }
