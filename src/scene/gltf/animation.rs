@@ -310,10 +310,14 @@ impl Loader<'_> {
         prim: &gltf::Primitive,
         p: &mut Primitive,
     ) -> Result<(), Error> {
+        self.read_morph_targets(mesh_name, prim, p)?;
+        self.read_joint_sets(mesh_name, prim, p)
+    }
+
+    /// Appends the primitive's morph targets to `p`, every target's accessors checked before any is read.
+    fn read_morph_targets(&self, mesh_name: &str, prim: &gltf::Primitive, p: &mut Primitive) -> Result<(), Error> {
         let err = |m: String| scene_err(self.path, format!("mesh '{mesh_name}': {m}"));
         let n = p.positions.len();
-        let buffers = self.buffers;
-        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
         for (t, target) in prim.morph_targets().enumerate() {
             for (what, acc) in [
                 ("POSITION", target.positions()),
@@ -346,6 +350,15 @@ impl Loader<'_> {
             }
             p.morph_targets.push(target);
         }
+        Ok(())
+    }
+
+    /// Appends the primitive's joint sets (JOINTS_n with WEIGHTS_n, from set 0 up to the first missing) to `p`.
+    fn read_joint_sets(&self, mesh_name: &str, prim: &gltf::Primitive, p: &mut Primitive) -> Result<(), Error> {
+        let err = |m: String| scene_err(self.path, format!("mesh '{mesh_name}': {m}"));
+        let n = p.positions.len();
+        let buffers = self.buffers;
+        let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
         for set in 0.. {
             let (Some(j), Some(w)) = (
                 prim.get(&gltf::Semantic::Joints(set)),
