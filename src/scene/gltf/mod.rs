@@ -241,47 +241,14 @@ impl Loader<'_> {
                 self.warn(format!("extension {ext} is not supported yet and is ignored"));
             }
         }
-        self.scene.variants = doc
-            .variants()
-            .map(|v| v.map(|v| v.name().to_string()).collect())
-            .unwrap_or_default();
-        if let Some(name) = variant {
-            let i = self.scene.variants.iter().position(|v| v == name).ok_or_else(|| {
-                let known = if self.scene.variants.is_empty() {
-                    "the file has no KHR_materials_variants variants".to_string()
-                } else {
-                    format!("its variants are '{}'", self.scene.variants.join("', '"))
-                };
-                scene_err(
-                    self.path,
-                    format!("--variant '{name}' is not a variant of this file: {known}"),
-                )
-            })?;
-            self.variant = Some(i as u32);
-            self.scene.variant = Some(i);
-        }
+        self.select_variant(doc, variant)?;
         for m in doc.materials() {
             self.material(&m)?;
         }
         let default_material = self.scene.materials.len() as u32;
         self.scene.materials.push(Material::default());
 
-        self.scene.rig.nodes = doc.nodes().map(|n| rest_node(&n)).collect();
-        let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-            Some(s) => s.nodes().collect(),
-            None => {
-                let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-                doc.nodes().filter(|n| !children.contains(&n.index())).collect()
-            }
-        };
-        let mut visited = HashSet::new();
-        self.walk(roots, true, default_material, &mut visited)?;
-        // Joints may sit outside the rendered scene: the other trees give them their world transforms.
-        let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-        let others: Vec<gltf::Node> = (doc.nodes())
-            .filter(|n| !visited.contains(&n.index()) && !children.contains(&n.index()))
-            .collect();
-        self.walk(others, false, default_material, &mut visited)?;
+        let visited = self.place_nodes(doc, default_material)?;
 
         self.scene.rig.skins = doc.skins().map(|s| self.skin(&s)).collect::<Result<_, _>>()?;
         self.check_skins(&visited)?;
@@ -305,6 +272,57 @@ impl Loader<'_> {
         if self.cameras == 0 {
             self.warn("the file has no camera; using one that frames the scene".into());
         }
+        self.refuse_empty(doc)
+    }
+
+    /// Lists the file's KHR_materials_variants variants and selects `variant` among them; refused when it is not one.
+    fn select_variant(&mut self, doc: &gltf::Document, variant: Option<&str>) -> Result<(), Error> {
+        self.scene.variants = doc
+            .variants()
+            .map(|v| v.map(|v| v.name().to_string()).collect())
+            .unwrap_or_default();
+        if let Some(name) = variant {
+            let i = self.scene.variants.iter().position(|v| v == name).ok_or_else(|| {
+                let known = if self.scene.variants.is_empty() {
+                    "the file has no KHR_materials_variants variants".to_string()
+                } else {
+                    format!("its variants are '{}'", self.scene.variants.join("', '"))
+                };
+                scene_err(
+                    self.path,
+                    format!("--variant '{name}' is not a variant of this file: {known}"),
+                )
+            })?;
+            self.variant = Some(i as u32);
+            self.scene.variant = Some(i);
+        }
+        Ok(())
+    }
+
+    /// Records every node's rest transform, places the scene's trees (the default scene's, else the first scene's,
+    /// else every root's), then walks the other trees for their joints; returns the nodes visited.
+    fn place_nodes(&mut self, doc: &gltf::Document, default_material: u32) -> Result<HashSet<usize>, Error> {
+        self.scene.rig.nodes = doc.nodes().map(|n| rest_node(&n)).collect();
+        let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+            Some(s) => s.nodes().collect(),
+            None => {
+                let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+                doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+            }
+        };
+        let mut visited = HashSet::new();
+        self.walk(roots, true, default_material, &mut visited)?;
+        // Joints may sit outside the rendered scene: the other trees give them their world transforms.
+        let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+        let others: Vec<gltf::Node> = (doc.nodes())
+            .filter(|n| !visited.contains(&n.index()) && !children.contains(&n.index()))
+            .collect();
+        self.walk(others, false, default_material, &mut visited)?;
+        Ok(visited)
+    }
+
+    /// Refuses a scene with nothing to render, saying why when the file shows it.
+    fn refuse_empty(&self, doc: &gltf::Document) -> Result<(), Error> {
         if self.scene.is_empty() {
             let scene = doc.default_scene().or_else(|| doc.scenes().next());
             let why = match scene {
