@@ -116,31 +116,7 @@ pub fn load(path: &Path, camera: Option<usize>) -> Result<Scene, Error> {
 /// Loads a .gltf or .glb. The file must be a regular one of at most `MAX_FILE_BYTES`, checked before it is opened.
 pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     let bytes = uri::read_regular(path, MAX_FILE_BYTES, "a scene file may hold").map_err(|e| scene_err(path, e))?;
-    // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
-    if bytes.starts_with(b"glTF")
-        && bytes
-            .get(8..12)
-            .is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12)
-    {
-        return Err(scene_err(
-            path,
-            "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes",
-        ));
-    }
-    // The header's length is the whole file's (glTF 2.0, "Binary glTF Layout"); bytes past it are no part of the
-    // asset, and a shorter file is truncated. The Khronos validator calls either an error (GLB_LENGTH_MISMATCH).
-    if bytes.starts_with(b"glTF") {
-        let declared = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
-        if declared != bytes.len() {
-            return Err(scene_err(
-                path,
-                format!(
-                    "not a valid glTF file: the GLB header declares a length of {declared} bytes, but the file holds {}",
-                    bytes.len()
-                ),
-            ));
-        }
-    }
+    check_glb_header(path, &bytes)?;
     let (json, blob, untargeted) = parse(path, &bytes)?;
     drop(bytes);
     pre_validate(path, &json)?;
@@ -195,6 +171,36 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     }
     .run(&document, options.camera, options.variant.as_deref())?;
     Ok(scene)
+}
+
+/// Refuses a GLB whose header is truncated or declares a length other than the file's; a JSON glTF passes.
+fn check_glb_header(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    // gltf 1.4 subtracts the 12-byte header from the GLB's declared length without checking it.
+    if bytes.starts_with(b"glTF")
+        && bytes
+            .get(8..12)
+            .is_none_or(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]) < 12)
+    {
+        return Err(scene_err(
+            path,
+            "not a valid glTF file: the GLB header is truncated or declares a length below 12 bytes",
+        ));
+    }
+    // The header's length is the whole file's (glTF 2.0, "Binary glTF Layout"); bytes past it are no part of the
+    // asset, and a shorter file is truncated. The Khronos validator calls either an error (GLB_LENGTH_MISMATCH).
+    if bytes.starts_with(b"glTF") {
+        let declared = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
+        if declared != bytes.len() {
+            return Err(scene_err(
+                path,
+                format!(
+                    "not a valid glTF file: the GLB header declares a length of {declared} bytes, but the file holds {}",
+                    bytes.len()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 struct Loader<'a> {
