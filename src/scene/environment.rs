@@ -53,29 +53,7 @@ impl Environment {
                 ))
             }
         };
-        let len = super::gltf::regular_len(path)
-            .map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
-        if len > super::gltf::MAX_FILE_BYTES {
-            return Err(env_err(
-                path,
-                format!(
-                    "it holds {len} bytes, more than the {} bytes a map may hold",
-                    super::gltf::MAX_FILE_BYTES
-                ),
-            ));
-        }
-        let cannot = |e: &dyn std::fmt::Display| env_err(path, format!("cannot read the environment map: {e}"));
-        let reader = || image::ImageReader::open(path).map_err(|e| cannot(&e));
-        let (width, height) = reader()?.into_dimensions().map_err(|e| cannot(&e))?;
-        super::texture::check_size(width, height, max_pixels, "--max-texture-pixels")
-            .map_err(|e| env_err(path, format!("the environment map: {e}")))?;
-        let mut limits = image::Limits::default();
-        limits.max_image_width = Some(width);
-        limits.max_image_height = Some(height);
-        let mut reader = reader()?;
-        reader.limits(limits);
-        let img = reader.decode().map_err(|e| cannot(&e))?;
-        let rgb = img.into_rgb32f();
+        let rgb = read_map(path, max_pixels)?;
         let (width, height) = rgb.dimensions();
         if width == 0 || height == 0 {
             return Err(env_err(path, "the environment map has no pixels"));
@@ -185,6 +163,34 @@ impl Environment {
         }
         out
     }
+}
+
+/// The map's pixels as linear floats: refused when the file is not a regular one of at most `MAX_FILE_BYTES`, or its
+/// header declares more than `max_pixels`, before anything is decoded.
+fn read_map(path: &Path, max_pixels: u64) -> Result<image::Rgb32FImage, Error> {
+    let len =
+        super::gltf::regular_len(path).map_err(|e| env_err(path, format!("cannot read the environment map: {e}")))?;
+    if len > super::gltf::MAX_FILE_BYTES {
+        return Err(env_err(
+            path,
+            format!(
+                "it holds {len} bytes, more than the {} bytes a map may hold",
+                super::gltf::MAX_FILE_BYTES
+            ),
+        ));
+    }
+    let cannot = |e: &dyn std::fmt::Display| env_err(path, format!("cannot read the environment map: {e}"));
+    let reader = || image::ImageReader::open(path).map_err(|e| cannot(&e));
+    let (width, height) = reader()?.into_dimensions().map_err(|e| cannot(&e))?;
+    super::texture::check_size(width, height, max_pixels, "--max-texture-pixels")
+        .map_err(|e| env_err(path, format!("the environment map: {e}")))?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(width);
+    limits.max_image_height = Some(height);
+    let mut reader = reader()?;
+    reader.limits(limits);
+    let img = reader.decode().map_err(|e| cannot(&e))?;
+    Ok(img.into_rgb32f())
 }
 
 /// Inclusive cdf with a leading 0 and a last value of exactly 1; an all-zero row becomes uniform.
