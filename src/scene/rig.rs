@@ -184,6 +184,67 @@ impl Scene {
     /// are at time `still`.
     fn place(&self, pose: PoseTime, still: f32) -> Result<Placed, Error> {
         let rig = &self.rig;
+        let Sampled {
+            trs,
+            weights,
+            mut visible,
+            materials,
+            lights,
+            projections,
+        } = self.sample_channels(pose, still);
+        let world = world_transforms(rig, &trs, &mut visible);
+
+        let mut instances = Vec::new();
+        let mut posed_meshes = Vec::new();
+        let mut cameras = Vec::new();
+        let mut punctual = Vec::new();
+        let file_meshes = rig.file_meshes;
+        for &i in rig.order.iter().filter(|&&i| rig.nodes[i].placed) {
+            let node = &rig.nodes[i];
+            let w = world[i];
+            if !w.is_finite() {
+                return Err(self.pose_err(pose, format!("node {i} has a non-finite transform")));
+            }
+            if let Some(light) = node.light.filter(|_| visible[i]) {
+                let (kind, intensity) = lights.get(&light.light).unwrap_or(&light.parts).resolved();
+                punctual.push(PunctualLight {
+                    kind,
+                    position: w.transform_point3(Vec3::ZERO),
+                    direction: w.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
+                    intensity,
+                });
+            }
+            if let Some((index, projection)) = node.camera {
+                cameras.push(self.place_camera(pose, index, projection, &projections, w)?);
+            }
+            let Some(m) = node.mesh.filter(|_| visible[i]) else {
+                continue;
+            };
+            let node_weights = weights[i].as_deref().unwrap_or(&node.weights);
+            let Some(posed) = self.deformed(node, m, node_weights, &world) else {
+                place_instances(&mut instances, node, m, w);
+                continue;
+            };
+            posed_meshes.push(posed);
+            // glTF: a skinned mesh is placed by its joints alone, its own node's transform is ignored.
+            let w = if node.skin.is_some() { Mat4::IDENTITY } else { w };
+            place_instances(&mut instances, node, file_meshes + posed_meshes.len() - 1, w);
+        }
+        let camera = self.chosen_camera(&cameras)?;
+        Ok(Placed {
+            instances,
+            meshes: posed_meshes,
+            camera,
+            camera_count: cameras.len(),
+            punctual,
+            materials: materials.map(|(m, _)| m),
+        })
+    }
+
+    /// What the channels `pose` plays set: node transforms and morph weights at `pose.time` (None where no channel
+    /// drives them), and visibility, materials (remade from their parts), lights and projections at `still`.
+    fn sample_channels(&self, pose: PoseTime, still: f32) -> Sampled {
+        let rig = &self.rig;
         let mut trs: Vec<Option<Trs>> = vec![None; rig.nodes.len()];
         let mut weights: Vec<Option<Vec<f32>>> = vec![None; rig.nodes.len()];
         let playing: Vec<&Animation> = match pose.animation {
@@ -228,106 +289,81 @@ impl Scene {
                 p.apply(m);
             }
         }
-        let mut world = vec![Mat4::IDENTITY; rig.nodes.len()];
-        for &i in &rig.order {
-            let node = &rig.nodes[i];
-            let local = trs[i].map_or(node.rest, |t| t.matrix());
-            let parent = node.parent.map_or(Mat4::IDENTITY, |p| world[p]);
-            world[i] = parent * local;
-            // Parents come first: a node is shown when it and every node above it are.
-            visible[i] &= node.parent.is_none_or(|p| visible[p]);
+        Sampled {
+            trs,
+            weights,
+            visible,
+            materials,
+            lights,
+            projections,
         }
+    }
 
-        let mut instances = Vec::new();
-        let mut posed_meshes = Vec::new();
-        let mut cameras = Vec::new();
-        let mut punctual = Vec::new();
-        let file_meshes = rig.file_meshes;
-        for &i in rig.order.iter().filter(|&&i| rig.nodes[i].placed) {
-            let node = &rig.nodes[i];
-            let w = world[i];
-            if !w.is_finite() {
-                return Err(self.pose_err(pose, format!("node {i} has a non-finite transform")));
-            }
-            if let Some(light) = node.light.filter(|_| visible[i]) {
-                let (kind, intensity) = lights.get(&light.light).unwrap_or(&light.parts).resolved();
-                punctual.push(PunctualLight {
-                    kind,
-                    position: w.transform_point3(Vec3::ZERO),
-                    direction: w.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z),
-                    intensity,
-                });
-            }
-            if let Some((index, mut projection)) = node.camera {
-                for &(_, v, x) in projections.iter().filter(|p| p.0 == index) {
-                    projection = match (projection, v) {
-                        // The loader's range: a view narrower than 0 or wider than pi forms no image.
-                        (Projection::Perspective { .. }, pointer::CameraValue::Yfov) => Projection::Perspective {
-                            yfov: x.clamp(1e-4, std::f32::consts::PI - 1e-4),
-                        },
-                        (Projection::Orthographic { .. }, pointer::CameraValue::Ymag) => Projection::Orthographic {
-                            ymag: x.abs().max(1e-6),
-                        },
-                        (p, _) => p,
-                    };
-                }
-                if let Err(why) = Camera::check_transform(&w) {
-                    return Err(self.pose_err(
-                        pose,
-                        format!("camera {index}: its node's world transform {why}, so it has no view"),
-                    ));
-                }
-                cameras.push(Camera {
-                    world_from_camera: w,
-                    projection,
-                });
-            }
-            let Some(m) = node.mesh.filter(|_| visible[i]) else {
-                continue;
+    /// Camera `index` at world transform `w`, with the projection channels set (`projections`) in place of the
+    /// file's; an error when `w` gives it no view.
+    fn place_camera(
+        &self,
+        pose: PoseTime,
+        index: usize,
+        mut projection: Projection,
+        projections: &[(usize, pointer::CameraValue, f32)],
+        w: Mat4,
+    ) -> Result<Camera, Error> {
+        for &(_, v, x) in projections.iter().filter(|p| p.0 == index) {
+            projection = match (projection, v) {
+                // The loader's range: a view narrower than 0 or wider than pi forms no image.
+                (Projection::Perspective { .. }, pointer::CameraValue::Yfov) => Projection::Perspective {
+                    yfov: x.clamp(1e-4, std::f32::consts::PI - 1e-4),
+                },
+                (Projection::Orthographic { .. }, pointer::CameraValue::Ymag) => Projection::Orthographic {
+                    ymag: x.abs().max(1e-6),
+                },
+                (p, _) => p,
             };
-            let mesh = &self.meshes[m];
-            let node_weights = weights[i].as_deref().unwrap_or(&node.weights);
-            let morphing =
-                mesh.primitives.iter().any(|p| !p.morph_targets.is_empty()) && node_weights.iter().any(|&w| w != 0.0);
-            let skin = node.skin.map(|s| &rig.skins[s]);
-            // EXT_mesh_gpu_instancing: the node places its mesh once per instance transform, each after the node's.
-            let place = |instances: &mut Vec<Instance>, mesh: usize, w: Mat4| {
-                if node.instancing.is_empty() {
-                    instances.push(Instance {
-                        mesh,
-                        world_from_object: w,
-                    });
-                }
-                for local in &node.instancing {
-                    instances.push(Instance {
-                        mesh,
-                        world_from_object: w * *local,
-                    });
-                }
-            };
-            if skin.is_none() && !morphing {
-                place(&mut instances, m, w);
-                continue;
-            }
-            let mut posed = mesh.clone();
-            for p in &mut posed.primitives {
-                if morphing {
-                    morph(p, node_weights);
-                }
-                if let Some(skin) = skin {
-                    let joints: Vec<Mat4> = (skin.joints.iter().zip(&skin.inverse_bind))
-                        .map(|(&j, ibm)| world[j] * *ibm)
-                        .collect();
-                    skin_primitive(p, &joints);
-                }
-                p.morph_targets.clear();
-                p.skin.clear();
-            }
-            posed_meshes.push(posed);
-            // glTF: a skinned mesh is placed by its joints alone, its own node's transform is ignored.
-            let w = if skin.is_some() { Mat4::IDENTITY } else { w };
-            place(&mut instances, file_meshes + posed_meshes.len() - 1, w);
         }
+        if let Err(why) = Camera::check_transform(&w) {
+            return Err(self.pose_err(
+                pose,
+                format!("camera {index}: its node's world transform {why}, so it has no view"),
+            ));
+        }
+        Ok(Camera {
+            world_from_camera: w,
+            projection,
+        })
+    }
+
+    /// Mesh `m` as `node`'s skin (its joints where `world` puts them) and morph weights `node_weights` deform it,
+    /// or None when neither does and instances place the file's mesh itself.
+    fn deformed(&self, node: &Node, m: usize, node_weights: &[f32], world: &[Mat4]) -> Option<Mesh> {
+        let rig = &self.rig;
+        let mesh = &self.meshes[m];
+        let morphing =
+            mesh.primitives.iter().any(|p| !p.morph_targets.is_empty()) && node_weights.iter().any(|&w| w != 0.0);
+        let skin = node.skin.map(|s| &rig.skins[s]);
+        if skin.is_none() && !morphing {
+            return None;
+        }
+        let mut posed = mesh.clone();
+        for p in &mut posed.primitives {
+            if morphing {
+                morph(p, node_weights);
+            }
+            if let Some(skin) = skin {
+                let joints: Vec<Mat4> = (skin.joints.iter().zip(&skin.inverse_bind))
+                    .map(|(&j, ibm)| world[j] * *ibm)
+                    .collect();
+                skin_primitive(p, &joints);
+            }
+            p.morph_targets.clear();
+            p.skin.clear();
+        }
+        Some(posed)
+    }
+
+    /// The camera `--camera` picks among `cameras` (default: the first), as a command-line camera changes it; an
+    /// error when the file has fewer.
+    fn chosen_camera(&self, cameras: &[Camera]) -> Result<Option<Camera>, Error> {
         let camera = match self.rig.camera_choice {
             None => cameras.first().copied(),
             Some(i) => Some(*cameras.get(i).ok_or_else(|| Error::Scene {
@@ -339,14 +375,7 @@ impl Scene {
             Some(o) => o.apply(camera),
             None => camera,
         };
-        Ok(Placed {
-            instances,
-            meshes: posed_meshes,
-            camera,
-            camera_count: cameras.len(),
-            punctual,
-            materials: materials.map(|(m, _)| m),
-        })
+        Ok(camera)
     }
 
     fn pose_err(&self, pose: PoseTime, message: String) -> Error {
@@ -359,6 +388,49 @@ impl Scene {
             path: self.path.clone(),
             message: format!("{message}{at}"),
         }
+    }
+}
+
+/// What the channels of one pose set, by node (transforms, morph weights, visibility), by material, by glTF light
+/// and by glTF camera; see `Scene::sample_channels`.
+struct Sampled {
+    trs: Vec<Option<Trs>>,
+    weights: Vec<Option<Vec<f32>>>,
+    visible: Vec<bool>,
+    materials: Option<(Vec<super::Material>, Vec<MaterialParts>)>,
+    lights: std::collections::HashMap<usize, LightParts>,
+    projections: Vec<(usize, pointer::CameraValue, f32)>,
+}
+
+/// Every node's world transform (the identity for those `Rig::order` leaves out), from `trs` where a channel set
+/// it and the file's rest transform elsewhere. Hides in `visible` every node below a hidden one.
+fn world_transforms(rig: &Rig, trs: &[Option<Trs>], visible: &mut [bool]) -> Vec<Mat4> {
+    let mut world = vec![Mat4::IDENTITY; rig.nodes.len()];
+    for &i in &rig.order {
+        let node = &rig.nodes[i];
+        let local = trs[i].map_or(node.rest, |t| t.matrix());
+        let parent = node.parent.map_or(Mat4::IDENTITY, |p| world[p]);
+        world[i] = parent * local;
+        // Parents come first: a node is shown when it and every node above it are.
+        visible[i] &= node.parent.is_none_or(|p| visible[p]);
+    }
+    world
+}
+
+/// Places `mesh` at `w` in `instances`: once, or with EXT_mesh_gpu_instancing once per `node`'s instance transform,
+/// each after `w`.
+fn place_instances(instances: &mut Vec<Instance>, node: &Node, mesh: usize, w: Mat4) {
+    if node.instancing.is_empty() {
+        instances.push(Instance {
+            mesh,
+            world_from_object: w,
+        });
+    }
+    for local in &node.instancing {
+        instances.push(Instance {
+            mesh,
+            world_from_object: w * *local,
+        });
     }
 }
 
