@@ -1,7 +1,7 @@
 //! Packs a host Scene into the device layout: the triangles in BVH order with their shading data and motion keys,
 //! and the whole (materials.rs, instances.rs and lights.rs pack the rest).
 use super::emission::Emission;
-use super::instances::{pack_instances, Instanced};
+use super::instances::{pack_instances, Instanced, MeshEmitters};
 use super::lights::{light_table, light_tree, pack_punctual, Emitter};
 use super::materials::{gpu_material, pack_textures};
 use crate::bvh::lights::{LightBounds, LightTree};
@@ -166,29 +166,12 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
     scene.check_extent()?;
     let instanced = scene.instanced_meshes(rule);
     let (soup, keys) = scene.try_flatten_motion_except(&instanced)?;
-    // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
-    // give it an error here; memory that runs out during the build (taken by another process) still aborts.
-    if Vec::<u8>::new()
-        .try_reserve_exact(soup.len().saturating_mul(BVH_BUILD_BYTES_PER_TRIANGLE))
-        .is_err()
-    {
-        return Err(Error::Scene {
-            path: scene.path.clone(),
-            message: format!("out of host memory building the BVH of its {} triangles", soup.len()),
-        });
-    }
+    reserve_bvh_build(scene, soup.len())?;
     let key_positions: Vec<Vec<[glam::Vec3; 3]>> = (keys.iter().flatten())
         .map(|k| k.iter().map(|t| t.positions).collect())
         .collect();
     let start = std::time::Instant::now();
-    let mut bvh = match keys {
-        None => bvh::build(soup.positions()),
-        Some(_) => {
-            let mut all: Vec<&[[glam::Vec3; 3]]> = vec![soup.positions()];
-            all.extend(key_positions.iter().map(Vec::as_slice));
-            bvh::build_moving(&all)
-        }
-    };
+    let mut bvh = build_bvh(&soup, keys.is_some(), &key_positions);
     let bvh_build = start.elapsed();
     let mut emission = Emission::new(scene);
     let mut t =
@@ -224,6 +207,87 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
         true => motion_records(scene, std::mem::take(&mut t.motion)),
         false => (Vec::new(), false),
     };
+    let packed_lights = pack_lights(scene, bounds, &mut t, &mut instances, mesh_lights, mesh_emitters)?;
+    let (textures, texels) = pack_textures(scene);
+    Ok(PackedScene {
+        bounds,
+        bvh_build,
+        bvh,
+        tri_verts: t.tri_verts,
+        tri_shading: t.tri_shading,
+        materials: scene.materials.iter().map(gpu_material).collect(),
+        lights: packed_lights.lights,
+        light_count: packed_lights.light_count,
+        total_light_power: packed_lights.total_light_power,
+        env_prob: packed_lights.env_prob,
+        light_tree: packed_lights.light_tree,
+        env_prob_tree: packed_lights.env_prob_tree,
+        env_data: scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default(),
+        punctual: packed_lights.punctual,
+        textures,
+        texels,
+        tri_texcoords: t.tri_texcoords,
+        tri_tangents: t.tri_tangents,
+        tri_colors: t.tri_colors,
+        motion,
+        camera_moves,
+        instances,
+        meshes,
+    })
+}
+
+/// Refuses a soup of `triangles` whose BVH build the host could not give the memory for.
+fn reserve_bvh_build(scene: &Scene, triangles: usize) -> Result<(), Error> {
+    // The BVH builder allocates as it goes, across threads. Reserving its peak once first makes a host that cannot
+    // give it an error here; memory that runs out during the build (taken by another process) still aborts.
+    if Vec::<u8>::new()
+        .try_reserve_exact(triangles.saturating_mul(BVH_BUILD_BYTES_PER_TRIANGLE))
+        .is_err()
+    {
+        return Err(Error::Scene {
+            path: scene.path.clone(),
+            message: format!("out of host memory building the BVH of its {triangles} triangles"),
+        });
+    }
+    Ok(())
+}
+
+/// The world BVH over the soup's triangles: over their positions alone, or when they are `moving` over those and
+/// every later key's (`key_positions`).
+fn build_bvh(soup: &TriangleSoup, moving: bool, key_positions: &[Vec<[glam::Vec3; 3]>]) -> Bvh {
+    match moving {
+        false => bvh::build(soup.positions()),
+        true => {
+            let mut all: Vec<&[[glam::Vec3; 3]]> = vec![soup.positions()];
+            all.extend(key_positions.iter().map(Vec::as_slice));
+            bvh::build_moving(&all)
+        }
+    }
+}
+
+/// The scene's lights on the device, as `pack_lights` makes them.
+struct PackedLights {
+    punctual: Vec<GpuPunctual>,
+    lights: Vec<GpuLight>,
+    light_count: u32,
+    total_light_power: f64,
+    env_prob: f32,
+    light_tree: LightTree,
+    env_prob_tree: f32,
+}
+
+/// The punctual lights, light selection's table (the emissive triangles `t` found, the punctual lights and the
+/// environment) followed by the instanced meshes' tables, and the light tree over them; points `t`'s emissive
+/// triangles and the instance records at their entries. An error when the tables hold more entries than light
+/// selection can index.
+fn pack_lights(
+    scene: &Scene,
+    bounds: Option<(glam::Vec3, glam::Vec3)>,
+    t: &mut PackedTriangles,
+    instances: &mut [GpuInstance],
+    mesh_lights: Vec<GpuLight>,
+    mesh_emitters: Vec<MeshEmitters>,
+) -> Result<PackedLights, Error> {
     let radius = bounds.map_or(1.0, |(lo, hi)| ((hi - lo).length() * 0.5).max(1e-3));
     let mut emitters = std::mem::take(&mut t.emitters);
     let punctual = pack_punctual(scene, radius, &mut emitters);
@@ -246,7 +310,7 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
             message: format!("{entries} light entries (emitters and instanced emitters' triangles), more than the {LIGHT_ENTRIES_MAX} light selection can index"),
         });
     }
-    let (mut lights, env_prob, total_light_power) = light_table(&emitters, &mut instances);
+    let (mut lights, env_prob, total_light_power) = light_table(&emitters, instances);
     let light_count = lights.len() as u32;
     // The instanced meshes' tables follow the one light selection picks from.
     for record in instances.iter_mut().skip(1).filter(|r| r.light[1] > 0) {
@@ -269,31 +333,14 @@ pub fn try_pack_with(scene: &Scene, rule: Instancing) -> Result<PackedScene, Err
     for record in instances.iter_mut().skip(1).filter(|r| r.light[1] > 0) {
         record.light[3] = subtree_of.get(&record.light[0]).copied().unwrap_or(0);
     }
-    let (textures, texels) = pack_textures(scene);
-    Ok(PackedScene {
-        bounds,
-        bvh_build,
-        bvh,
-        tri_verts: t.tri_verts,
-        tri_shading: t.tri_shading,
-        materials: scene.materials.iter().map(gpu_material).collect(),
+    Ok(PackedLights {
+        punctual,
         lights,
         light_count,
         total_light_power,
         env_prob,
         light_tree,
         env_prob_tree,
-        env_data: scene.environment.as_ref().map(|e| e.device_data()).unwrap_or_default(),
-        punctual,
-        textures,
-        texels,
-        tri_texcoords: t.tri_texcoords,
-        tri_tangents: t.tri_tangents,
-        tri_colors: t.tri_colors,
-        motion,
-        camera_moves,
-        instances,
-        meshes,
     })
 }
 
@@ -376,18 +423,7 @@ pub(super) fn pack_triangles(
             e1: v4(b - a, if alpha_tested { 1.0 } else { 0.0 }),
             e2: v4(c - a, 0.0),
         });
-        if textured {
-            let [t0, t1, t2] = soup.texcoords()[orig].map(|t| t.to_array());
-            t.tri_texcoords.push(TriTexcoords { t0, t1, t2 });
-        }
-        if normal_mapped {
-            let [t0, t1, t2] = soup.tangents()[orig].map(|t| t.to_array());
-            t.tri_tangents.push(TriTangents { t0, t1, t2 });
-        }
-        if let Some(c) = soup.colors().get(orig) {
-            let [c0, c1, c2] = c.map(|v| v.to_array());
-            t.tri_colors.push(TriColors { c0, c1, c2 });
-        }
+        push_vertex_attributes(&mut t, soup, orig, textured, normal_mapped);
         let mut area = 0.5 * (b - a).cross(c - a).length();
         let mut p = emission.power(soup, orig, area);
         if let Some(keys) = keys {
@@ -403,20 +439,7 @@ pub(super) fn pack_triangles(
             } else if p == 0.0 && area > 0.0 {
                 p = emission.power(soup, orig, area);
             }
-            for k in keys {
-                let KeyTriangle {
-                    positions: [a, b, c],
-                    normals: [n0, n1, n2],
-                } = k[orig];
-                t.motion.push(MotionKey {
-                    v0: v4(a, 0.0),
-                    e1: v4(b - a, 0.0),
-                    e2: v4(c - a, 0.0),
-                    n0: v4(n0, 0.0),
-                    n1: v4(n1, 0.0),
-                    n2: v4(n2, 0.0),
-                });
-            }
+            push_motion_keys(&mut t.motion, keys, orig);
         }
         t.tri_shading.push(TriShading {
             n0: v4(na, 0.0),
@@ -436,6 +459,47 @@ pub(super) fn pack_triangles(
         }
     }
     Some(t)
+}
+
+/// Appends triangle `orig`'s texture coordinates (when `textured`), tangents (when `normal_mapped`) and colours
+/// (when the soup has them) to `t`.
+fn push_vertex_attributes(
+    t: &mut PackedTriangles,
+    soup: &TriangleSoup,
+    orig: usize,
+    textured: bool,
+    normal_mapped: bool,
+) {
+    if textured {
+        let [t0, t1, t2] = soup.texcoords()[orig].map(|t| t.to_array());
+        t.tri_texcoords.push(TriTexcoords { t0, t1, t2 });
+    }
+    if normal_mapped {
+        let [t0, t1, t2] = soup.tangents()[orig].map(|t| t.to_array());
+        t.tri_tangents.push(TriTangents { t0, t1, t2 });
+    }
+    if let Some(c) = soup.colors().get(orig) {
+        let [c0, c1, c2] = c.map(|v| v.to_array());
+        t.tri_colors.push(TriColors { c0, c1, c2 });
+    }
+}
+
+/// Appends triangle `orig`'s record at each key after the first to `motion`.
+fn push_motion_keys(motion: &mut Vec<MotionKey>, keys: &[Vec<KeyTriangle>], orig: usize) {
+    for k in keys {
+        let KeyTriangle {
+            positions: [a, b, c],
+            normals: [n0, n1, n2],
+        } = k[orig];
+        motion.push(MotionKey {
+            v0: v4(a, 0.0),
+            e1: v4(b - a, 0.0),
+            e2: v4(c - a, 0.0),
+            n0: v4(n0, 0.0),
+            n1: v4(n1, 0.0),
+            n2: v4(n2, 0.0),
+        });
+    }
 }
 
 #[cfg(test)]
