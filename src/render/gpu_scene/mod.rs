@@ -187,6 +187,69 @@ fn check_device_memory(packed: &PackedScene, budget: u64) -> Result<(), Error> {
     )))
 }
 
+/// Every scene buffer on the device at its binding, with a texel view's usage when `texel_ok` lets it be read
+/// through one; an error naming the first buffer this device can read neither way (within the storage range
+/// `range`, nor through `max_texels` texels when `texel_format`).
+fn upload_buffers(
+    ctx: &Context,
+    packed: &PackedScene,
+    range: u64,
+    max_texels: u64,
+    texel_format: bool,
+    texel_ok: bool,
+) -> Result<Vec<(u32, Buffer)>, Error> {
+    let mut buffers = Vec::with_capacity(SCENE_BINDINGS.len());
+    for b in &SCENE_BINDINGS {
+        let data = packed.bytes(b.1);
+        let bytes = data.len() as u64;
+        // The bytes per texel of the view the buffer is also read through, if any.
+        let element = match b.3 {
+            Reads::Storage => None,
+            Reads::Viewed => Some(16),
+            Reads::Both => (bytes <= range).then_some(16),
+            Reads::ImageTexels => Some(4),
+        };
+        let viewed = element.is_some() && texel_ok;
+        if bytes > range && !viewed {
+            let limit = match element {
+                Some(e) if texel_format => format!(" and its texel-buffer limit of {}", size_text(e * max_texels)),
+                _ => String::new(),
+            };
+            return Err(Error::Settings(format!(
+                "the scene's {} take {}, more than this device's storage-buffer range of {}{limit}",
+                b.0,
+                size_text(bytes),
+                size_text(range),
+            )));
+        }
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | if viewed {
+                vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+            } else {
+                vk::BufferUsageFlags::empty()
+            };
+        buffers.push((b.1, Buffer::with_data_usage(ctx, b.0, data, usage)?));
+    }
+    Ok(buffers)
+}
+
+/// The texel views of `buffers` (uploaded in SCENE_BINDINGS' order) at their texel bindings: RGBA32UI, R32UI for
+/// the image texels.
+fn create_texel_views(ctx: &Context, buffers: &[(u32, Buffer)]) -> Result<TexelViews, Error> {
+    let list: Vec<(u32, &Buffer, vk::Format)> = SCENE_BINDINGS
+        .iter()
+        .zip(buffers)
+        .filter_map(|(b, (_, buffer))| {
+            let format = match b.3 {
+                Reads::ImageTexels => vk::Format::R32_UINT,
+                _ => vk::Format::R32G32B32A32_UINT,
+            };
+            b.2.map(|view| (view, buffer, format))
+        })
+        .collect();
+    TexelViews::new(ctx, &list)
+}
+
 /// A scene on the device: its buffers at their bindings, their texel views, and what its passes need to know of it.
 pub struct GpuScene {
     /// Dropped before the buffers they view.
@@ -238,51 +301,9 @@ impl GpuScene {
         };
         let image_texels = packed.texels.len() as u64;
         let texel_ok = texel_format && viewed().all(|b| len(b) <= 16 * max_texels) && image_texels <= max_texels;
-        let mut buffers = Vec::with_capacity(SCENE_BINDINGS.len());
-        for b in &SCENE_BINDINGS {
-            let data = packed.bytes(b.1);
-            let bytes = data.len() as u64;
-            // The bytes per texel of the view the buffer is also read through, if any.
-            let element = match b.3 {
-                Reads::Storage => None,
-                Reads::Viewed => Some(16),
-                Reads::Both => (bytes <= range).then_some(16),
-                Reads::ImageTexels => Some(4),
-            };
-            let viewed = element.is_some() && texel_ok;
-            if bytes > range && !viewed {
-                let limit = match element {
-                    Some(e) if texel_format => format!(" and its texel-buffer limit of {}", size_text(e * max_texels)),
-                    _ => String::new(),
-                };
-                return Err(Error::Settings(format!(
-                    "the scene's {} take {}, more than this device's storage-buffer range of {}{limit}",
-                    b.0,
-                    size_text(bytes),
-                    size_text(range),
-                )));
-            }
-            let usage = vk::BufferUsageFlags::STORAGE_BUFFER
-                | if viewed {
-                    vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
-                } else {
-                    vk::BufferUsageFlags::empty()
-                };
-            buffers.push((b.1, Buffer::with_data_usage(ctx, b.0, data, usage)?));
-        }
+        let buffers = upload_buffers(ctx, packed, range, max_texels, texel_format, texel_ok)?;
         let views = if texel_ok {
-            let list: Vec<(u32, &Buffer, vk::Format)> = SCENE_BINDINGS
-                .iter()
-                .zip(&buffers)
-                .filter_map(|(b, (_, buffer))| {
-                    let format = match b.3 {
-                        Reads::ImageTexels => vk::Format::R32_UINT,
-                        _ => vk::Format::R32G32B32A32_UINT,
-                    };
-                    b.2.map(|view| (view, buffer, format))
-                })
-                .collect();
-            Some(TexelViews::new(ctx, &list)?)
+            Some(create_texel_views(ctx, &buffers)?)
         } else {
             None
         };
