@@ -334,16 +334,7 @@ impl Context {
         let instance = create_instance(&entry, validation, window)?;
         let log = Box::<ValidationLog>::default();
         let debug = create_messenger(&entry, &instance, validation, &log)?;
-        let surface = match window {
-            Some(w) => {
-                let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) }?;
-                Some(Surface {
-                    loader: ash::khr::surface::Instance::new(&entry, &instance),
-                    raw,
-                })
-            }
-            None => None,
-        };
+        let surface = create_surface(&entry, &instance, window)?;
         let (physical, queue_family) = match pick_device(&instance, surface.as_ref(), choice) {
             Ok(picked) => picked,
             Err(e) => {
@@ -360,32 +351,8 @@ impl Context {
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
         let timestamps_valid =
             families[queue_family as usize].timestamp_valid_bits > 0 && properties.limits.timestamp_period > 0.0;
-        let priorities = [1.0];
-        let queue_info = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&priorities)];
         let ray_query = properties.api_version >= vk::API_VERSION_1_2 && ray_query_support(&instance, physical);
-        let mut device_extensions = Vec::new();
-        if surface.is_some() {
-            device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
-        }
-        if ray_query {
-            device_extensions.extend(RAY_QUERY_EXTENSIONS.iter().map(|n| n.as_ptr()));
-        }
-        let mut rq_features = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
-        let mut accel_features =
-            vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
-        let mut address_features = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
-        let mut device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_info)
-            .enabled_extension_names(&device_extensions);
-        if ray_query {
-            device_info = device_info
-                .push_next(&mut rq_features)
-                .push_next(&mut accel_features)
-                .push_next(&mut address_features);
-        }
-        let device = unsafe { instance.create_device(physical, &device_info, None) }?;
+        let device = create_device(&instance, physical, queue_family, surface.is_some(), ray_query)?;
         let accel = ray_query.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -641,6 +608,60 @@ fn pick_device(
     };
     let queue_family = queue_family_of(physical).expect("filtered above");
     Ok((physical, queue_family))
+}
+
+/// The window's surface, with the instance functions that query it; None without a window.
+fn create_surface(
+    entry: &ash::Entry,
+    instance: &ash::Instance,
+    window: Option<WindowHandles>,
+) -> Result<Option<Surface>, Error> {
+    let surface = match window {
+        Some(w) => {
+            let raw = unsafe { ash_window::create_surface(entry, instance, w.display, w.window, None) }?;
+            Some(Surface {
+                loader: ash::khr::surface::Instance::new(entry, instance),
+                raw,
+            })
+        }
+        None => None,
+    };
+    Ok(surface)
+}
+
+/// The logical device with one queue of `queue_family`, the swapchain extension when it is to `present`, and the
+/// ray-query extensions and features when the device has `ray_query`.
+fn create_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+    present: bool,
+    ray_query: bool,
+) -> Result<ash::Device, Error> {
+    let priorities = [1.0];
+    let queue_info = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&priorities)];
+    let mut device_extensions = Vec::new();
+    if present {
+        device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
+    }
+    if ray_query {
+        device_extensions.extend(RAY_QUERY_EXTENSIONS.iter().map(|n| n.as_ptr()));
+    }
+    let mut rq_features = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+    let mut accel_features = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+    let mut address_features = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+    let mut device_info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queue_info)
+        .enabled_extension_names(&device_extensions);
+    if ray_query {
+        device_info = device_info
+            .push_next(&mut rq_features)
+            .push_next(&mut accel_features)
+            .push_next(&mut address_features);
+    }
+    Ok(unsafe { instance.create_device(physical, &device_info, None) }?)
 }
 
 /// The messenger that collects the validation layer's errors and warnings into `log`, when validation is on.
