@@ -269,46 +269,12 @@ pub fn read_film(path: &Path) -> Result<FilmFile, Error> {
     let attribute = layer.attributes.other.get(&Text::from(META_ATTRIBUTE));
     let stats = match (attribute, channel(COUNT)) {
         (None, None) => None,
-        (Some(AttributeValue::Text(text)), Some(_)) => {
-            let meta = FilmMeta::from_json(&text.to_string()).map_err(|e| err(format!("not a film file: {e}")))?;
-            let words = |name: &str| -> std::result::Result<&Vec<u32>, crate::error::Error> {
-                match channel(name).map(|c| &c.sample_data) {
-                    Some(FlatSamples::U32(v)) => Ok(v),
-                    _ => Err(err(format!(
-                        "not a whole film file: channel {name} is missing or not u32"
-                    ))),
-                }
-            };
-            let mut exact = ExactFilm {
-                samples: meta.samples.clone(),
-                count: words(COUNT)?.clone(),
-                sum: vec![[0; 3]; pixels],
-                sum_sq: vec![[Wide::default(); 3]; pixels],
-            };
-            for c in 0..3 {
-                for k in 0..4 {
-                    for (p, w) in words(&sum_word(k, c))?.iter().enumerate() {
-                        exact.sum[p][c] |= ((*w as u128) << (32 * k)) as i128;
-                    }
-                }
-                for k in 0..5 {
-                    for (p, w) in words(&square_word(k, c))?.iter().enumerate() {
-                        match k {
-                            4 => exact.sum_sq[p][c].hi = *w,
-                            _ => exact.sum_sq[p][c].lo |= (*w as u128) << (32 * k),
-                        }
-                    }
-                }
-            }
-            let spp = exact.spp();
-            if let Some(p) = exact.count.iter().position(|&n| n as u64 != spp) {
-                return Err(err(format!(
-                    "not a whole film file: pixel {p} holds {} samples where its ranges hold {spp}",
-                    exact.count[p]
-                )));
-            }
-            Some((exact, meta))
-        }
+        (Some(AttributeValue::Text(text)), Some(_)) => Some(read_exact_film(
+            path,
+            &layer.channel_data.list,
+            pixels,
+            &text.to_string(),
+        )?),
         _ => {
             return Err(err(
                 "not a whole film file: its metadata or its count channel is missing".into(),
@@ -321,4 +287,55 @@ pub fn read_film(path: &Path) -> Result<FilmFile, Error> {
         mean,
         stats,
     })
+}
+
+/// The exact film and metadata of a film file: its metadata parsed from `meta_json`, its count and sums from the
+/// u32 `channels`; an error when it is not a whole film file of `pixels` pixels.
+fn read_exact_film(
+    path: &Path,
+    channels: &[exr::prelude::AnyChannel<exr::prelude::FlatSamples>],
+    pixels: usize,
+    meta_json: &str,
+) -> Result<(ExactFilm, FilmMeta), Error> {
+    use exr::prelude::FlatSamples;
+    let err = |message: String| output_err(path, message);
+    let channel = |name: &str| channels.iter().find(|c| c.name.eq(name));
+    let meta = FilmMeta::from_json(meta_json).map_err(|e| err(format!("not a film file: {e}")))?;
+    let words = |name: &str| -> std::result::Result<&Vec<u32>, crate::error::Error> {
+        match channel(name).map(|c| &c.sample_data) {
+            Some(FlatSamples::U32(v)) => Ok(v),
+            _ => Err(err(format!(
+                "not a whole film file: channel {name} is missing or not u32"
+            ))),
+        }
+    };
+    let mut exact = ExactFilm {
+        samples: meta.samples.clone(),
+        count: words(COUNT)?.clone(),
+        sum: vec![[0; 3]; pixels],
+        sum_sq: vec![[Wide::default(); 3]; pixels],
+    };
+    for c in 0..3 {
+        for k in 0..4 {
+            for (p, w) in words(&sum_word(k, c))?.iter().enumerate() {
+                exact.sum[p][c] |= ((*w as u128) << (32 * k)) as i128;
+            }
+        }
+        for k in 0..5 {
+            for (p, w) in words(&square_word(k, c))?.iter().enumerate() {
+                match k {
+                    4 => exact.sum_sq[p][c].hi = *w,
+                    _ => exact.sum_sq[p][c].lo |= (*w as u128) << (32 * k),
+                }
+            }
+        }
+    }
+    let spp = exact.spp();
+    if let Some(p) = exact.count.iter().position(|&n| n as u64 != spp) {
+        return Err(err(format!(
+            "not a whole film file: pixel {p} holds {} samples where its ranges hold {spp}",
+            exact.count[p]
+        )));
+    }
+    Ok((exact, meta))
 }
