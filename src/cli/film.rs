@@ -53,10 +53,39 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         output::check_writable(out)?;
         output::check_not_input(out, &inputs)?;
     }
+    let (width, height, film, meta) = sum_parts(&args.parts)?;
+    let mean = film.mean();
+    let stats = output::Stats {
+        film: &film,
+        meta: &meta,
+    };
+    let display = output::Display {
+        exposure: args.exposure,
+        curve: args.tonemap,
+    };
+    output::write_images_with(&args.output, width, height, &mean, display, Some(stats))?;
+    eprintln!(
+        "{}: {} parts merged, {width}x{height}, {} samples per pixel (samples {})",
+        args.output
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "),
+        args.parts.len(),
+        film.spp(),
+        ranges_text(&film.samples)
+    );
+    Ok(())
+}
+
+/// The parts' films summed, with the sum's metadata, before anything is written: refuses a part that does not belong
+/// or an incomplete set of `--part I/N`, and warns where the sum is valid but not what one render from sample 0 on
+/// one device gives.
+fn sum_parts(paths: &[PathBuf]) -> Result<(u32, u32, ExactFilm, FilmMeta)> {
     let mut merged: Option<(u32, u32, ExactFilm, FilmMeta, PathBuf)> = None;
     let mut devices: Vec<String> = Vec::new();
     let mut parts: Vec<(output::PartOf, &PathBuf)> = Vec::new();
-    for path in &args.parts {
+    for path in paths {
         let file = output::read_film(path)?;
         let Some((film, meta)) = file.stats else {
             bail!(
@@ -92,7 +121,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         }
     }
     let (width, height, film, mut meta, _) = merged.context("no parts")?;
-    check_parts_complete(&parts, args.parts.len())?;
+    check_parts_complete(&parts, paths.len())?;
     meta.samples = film.samples.clone();
     meta.part = None;
     if film.samples.len() > 1 || film.samples[0].start != 0 {
@@ -110,28 +139,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         );
         meta.device = devices.join("; ");
     }
-    let mean = film.mean();
-    let stats = output::Stats {
-        film: &film,
-        meta: &meta,
-    };
-    let display = output::Display {
-        exposure: args.exposure,
-        curve: args.tonemap,
-    };
-    output::write_images_with(&args.output, width, height, &mean, display, Some(stats))?;
-    eprintln!(
-        "{}: {} parts merged, {width}x{height}, {} samples per pixel (samples {})",
-        args.output
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", "),
-        args.parts.len(),
-        film.spp(),
-        ranges_text(&film.samples)
-    );
-    Ok(())
+    Ok((width, height, film, meta))
 }
 
 fn ranges_text(ranges: &[std::ops::Range<u32>]) -> String {
