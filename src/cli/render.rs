@@ -556,13 +556,6 @@ pub(crate) fn write_outputs(
     stats: Option<output::Stats>,
 ) -> Result<Vec<PathBuf>> {
     use output::{Content, OutFile};
-    let source = output::AovSource {
-        film,
-        noisy: Some(noisy),
-    };
-    let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
-    let aovs = args.aovs();
-    let mut layers = Vec::new();
     let coverage = match args.alpha {
         true => Some(
             film.aovs
@@ -572,27 +565,8 @@ pub(crate) fn write_outputs(
         ),
         false => None,
     };
-    if let Some(c) = &coverage {
-        layers.push(output::Channel {
-            name: "A".into(),
-            samples: output::Samples::F32(c.clone()),
-        });
-    }
-    let mut own = Vec::new();
-    for &a in aovs {
-        layers.extend(source.channels(a, true).ok_or_else(|| missing(a))?);
-        own.push(source.channels(a, false).ok_or_else(|| missing(a))?);
-    }
-    let png = shot
-        .outputs
-        .iter()
-        .any(|o| output::format_of(o).ok() == Some(output::Format::Png));
-    let pictures = match png {
-        true => (aovs.iter())
-            .map(|&a| source.picture(a, args.exposure).ok_or_else(|| missing(a)))
-            .collect::<Result<Vec<_>>>()?,
-        false => Vec::new(),
-    };
+    let contents = aov_contents(args, shot, film, noisy, coverage.as_deref())?;
+    let aovs = args.aovs();
     let mut paths: Vec<(PathBuf, Option<usize>)> = Vec::new();
     for out in &shot.outputs {
         paths.push((out.clone(), None));
@@ -612,7 +586,7 @@ pub(crate) fn write_outputs(
                         curve: args.tonemap,
                     },
                     stats,
-                    layers: &layers,
+                    layers: &contents.layers,
                     alpha: coverage.as_deref().map(|coverage| output::Alpha {
                         coverage,
                         // glTF holds no environment: only these options give one.
@@ -620,12 +594,58 @@ pub(crate) fn write_outputs(
                             || (args.common.env.env.is_none() && args.common.env.env_color.is_none()),
                     }),
                 },
-                (Some(k), false) => Content::Channels(&own[*k]),
-                (Some(k), true) => Content::Srgb8(&pictures[*k]),
+                (Some(k), false) => Content::Channels(&contents.own[*k]),
+                (Some(k), true) => Content::Srgb8(&contents.pictures[*k]),
             };
             Ok(OutFile { path, content })
         })
         .collect::<Result<_>>()?;
     output::write_files(film.width, film.height, &files)?;
     Ok(paths.into_iter().map(|(p, _)| p).collect())
+}
+
+/// What the AOVs put in the files: their layers in each EXR (after --alpha's A), their channels in files of their
+/// own, and their pictures for the PNGs of their own (made only when some output is a PNG).
+struct AovContents {
+    layers: Vec<output::Channel>,
+    own: Vec<Vec<output::Channel>>,
+    pictures: Vec<Vec<[u8; 3]>>,
+}
+
+fn aov_contents(
+    args: &RenderArgs,
+    shot: &Shot,
+    film: &pathwave::Film,
+    noisy: &[[f32; 3]],
+    coverage: Option<&[f32]>,
+) -> Result<AovContents> {
+    let source = output::AovSource {
+        film,
+        noisy: Some(noisy),
+    };
+    let missing = |a: Aov| anyhow::anyhow!("the render has no {} AOV", a.name());
+    let aovs = args.aovs();
+    let mut layers = Vec::new();
+    if let Some(c) = coverage {
+        layers.push(output::Channel {
+            name: "A".into(),
+            samples: output::Samples::F32(c.to_vec()),
+        });
+    }
+    let mut own = Vec::new();
+    for &a in aovs {
+        layers.extend(source.channels(a, true).ok_or_else(|| missing(a))?);
+        own.push(source.channels(a, false).ok_or_else(|| missing(a))?);
+    }
+    let png = shot
+        .outputs
+        .iter()
+        .any(|o| output::format_of(o).ok() == Some(output::Format::Png));
+    let pictures = match png {
+        true => (aovs.iter())
+            .map(|&a| source.picture(a, args.exposure).ok_or_else(|| missing(a)))
+            .collect::<Result<Vec<_>>>()?,
+        false => Vec::new(),
+    };
+    Ok(AovContents { layers, own, pictures })
 }
