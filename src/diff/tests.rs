@@ -203,78 +203,38 @@ fn either_side_may_be_sampled() {
 #[test]
 fn bad_inputs_are_refused_with_the_pixel() {
     let good = uniform(4, 3, 1.0, 0.5, 16);
+    let compare = |w: u32, h: u32, candidate: Side, reference: Side| {
+        statistical(w, h, &candidate, &reference, &Options::default())
+    };
     let mut bad = good.clone();
     bad.mean[2 * 4 + 3][1] = f64::NAN;
-    let e = statistical(
-        4,
-        3,
-        &Side::Sampled(bad),
-        &Side::Sampled(good.clone()),
-        &Options::default(),
-    )
-    .unwrap_err();
+    let e = compare(4, 3, Side::Sampled(bad), Side::Sampled(good.clone())).unwrap_err();
     assert!(
         e.contains("candidate pixel (3, 2) channel G") && e.contains("NaN"),
         "{e}"
     );
     let mut bad = good.clone();
     bad.var[1][2] = f64::INFINITY;
-    let e = statistical(
-        4,
-        3,
-        &Side::Sampled(good.clone()),
-        &Side::Sampled(bad),
-        &Options::default(),
-    )
-    .unwrap_err();
+    let e = compare(4, 3, Side::Sampled(good.clone()), Side::Sampled(bad)).unwrap_err();
     assert!(
         e.contains("reference pixel (1, 0) channel B") && e.contains("variance"),
         "{e}"
     );
     let mut bad = good.clone();
     bad.var[0][0] = -0.1;
-    assert!(statistical(
+    assert!(compare(4, 3, Side::Sampled(bad), Side::Sampled(good.clone())).is_err());
+    let e = compare(
         4,
         3,
-        &Side::Sampled(bad),
-        &Side::Sampled(good.clone()),
-        &Options::default()
-    )
-    .is_err());
-    let e = statistical(
-        4,
-        3,
-        &Side::Exact(vec![[0.0, f64::NEG_INFINITY, 0.0]; 12]),
-        &Side::Sampled(good.clone()),
-        &Options::default(),
+        Side::Exact(vec![[0.0, f64::NEG_INFINITY, 0.0]; 12]),
+        Side::Sampled(good.clone()),
     )
     .unwrap_err();
     assert!(e.contains("candidate pixel (0, 0) channel G"), "{e}");
-    let e = statistical(
-        4,
-        3,
-        &Side::Exact(vec![[0.0; 3]; 12]),
-        &Side::Exact(vec![[0.0; 3]; 12]),
-        &Options::default(),
-    )
-    .unwrap_err();
+    let e = compare(4, 3, Side::Exact(vec![[0.0; 3]; 12]), Side::Exact(vec![[0.0; 3]; 12])).unwrap_err();
     assert!(e.contains("plain"), "{e}");
-    assert!(statistical(
-        4,
-        4,
-        &Side::Sampled(good.clone()),
-        &Side::Sampled(good.clone()),
-        &Options::default()
-    )
-    .is_err());
-    assert!(statistical(
-        0,
-        3,
-        &Side::Sampled(good.clone()),
-        &Side::Sampled(good.clone()),
-        &Options::default()
-    )
-    .is_err());
+    assert!(compare(4, 4, Side::Sampled(good.clone()), Side::Sampled(good.clone())).is_err());
+    assert!(compare(0, 3, Side::Sampled(good.clone()), Side::Sampled(good.clone())).is_err());
     let opts = Options { alpha: 0.0, worst: 3 };
     assert!(statistical(4, 3, &Side::Sampled(good.clone()), &Side::Sampled(good), &opts).is_err());
 }
