@@ -384,6 +384,16 @@ fn fmt_rate(k: usize, n: usize) -> String {
     format!("{:5.1}%", 100.0 * k as f64 / n as f64)
 }
 
+/// A sweep row's first columns: the family, the count and the reference, padded to the header.
+fn case_columns(fam: Family, n: u32, kind: RefKind) -> String {
+    format!("{:<10} {:<4} {:<6}", format!("{fam:?}"), n, format!("{kind:?}"))
+}
+
+/// The design's rates over `pairs`: flagged, and flagged by its pixel tests, its block tests and the image-wide test.
+fn design_rates(t: &Tally, pairs: usize) -> [String; 4] {
+    [t.flagged, t.by_pixels, t.by_blocks, t.by_channel].map(|k| fmt_rate(k, pairs))
+}
+
 /// The full false-positive sweep: 64x64, 200 pairs per row. Run in release:
 /// `cargo test --release -- --ignored --nocapture sweep_false_positives`.
 #[test]
@@ -411,15 +421,10 @@ fn sweep_false_positives() {
                 let t = simulate(fam, n, kind, 64, 64, pairs, 1000 + n as u64, &|_, _| 1.0, true);
                 let p = t.pairs;
                 let sampled = kind != RefKind::Exact;
+                let [flagged, pixels, blocks, image] = design_rates(&t, p);
                 println!(
-                    "{:<10} {:<4} {:<6} | {} ({} {} {}) | {}  {}  {}  {}",
-                    format!("{fam:?}"),
-                    n,
-                    format!("{kind:?}"),
-                    fmt_rate(t.flagged, p),
-                    fmt_rate(t.by_pixels, p),
-                    fmt_rate(t.by_blocks, p),
-                    fmt_rate(t.by_channel, p),
+                    "{} | {flagged} ({pixels} {blocks} {image}) | {}  {}  {}  {}",
+                    case_columns(fam, n, kind),
                     if sampled {
                         fmt_rate(t.naive_welch, p)
                     } else {
@@ -467,16 +472,11 @@ fn sweep_power() {
                     let t = simulate(fam, n, kind, 64, 64, pairs, 5000 + n as u64, gain, false);
                     let inside = t.rejected_inside as f64 / pairs as f64;
                     let outside = (t.rejected_pixels as f64 - t.rejected_inside as f64) / pairs as f64;
+                    let [flagged, pixels, blocks, image] = design_rates(&t, pairs);
                     println!(
-                        "{:<13} {:<10} {:<4} {:<6} | {} | {} {} {}     | {:.1} / {:.1}",
+                        "{:<13} {} | {flagged} | {pixels} {blocks} {image}     | {:.1} / {:.1}",
                         name,
-                        format!("{fam:?}"),
-                        n,
-                        format!("{kind:?}"),
-                        fmt_rate(t.flagged, pairs),
-                        fmt_rate(t.by_pixels, pairs),
-                        fmt_rate(t.by_blocks, pairs),
-                        fmt_rate(t.by_channel, pairs),
+                        case_columns(fam, n, kind),
                         inside,
                         outside
                     );
