@@ -189,7 +189,6 @@ impl AccelStructures {
                     "compacted bottom-level structure",
                     c,
                     vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                    STRUCTURE_USAGE,
                 )?;
                 copies.push((s, small));
                 blas.push(small);
@@ -254,13 +253,7 @@ impl AccelStructures {
                 budget >> 20
             )));
         }
-        let scratch_buffer = Buffer::new(
-            ctx,
-            "ray-query scratch",
-            scratch,
-            SCRATCH_USAGE,
-            MemoryLocation::GpuOnly,
-        )?;
+        let scratch_buffer = scratch_space(ctx, scratch)?;
         let mut scratch_at = scratch_buffer.address(ctx);
         let mut built = Vec::with_capacity(ranges.len());
         for (info, size) in infos.iter_mut().zip(&sizes) {
@@ -269,7 +262,6 @@ impl AccelStructures {
                 "bottom-level structure",
                 size.acceleration_structure_size,
                 vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                STRUCTURE_USAGE,
             )?;
             built.push(s);
             let aligned = scratch_at.div_ceil(scratch_align) * scratch_align;
@@ -415,16 +407,9 @@ impl AccelStructures {
             "top-level structure",
             top_size.acceleration_structure_size,
             vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-            STRUCTURE_USAGE,
         )?;
         let scratch_align = scratch_alignment(ctx);
-        let top_scratch = Buffer::new(
-            ctx,
-            "ray-query scratch",
-            top_size.build_scratch_size + scratch_align,
-            SCRATCH_USAGE,
-            MemoryLocation::GpuOnly,
-        )?;
+        let top_scratch = scratch_space(ctx, top_size.build_scratch_size + scratch_align)?;
         let aligned = top_scratch.address(ctx).div_ceil(scratch_align) * scratch_align;
         top = top
             .dst_acceleration_structure(tlas)
@@ -459,9 +444,8 @@ impl AccelStructures {
         name: &str,
         size: u64,
         ty: vk::AccelerationStructureTypeKHR,
-        usage: vk::BufferUsageFlags,
     ) -> Result<vk::AccelerationStructureKHR, Error> {
-        let buffer = Buffer::new(ctx, name, size, usage, MemoryLocation::GpuOnly)?;
+        let buffer = Buffer::new(ctx, name, size, STRUCTURE_USAGE, MemoryLocation::GpuOnly)?;
         let s = unsafe {
             self.loader.create_acceleration_structure(
                 &vk::AccelerationStructureCreateInfoKHR::default()
@@ -510,6 +494,11 @@ fn build_barrier(ctx: &Context, cmd: vk::CommandBuffer, (stage, access): Waiter)
             &[],
         )
     };
+}
+
+/// Scratch space for builds.
+fn scratch_space(ctx: &Context, bytes: u64) -> Result<Buffer, Error> {
+    Buffer::new(ctx, "ray-query scratch", bytes, SCRATCH_USAGE, MemoryLocation::GpuOnly)
 }
 
 /// The alignment a build's scratch address needs (at least 1).
