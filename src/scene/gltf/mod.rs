@@ -2,6 +2,7 @@
 mod animation;
 mod draco;
 mod estimate;
+mod extensions;
 mod materials;
 mod meshes;
 mod meshopt;
