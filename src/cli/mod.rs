@@ -4,6 +4,7 @@ pub(crate) mod bench;
 pub(crate) mod film;
 pub(crate) mod info;
 pub(crate) mod interrupt;
+pub(crate) mod outputs;
 pub(crate) mod render;
 pub(crate) mod values;
 pub(crate) mod view;

@@ -4,6 +4,7 @@ pub mod accel;
 pub mod aovs;
 mod energy;
 pub mod film;
+mod fingerprint;
 pub mod gpu_scene;
 mod integrator;
 pub mod kernels;
