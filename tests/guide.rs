@@ -127,6 +127,13 @@ fn every_command_the_guide_shows_parses() {
                 .output()
                 .expect("the pathwave binary runs");
             checked += 1;
+            // The project's own files a command names must exist: parsing alone would not notice a renamed scene.
+            let argv: Vec<&String> = argv.iter().skip_while(|w| is_assignment(w)).collect();
+            for word in argv.iter().filter(|w| w.starts_with("scenes/") || w.starts_with("ci/")) {
+                if !root().join(word.as_str()).exists() {
+                    failures.push(format!("{name}:{line}: {command}\n{word} does not exist"));
+                }
+            }
             if !out.status.success() {
                 let stderr = String::from_utf8_lossy(&out.stderr);
                 failures.push(format!("{name}:{line}: {command}\n{stderr}"));

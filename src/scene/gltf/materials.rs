@@ -51,15 +51,8 @@ impl Loader<'_> {
             .map(str::to_string)
             .unwrap_or_else(|| format!("#{}", m.index().unwrap_or(0)));
         let emission = self.emission(&name, m)?;
-        let Base {
-            color: c,
-            slots,
-            alpha,
-            alpha_mode,
-            dielectric: d,
-            metallic,
-            roughness,
-        } = self.base(&name, m)?;
+        let base = self.base(&name, m)?;
+        let (c, slots, d) = (base.color, base.slots, base.dielectric);
         let t = self.transmission(&name, m)?;
         let clearcoat = self.clearcoat(&name, m)?;
         let sheen = self.sheen(&name, m)?;
@@ -69,7 +62,7 @@ impl Loader<'_> {
         let (diffuse_roughness, diffuse_roughness_texture) = self.diffuse_roughness(&name, m)?;
         let dispersion = self.dispersion(&name, m)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
-        let mut pbr_metallic = metallic;
+        let mut pbr_metallic = base.metallic;
         let mut specular = d.specular.clamp(0.0, 1.0);
         if unlit {
             // Nothing reflects: keep the lobes' feature bits clear so the scene's stages fold them away.
@@ -85,13 +78,13 @@ impl Loader<'_> {
             emission: emission.max(Vec3::ZERO),
             double_sided: m.double_sided(),
             metallic: pbr_metallic,
-            roughness,
+            roughness: base.roughness,
             ior: d.ior,
             dispersion: if unlit { 0.0 } else { dispersion },
             specular,
             specular_color: d.specular_color.max(Vec3::ZERO),
-            alpha,
-            alpha_mode,
+            alpha: base.alpha,
+            alpha_mode: base.alpha_mode,
             base_color_texture: slots.base_color,
             metallic_roughness_texture: slots.metallic_roughness,
             normal_texture: slots.normal,
