@@ -11,6 +11,10 @@ pub enum Error {
     Vulkan(String),
     #[error("{0}")]
     Settings(String),
+    /// Work or memory past a limit (the host budget of --max-memory, the device's memory, traversal's index range):
+    /// refused before it is allocated.
+    #[error("{0}")]
+    Limit(String),
     /// A user shader that does not compile (glslang's report, with file:line) or a shader folder that cannot be read.
     #[error("{0}")]
     Shader(String),

@@ -1,6 +1,8 @@
 //! pathwave: a physically based wavefront path tracer on Vulkan compute. This is the API a Rust program embeds.
 pub mod bench;
 pub mod bvh;
+/// The command line's arguments and command bodies: the binary's `main` and the Python module both drive them.
+pub mod cli;
 pub mod constants;
 pub mod denoise;
 pub mod diff;

@@ -2,13 +2,13 @@
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
-mod cli;
 use cli::args::LoadArgs;
 use cli::bench::{bench, BenchArgs};
 use cli::film as film_cli;
 use cli::info::{export_shaders, info};
 use cli::render::{render, RenderArgs};
 use cli::view::{view, ViewArgs};
+use pathwave::cli;
 
 #[derive(Parser)]
 #[command(

@@ -1,9 +1,9 @@
 //! The film commands: `merge` (parts of one render into one film file) and `diff` (a render against a reference),
 //! and the metadata `render` writes into a film file.
+use crate::output::{self, FilmMeta};
+use crate::render::film::ExactFilm;
+use crate::{RenderSettings, Renderer};
 use anyhow::{bail, Context as _, Result};
-use pathwave::output::{self, FilmMeta};
-use pathwave::render::film::ExactFilm;
-use pathwave::{RenderSettings, Renderer};
 use std::path::PathBuf;
 
 /// What a film file records of the render that made `film`.
@@ -183,38 +183,152 @@ fn check_parts_complete(parts: &[(output::PartOf, &PathBuf)], files: usize) -> R
 #[derive(clap::Args)]
 pub struct DiffArgs {
     /// The render under test (EXR; a film file for the statistical test).
-    candidate: PathBuf,
+    pub candidate: PathBuf,
     /// The reference (EXR); one without film statistics counts as exact (converged).
-    reference: PathBuf,
+    pub reference: PathBuf,
+    /// Write a PNG of where they differ: the tests' p-values (green where rejected), or FLIP's error map in plain mode.
+    #[arg(long)]
+    pub heatmap: Option<PathBuf>,
+    #[command(flatten)]
+    pub options: CompareOptions,
+}
+
+/// How `diff` compares, apart from the files.
+#[derive(clap::Args, Clone, Debug)]
+pub struct CompareOptions {
     /// The statistical test's family-wise false-positive rate: the chance that two renders of one expectation are
     /// called different.
     #[arg(long, default_value = "0.01", value_parser = crate::cli::values::parse_alpha)]
-    alpha: f64,
-    /// Write a PNG of where they differ: the tests' p-values (green where rejected), or FLIP's error map in plain mode.
-    #[arg(long)]
-    heatmap: Option<PathBuf>,
+    pub alpha: f64,
     /// Compare without statistics even when the files carry them: relMSE and FLIP against the thresholds below.
     #[arg(long)]
-    plain: bool,
+    pub plain: bool,
     /// Plain mode: the largest relMSE, mean of (c - r)^2 / (r^2 + 0.01), that passes.
     #[arg(long, default_value = "0.001", value_parser = crate::cli::values::parse_threshold)]
-    max_rel_mse: f64,
+    pub max_rel_mse: f64,
     /// Plain mode: the largest mean FLIP error (0 to 1, of the images' sRGB at exposure 0) that passes.
     #[arg(long, default_value = "0.05", value_parser = crate::cli::values::parse_threshold)]
-    max_flip: f64,
+    pub max_flip: f64,
     /// How many of the worst tests to list.
     #[arg(long, default_value = "10")]
-    worst: usize,
+    pub worst: usize,
+}
+
+impl CompareOptions {
+    /// Parses `diff`'s comparison options (without the files) as the command line does, with its checks and messages.
+    pub fn parse_from<I, T>(args: I) -> Result<CompareOptions, clap::Error>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<std::ffi::OsString> + Clone,
+    {
+        use clap::{Args as _, FromArgMatches as _};
+        let command = CompareOptions::augment_args(clap::Command::new("diff"));
+        let matches =
+            command.try_get_matches_from(std::iter::once("diff".into()).chain(args.into_iter().map(Into::into)))?;
+        CompareOptions::from_arg_matches(&matches)
+    }
 }
 
 /// A film file as the statistical test takes it: sampled (mean, per-sample variance, count from the exact sums, in
 /// f64) when it carries statistics, exact otherwise.
-fn side(file: &output::FilmFile) -> pathwave::diff::Side {
-    use pathwave::diff::{Sampled, Side};
+fn side(file: &output::FilmFile) -> crate::diff::Side {
+    use crate::diff::{Sampled, Side};
     match &file.stats {
         Some((film, _)) => Side::Sampled(Sampled::from_exact(film)),
         None => Side::Exact(file.mean.iter().map(|p| p.map(f64::from)).collect()),
     }
+}
+
+/// What a comparison found, before anything is printed or written.
+pub struct Verdict {
+    pub consistent: bool,
+    /// What `diff` prints on standard output: the verdict and what it rests on.
+    pub summary: String,
+    /// Notes and warnings on how the files compare (`diff` prints them on standard error).
+    pub notes: Vec<String>,
+    /// The statistical test's report; None for a plain comparison.
+    pub report: Option<crate::diff::Report>,
+    /// The plain comparison; None for a statistical one.
+    pub plain: Option<crate::diff::Plain>,
+    /// Where they differ, as sRGB pixels of the images' size: the tests' p-values, or FLIP's error map.
+    pub heat: Vec<[u8; 3]>,
+}
+
+/// Compares a candidate with a reference as `diff` does: the per-pixel statistical test when either carries film
+/// statistics (and `plain` is not asked), else relMSE and FLIP against the thresholds. The names are what messages
+/// call the two sides.
+pub fn compare(
+    (candidate_name, candidate): (&str, &output::FilmFile),
+    (reference_name, reference): (&str, &output::FilmFile),
+    options: &CompareOptions,
+) -> Result<Verdict> {
+    let (w, h) = (candidate.width, candidate.height);
+    if (reference.width, reference.height) != (w, h) {
+        bail!(
+            "{candidate_name} is {w}x{h} and {reference_name} is {}x{}: only images of one size compare",
+            reference.width,
+            reference.height
+        );
+    }
+    let mut notes = Vec::new();
+    let statistics = candidate.stats.is_some() || reference.stats.is_some();
+    if options.plain || !statistics {
+        if !options.plain {
+            notes.push(
+                "note: neither file carries film statistics (render with --film-stats): comparing plainly".into(),
+            );
+        }
+        let p = crate::diff::plain(w, h, &candidate.mean, &reference.mean).map_err(|e| anyhow::anyhow!(e))?;
+        let ok = p.rel_mse <= options.max_rel_mse && p.flip_mean <= options.max_flip;
+        let summary = format!(
+            "{}\nrelMSE {:.4e} (at most {:e} passes), mean FLIP {:.4} (at most {} passes)\n",
+            if ok {
+                "CONSISTENT: within the thresholds"
+            } else {
+                "DIFFERENT: past a threshold"
+            },
+            p.rel_mse,
+            options.max_rel_mse,
+            p.flip_mean,
+            options.max_flip
+        );
+        let heat = crate::diff::flip_heatmap(w, h, &p.per_pixel);
+        return Ok(Verdict {
+            consistent: ok,
+            summary,
+            notes,
+            report: None,
+            plain: Some(p),
+            heat,
+        });
+    }
+    if let (Some((_, a)), Some((_, b))) = (&candidate.stats, &reference.stats) {
+        if a.seed == b.seed {
+            notes.push(format!(
+                "warning: both renders use seed {}: their noise is shared, so the test is lenient; render one with \
+                 another --seed",
+                a.seed
+            ));
+        }
+        if a.scene != b.scene {
+            notes.push("note: the files come from different scenes (fingerprints differ)".into());
+        }
+    }
+    let test = crate::diff::Options {
+        alpha: options.alpha,
+        worst: options.worst,
+    };
+    let report = crate::diff::statistical(w, h, &side(candidate), &side(reference), &test)
+        .map_err(|e| anyhow::anyhow!("{candidate_name} against {reference_name}: {e}"))?;
+    let heat = crate::diff::heatmap(w, h, &report.per_pixel, report.threshold);
+    Ok(Verdict {
+        consistent: report.consistent,
+        summary: report.summary(),
+        notes,
+        report: Some(report),
+        plain: None,
+        heat,
+    })
 }
 
 /// Compares, prints the verdict and what it rests on, writes the heat map, and exits 1 when they differ (errors
@@ -228,63 +342,19 @@ pub fn diff(args: DiffArgs) -> Result<()> {
     }
     let candidate = output::read_film(&args.candidate)?;
     let reference = output::read_film(&args.reference)?;
-    let (w, h) = (candidate.width, candidate.height);
-    if (reference.width, reference.height) != (w, h) {
-        bail!(
-            "{} is {w}x{h} and {} is {}x{}: only images of one size compare",
-            args.candidate.display(),
-            args.reference.display(),
-            reference.width,
-            reference.height
-        );
+    let verdict = compare(
+        (&args.candidate.display().to_string(), &candidate),
+        (&args.reference.display().to_string(), &reference),
+        &args.options,
+    )?;
+    for note in &verdict.notes {
+        eprintln!("{note}");
     }
-    let statistics = candidate.stats.is_some() || reference.stats.is_some();
-    let (consistent, heat) = if args.plain || !statistics {
-        if !args.plain {
-            eprintln!("note: neither file carries film statistics (render with --film-stats): comparing plainly");
-        }
-        let p = pathwave::diff::plain(w, h, &candidate.mean, &reference.mean).map_err(|e| anyhow::anyhow!(e))?;
-        let ok = p.rel_mse <= args.max_rel_mse && p.flip_mean <= args.max_flip;
-        println!(
-            "{}\nrelMSE {:.4e} (at most {:e} passes), mean FLIP {:.4} (at most {} passes)",
-            if ok {
-                "CONSISTENT: within the thresholds"
-            } else {
-                "DIFFERENT: past a threshold"
-            },
-            p.rel_mse,
-            args.max_rel_mse,
-            p.flip_mean,
-            args.max_flip
-        );
-        (ok, pathwave::diff::flip_heatmap(w, h, &p.per_pixel))
-    } else {
-        if let (Some((_, a)), Some((_, b))) = (&candidate.stats, &reference.stats) {
-            if a.seed == b.seed {
-                eprintln!(
-                    "warning: both renders use seed {}: their noise is shared, so the test is lenient; render one with \
-                     another --seed",
-                    a.seed
-                );
-            }
-            if a.scene != b.scene {
-                eprintln!("note: the files come from different scenes (fingerprints differ)");
-            }
-        }
-        let options = pathwave::diff::Options {
-            alpha: args.alpha,
-            worst: args.worst,
-        };
-        let report = pathwave::diff::statistical(w, h, &side(&candidate), &side(&reference), &options)
-            .map_err(|e| anyhow::anyhow!("{} against {}: {e}", args.candidate.display(), args.reference.display()))?;
-        print!("{}", report.summary());
-        let heat = pathwave::diff::heatmap(w, h, &report.per_pixel, report.threshold);
-        (report.consistent, heat)
-    };
+    print!("{}", verdict.summary);
     if let Some(path) = &args.heatmap {
-        output::write_srgb8(path, w, h, &heat)?;
+        output::write_srgb8(path, candidate.width, candidate.height, &verdict.heat)?;
     }
-    if !consistent {
+    if !verdict.consistent {
         std::process::exit(1);
     }
     Ok(())

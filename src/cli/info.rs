@@ -1,13 +1,13 @@
 //! `pathwave info` (a scene, a folder's census, the devices) and `pathwave export-shaders`.
 use super::args::*;
+use crate::render::gpu_scene::describe;
+use crate::scene;
 use anyhow::{bail, Context as _, Result};
 use indicatif::ProgressBar;
-use pathwave::render::gpu_scene::describe;
-use pathwave::scene;
 use std::path::PathBuf;
 
-pub(crate) fn export_shaders(dir: PathBuf) -> Result<()> {
-    let written = pathwave::shaders::export_builtin(&dir)?;
+pub fn export_shaders(dir: PathBuf) -> Result<()> {
+    let written = crate::shaders::export_builtin(&dir)?;
     eprintln!(
         "wrote {} files into {}; use them with --shader-dir {}",
         written.len(),
@@ -18,13 +18,13 @@ pub(crate) fn export_shaders(dir: PathBuf) -> Result<()> {
 }
 
 /// Most files a census looks at: a folder's listing is read before anything loads.
-pub(crate) const CENSUS_FILES: usize = 100_000;
+pub const CENSUS_FILES: usize = 100_000;
 
 /// `info FOLDER`: every .gltf and .glb under `dir` (sorted, depth first, symbolic links not followed) loaded with
 /// `limits` as `render` loads it; a line per file (what it holds, or why it is refused), then each extension the
 /// loaded files use, with how many use it and whether pathwave renders it, then one summary line.
-pub(crate) fn census(dir: &std::path::Path, limits: &LoadArgs) -> Result<()> {
-    pub(crate) fn walk(dir: &std::path::Path, out: &mut Vec<PathBuf>) -> Result<()> {
+pub fn census(dir: &std::path::Path, limits: &LoadArgs) -> Result<()> {
+    pub fn walk(dir: &std::path::Path, out: &mut Vec<PathBuf>) -> Result<()> {
         let mut entries: Vec<PathBuf> = std::fs::read_dir(dir)
             .with_context(|| format!("cannot list {}", dir.display()))?
             .filter_map(|e| e.ok().map(|e| e.path()))
@@ -84,7 +84,7 @@ pub(crate) fn census(dir: &std::path::Path, limits: &LoadArgs) -> Result<()> {
     }
     bar.finish_and_clear();
     for (ext, n) in &used {
-        let supported = pathwave::scene::SUPPORTED_EXTENSIONS.contains(&ext.as_str());
+        let supported = crate::scene::SUPPORTED_EXTENSIONS.contains(&ext.as_str());
         let how = if supported {
             "supported"
         } else {
@@ -100,9 +100,9 @@ pub(crate) fn census(dir: &std::path::Path, limits: &LoadArgs) -> Result<()> {
     Ok(())
 }
 
-pub(crate) fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
+pub fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> Result<()> {
     if devices {
-        for d in pathwave::vk::list_devices()? {
+        for d in crate::vk::list_devices()? {
             println!(
                 "{}: {} ({}, Vulkan {}, {}, maxStorageBufferRange {} MiB, ray queries: {})",
                 d.index,
@@ -132,6 +132,6 @@ pub(crate) fn info(path: Option<PathBuf>, devices: bool, limits: &LoadArgs) -> R
 }
 
 /// The instancing rule the renderer will use (PATHWAVE_INSTANCING; a bad value is refused when the renderer reads it).
-pub(crate) fn instancing_rule() -> scene::Instancing {
-    pathwave::RendererOptions::from_env().map_or(scene::Instancing::Auto, |o| o.instancing)
+pub fn instancing_rule() -> scene::Instancing {
+    crate::RendererOptions::from_env().map_or(scene::Instancing::Auto, |o| o.instancing)
 }

@@ -1,10 +1,13 @@
-//! The command line's commands, one module each; main.rs keeps the command enum and `main`.
-pub(crate) mod args;
-pub(crate) mod bench;
-pub(crate) mod film;
-pub(crate) mod info;
-pub(crate) mod interrupt;
-pub(crate) mod outputs;
-pub(crate) mod render;
-pub(crate) mod values;
-pub(crate) mod view;
+//! The command line's commands, one module each: their arguments and bodies, in the library so that the binary
+//! (src/main.rs keeps the command enum and `main`) and the Python module (python/) share one definition of every
+//! option, its checks and its messages.
+pub mod args;
+pub mod bench;
+pub mod film;
+pub mod info;
+pub mod interrupt;
+pub mod outputs;
+pub mod render;
+pub mod shot;
+pub mod values;
+pub mod view;

@@ -1,16 +1,16 @@
 //! What `pathwave render` writes for a shot: the image, its AOVs as EXR layers, files of their own and PNG pictures,
 //! all or nothing.
 use super::render::{RenderArgs, Shot};
+use crate::output::{self, Aov};
 use anyhow::{Context as _, Result};
-use pathwave::output::{self, Aov};
 use std::path::PathBuf;
 
 /// The shot's outputs and, for the AOVs asked for, their layers in each EXR and their files of their own (beside
 /// every PNG output, and every output with --aov-files), all or nothing. Returns every path written.
-pub(crate) fn write_outputs(
+pub fn write_outputs(
     args: &RenderArgs,
     shot: &Shot,
-    film: &pathwave::Film,
+    film: &crate::Film,
     pixels: &[[f32; 3]],
     noisy: &[[f32; 3]],
     stats: Option<output::Stats>,
@@ -75,7 +75,7 @@ struct AovContents {
 fn aov_contents(
     args: &RenderArgs,
     shot: &Shot,
-    film: &pathwave::Film,
+    film: &crate::Film,
     noisy: &[[f32; 3]],
     coverage: Option<&[f32]>,
 ) -> Result<AovContents> {

@@ -1,6 +1,6 @@
 //! The CLI's value parsers: every number an option takes is checked here (finite, in range) so clap's error names
 //! the option; the bounds and why they are where they are.
-use pathwave::scene::RADIANCE_MAX;
+use crate::scene::RADIANCE_MAX;
 
 /// Samples per pixel: the film counts samples in f32 (its w channel), exact up to 2^24; and SAMPLE_RADIANCE_MAX
 /// is chosen so 2^24 squared samples at the limit still sum to a finite f32.
@@ -294,11 +294,11 @@ pub fn parse_threshold(s: &str) -> Result<f64, String> {
 
 /// `--aov`'s list (one value to clap, which would take a Vec for repeats).
 #[derive(Clone, Debug)]
-pub struct AovList(pub Vec<pathwave::output::Aov>);
+pub struct AovList(pub Vec<crate::output::Aov>);
 
 /// `--aov albedo,normal,...`: AOV names, each once.
 pub fn parse_aovs(s: &str) -> Result<AovList, String> {
-    use pathwave::output::Aov;
+    use crate::output::Aov;
     let mut list = Vec::new();
     for name in s.split(',').map(str::trim) {
         let aov = Aov::from_name(name).ok_or_else(|| {
@@ -333,8 +333,8 @@ pub fn parse_min_spp(s: &str) -> Result<u32, String> {
 }
 
 /// `view --show`: one AOV the viewer can show (not those that need a film's statistics or a denoise).
-pub fn parse_view_aov(s: &str) -> Result<pathwave::output::Aov, String> {
-    use pathwave::output::Aov;
+pub fn parse_view_aov(s: &str) -> Result<crate::output::Aov, String> {
+    use crate::output::Aov;
     let AovList(list) = parse_aovs(s)?;
     match list[..] {
         [a] if a.surveyed() => Ok(a),

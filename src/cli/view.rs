@@ -1,50 +1,50 @@
 //! `pathwave view`: the window's arguments, handed to the viewer.
 use super::args::*;
 use super::values::*;
+use crate::output::Aov;
+use crate::{output, RenderSettings};
 use anyhow::Result;
-use pathwave::output::Aov;
-use pathwave::{output, RenderSettings};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
-pub(crate) struct ViewArgs {
+pub struct ViewArgs {
     /// Window size as WIDTHxHEIGHT.
     #[arg(long, default_value = "640x480", value_parser = parse_size, allow_hyphen_values = true)]
-    pub(crate) size: (u32, u32),
+    pub size: (u32, u32),
     #[command(flatten)]
-    pub(crate) common: SceneArgs,
+    pub common: SceneArgs,
     /// Exposure in stops (+ and - change it in the window), -64 to 64.
     #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
-    pub(crate) exposure: f32,
+    pub exposure: f32,
     /// Tone curve after --exposure (T cycles through them in the window; P's PNG uses the one shown): none
     /// (linear, clipped), aces (Narkowicz's fit), agx (Sobotka's AgX) or pbr-neutral (Khronos PBR Neutral).
     #[arg(long, value_enum, default_value = "aces")]
-    pub(crate) tonemap: output::ToneCurve,
+    pub tonemap: output::ToneCurve,
     /// Shader folder to use and watch: edited stages are rebuilt while the window stays open.
     #[arg(long)]
-    pub(crate) shader_dir: Option<PathBuf>,
+    pub shader_dir: Option<PathBuf>,
     /// Close after this many frames (for scripts and tests).
     #[arg(long, value_parser = positive)]
-    pub(crate) frames: Option<u32>,
+    pub frames: Option<u32>,
     /// Where P saves (default pathwave.exr and pathwave.png), and what --frames writes before closing.
     #[arg(long)]
-    pub(crate) screenshot: Option<PathBuf>,
+    pub screenshot: Option<PathBuf>,
     /// Milliseconds per frame the adaptive sampler aims at.
     #[arg(long, default_value = "33", value_parser = positive)]
-    pub(crate) frame_budget_ms: u32,
+    pub frame_budget_ms: u32,
     /// Start with the animation playing (space toggles it).
     #[arg(long)]
-    pub(crate) play: bool,
+    pub play: bool,
     /// Start showing an AOV or debug view (G cycles them): albedo, normal, depth, geometric-normal, shading-normal,
     /// uv, bvh-cost, light-pick.
     #[arg(long, value_parser = parse_view_aov)]
-    pub(crate) show: Option<Aov>,
+    pub show: Option<Aov>,
     /// Start denoising the still image (Shift+D toggles it); Open Image Denoise as for `render --denoise`.
     #[arg(long)]
-    pub(crate) denoise: bool,
+    pub denoise: bool,
 }
 
-pub(crate) fn view(args: ViewArgs) -> Result<()> {
+pub fn view(args: ViewArgs) -> Result<()> {
     if let Some(out) = &args.screenshot {
         output::check_writable(out)?;
         output::check_not_input(out, &[("scene", args.common.scene.as_path())])?;
@@ -54,7 +54,7 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
         Some(a) => Some(scene.rig.find_animation(a).map_err(|e| anyhow::anyhow!(e))?),
         None => None,
     };
-    let options = pathwave::viewer::ViewOptions {
+    let options = crate::viewer::ViewOptions {
         time: args.common.time.unwrap_or(0.0),
         animation,
         shutter: args.common.shutter,
@@ -80,6 +80,6 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
         show: args.show,
         denoise: args.denoise,
     };
-    pathwave::viewer::run(scene, options)?;
+    crate::viewer::run(scene, options)?;
     Ok(())
 }

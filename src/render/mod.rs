@@ -197,6 +197,11 @@ impl Renderer {
         Ok(())
     }
 
+    /// Whether scenes uploaded from now on (`set_scene`) keep their fingerprint for film files.
+    pub fn set_fingerprint(&mut self, on: bool) {
+        self.options.fingerprint = on;
+    }
+
     /// The scene's texel views where it has them, the path-state stand-in's otherwise.
     fn bind_scene_views(&self) {
         if let Some(views) = self.scene.texel_views() {
@@ -436,7 +441,7 @@ impl Uploaded {
         }
         // Traversal packs node and triangle indices with a leaf's count into one word (STACK_COUNT_BITS).
         if packed.bvh.nodes.len().max(packed.tri_verts.len()) as u64 >= MAX_SCENE_ITEMS as u64 {
-            return Err(Error::Settings(format!(
+            return Err(Error::Limit(format!(
                 "the scene has {} triangles in {} BVH nodes; traversal handles fewer than {MAX_SCENE_ITEMS} of each",
                 packed.tri_verts.len(),
                 packed.bvh.nodes.len()

@@ -72,15 +72,13 @@ impl Scene {
         if need <= limit {
             return Ok(());
         }
-        Err(Error::Scene {
-            path: self.path.clone(),
-            message: format!(
-                "rendering it would need about {} of host memory ({triangles} triangles once its {} instances are \
+        Err(Error::Limit(format!(
+            "{}: rendering it would need about {} of host memory ({triangles} triangles once its {} instances are \
                  placed, about {per_triangle} bytes each), over the limit of {} (--max-memory)",
-                human(need),
-                self.instances.len(),
-                human(limit)
-            ),
-        })
+            self.path.display(),
+            human(need),
+            self.instances.len(),
+            human(limit)
+        )))
     }
 }

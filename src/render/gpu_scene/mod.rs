@@ -178,7 +178,7 @@ fn check_device_memory(packed: &PackedScene, budget: u64) -> Result<(), Error> {
         .iter()
         .max_by_key(|b| size(b))
         .expect("SCENE_BINDINGS is not empty");
-    Err(Error::Settings(format!(
+    Err(Error::Limit(format!(
         "the scene's buffers take {} of device memory (the largest, its {}, {}), more than the {} it may use",
         size_text(total),
         largest.0,

@@ -125,15 +125,13 @@ pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, Error> {
     let document = gltf::Document::from_json_without_validation(json);
     let need = estimate::load_estimate(&document);
     if need > options.max_memory {
-        return Err(scene_err(
-            path,
-            format!(
-                "reading it would need about {} of host memory (its buffers and decoded meshes), over the limit \
-                 of {} (--max-memory)",
-                crate::memory::human(need),
-                crate::memory::human(options.max_memory)
-            ),
-        ));
+        return Err(Error::Limit(format!(
+            "{}: reading it would need about {} of host memory (its buffers and decoded meshes), over the limit of {} \
+             (--max-memory)",
+            path.display(),
+            crate::memory::human(need),
+            crate::memory::human(options.max_memory)
+        )));
     }
     let uris = UriPolicy::new(path.parent().unwrap_or(Path::new(".")), options.allow_outside_paths);
     let mut buffers = import_buffers(path, &uris, &document, blob)?;
