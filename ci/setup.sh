@@ -14,7 +14,7 @@ PACKAGES=(
   g++                   # builds meshoptimizer (the meshopt crate), the EXT_meshopt_compression decoder
   xvfb xauth            # a headless X server for the viewer's tests (xvfb-run)
   libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0   # loaded by winit at run time
-  python3 python3-venv  # a venv for Open Image Denoise (below)
+  python3 python3-venv  # venvs for Open Image Denoise and for the Python module's tests (below)
 )
 
 missing=()
@@ -48,6 +48,20 @@ if [ ! -f "$OIDN_VENV/.installed-2.5.1.0" ]; then
   python3 -m venv "$OIDN_VENV"
   "$OIDN_VENV/bin/pip" install -q --disable-pip-version-check --no-deps pyoidn==2.5.1.0
   touch "$OIDN_VENV/.installed-2.5.1.0"
+fi
+
+# The Python module's build and test tools (ci/test.sh installs the module itself, built from the checkout, into
+# this venv): maturin builds it, pytest runs python/tests, OpenEXR reads the EXRs pathwave writes (a reader pathwave
+# did not write), numpy is what the module returns, matplotlib draws the guide's example (python/tests/test_guide.py).
+PY_VENV="$HOME/.cache/pathwave/python-venv"
+PY_TOOLS=(maturin==1.16.0 numpy==2.4.6 pytest==9.0.3 OpenEXR==3.5.3 matplotlib==3.10.8)
+PY_STAMP="$PY_VENV/.installed-$(echo "${PY_TOOLS[*]}" | tr ' ' '+')"
+if [ ! -f "$PY_STAMP" ]; then
+  echo "ci/setup.sh: installing ${PY_TOOLS[*]} into $PY_VENV"
+  rm -rf "$PY_VENV"
+  python3 -m venv "$PY_VENV"
+  "$PY_VENV/bin/pip" install -q --disable-pip-version-check "${PY_TOOLS[@]}"
+  touch "$PY_STAMP"
 fi
 
 # A second lavapipe, Mesa 25 from the backports suite, beside the system's: tests/ray_query.rs runs ray-query

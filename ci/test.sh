@@ -9,11 +9,20 @@ if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ] && [ -f /usr/share/vulkan/
   export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json
 fi
 if rustup component list --installed 2>/dev/null | grep -q rustfmt; then
-  cargo fmt --check
+  cargo fmt --all --check
 fi
 if rustup component list --installed 2>/dev/null | grep -q clippy; then
   cargo clippy --all-targets --locked -- -D warnings
+  cargo clippy -p pathwave-python --locked -- -D warnings
 fi
 # tests/farm.rs starts a one-node Slurm (ci/slurm.sh installs slurm-wlm and munge with apt if missing): here it must run.
 export PATHWAVE_FARM_TEST=1
 cargo test --locked
+
+# The Python module (python/, pyproject.toml): built once from this checkout as `pip install .` builds it, with the
+# dev profile so it reuses what `cargo test` just compiled, into the venv ci/setup.sh made; then its pytest suite,
+# which compares it with the CLI built above.
+PY_VENV="$HOME/.cache/pathwave/python-venv"
+MATURIN_PEP517_ARGS="--profile dev --locked" "$PY_VENV/bin/pip" install -q --disable-pip-version-check \
+  --no-build-isolation --no-deps --force-reinstall .
+PATHWAVE_BIN="$PWD/target/debug/pathwave" "$PY_VENV/bin/python" -m pytest -q python/tests
