@@ -25,4 +25,9 @@ cargo test --locked
 PY_VENV="$HOME/.cache/pathwave/python-venv"
 MATURIN_PEP517_ARGS="--profile dev --locked" "$PY_VENV/bin/pip" install -q --disable-pip-version-check \
   --no-build-isolation --no-deps --force-reinstall .
+# As the Rust tests do: with the validation layer when it is installed, so a render fails on any of its errors.
+layer=explicit_layer.d/VkLayer_khronos_validation.json
+if [ -z "${PATHWAVE_VALIDATION:-}" ] && { [ -f "/usr/share/vulkan/$layer" ] || [ -f "/etc/vulkan/$layer" ]; }; then
+  export PATHWAVE_VALIDATION=1
+fi
 PATHWAVE_BIN="$PWD/target/debug/pathwave" "$PY_VENV/bin/python" -m pytest -q python/tests

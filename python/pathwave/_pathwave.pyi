@@ -87,8 +87,8 @@ class Film:
         """Per pixel, the samples taken, shape (height, width) (film_stats=True)."""
     @property
     def stats(self) -> Optional[dict[str, Any]]:
-        """How the render went: wall, passes, samples, samples_per_sec, rays, interrupted, device, stage_ms,
-        summary."""
+        """How the render went: wall, passes, samples, extension_rays, shadow_rays, samples_per_sec, interrupted,
+        device, stage_ms, summary."""
     def save(
         self,
         path: PathLike,

@@ -15,20 +15,46 @@ pub fn keyword(flag: &str) -> String {
     name.replace('-', "_")
 }
 
-/// Appends `key=value` as the command line spells it: True is the flag alone and None or False leave it out;
-/// `size` (w, h) is WxH, `samples` (a, b) is A..B, other sequences are comma-separated (a point, a colour, AOV
-/// names), paths are their text, and everything else is its `str`.
+/// The options that are flags (they take no value), of `render` and of `diff`.
+fn is_flag(key: &str) -> bool {
+    use clap::Args as _;
+    static FLAGS: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    let flags = FLAGS.get_or_init(|| {
+        let render = pathwave::cli::render::RenderArgs::augment_args(clap::Command::new("render"));
+        let diff = pathwave::cli::film::CompareOptions::augment_args(clap::Command::new("diff"));
+        (render.get_arguments().chain(diff.get_arguments()))
+            .filter(|a| !a.get_action().takes_values())
+            .filter_map(|a| a.get_long().map(|l| l.replace('-', "_")))
+            .collect()
+    });
+    flags.iter().any(|f| f == key)
+}
+
+/// Appends `key=value` as the command line spells it: for a flag, True is the flag alone and False leaves it out;
+/// None leaves any option out; `size` (w, h) is WxH, `samples` (a, b) is A..B, other sequences are comma-separated
+/// (a point, a colour, AOV names; an empty one leaves the option out), paths are their text, and everything else
+/// is its `str`.
 pub fn push(out: &mut Vec<String>, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
     if value.is_none() {
         return Ok(());
     }
     if let Ok(b) = value.cast::<PyBool>() {
+        if !is_flag(key) {
+            return Err(crate::errors::SettingsError::new_err(format!(
+                "{key}={}: {} takes a value, not True or False",
+                if b.is_true() { "True" } else { "False" },
+                flag(key)
+            )));
+        }
         if b.is_true() {
             out.push(flag(key));
         }
         return Ok(());
     }
     let sequence = value.is_instance_of::<PyTuple>() || value.is_instance_of::<PyList>();
+    if sequence && value.len()? == 0 {
+        return Ok(());
+    }
     let text = if sequence {
         let items: Vec<String> = value.try_iter()?.map(|item| text(&item?)).collect::<PyResult<_>>()?;
         match (key, &items[..]) {

@@ -62,7 +62,8 @@ pub fn diff(
         .detach(|| compare((&c_name, &c), (&r_name, &r), &options))
         .map_err(errors::to_py)?;
     for note in &verdict.notes {
-        crate::renderer::warn(py, note)?;
+        let text = note.trim_start_matches("warning: ").trim_start_matches("note: ");
+        crate::renderer::warn(py, text)?;
     }
     Ok(DiffResult {
         verdict,

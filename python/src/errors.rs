@@ -69,8 +69,8 @@ pub fn to_py(e: anyhow::Error) -> PyErr {
 }
 
 /// A command-line parse error as Python reports bad arguments: an unknown option is a keyword the function does not
-/// take (TypeError); anything else is a value out of range (SettingsError) with clap's message without its
-/// "error: " prefix and usage hint.
+/// take (TypeError); anything else is a value out of range (SettingsError) with clap's message (possible values
+/// included) without its "error: " prefix and usage hint.
 pub fn from_clap(function: &str, e: clap::Error) -> PyErr {
     use clap::error::{ContextKind, ContextValue, ErrorKind};
     if e.kind() == ErrorKind::UnknownArgument {
@@ -81,6 +81,6 @@ pub fn from_clap(function: &str, e: clap::Error) -> PyErr {
         return PyTypeError::new_err(format!("{function}() got an unexpected keyword argument '{name}'"));
     }
     let text = e.render().to_string();
-    let first = text.lines().next().unwrap_or_default();
-    SettingsError::new_err(first.trim_start_matches("error: ").to_string())
+    let text = text.split("\n\nFor more information").next().unwrap_or_default();
+    SettingsError::new_err(text.trim().trim_start_matches("error: ").to_string())
 }

@@ -254,7 +254,7 @@ impl Film {
         path: PathBuf,
         exposure: Option<Bound<'_, PyAny>>,
         tonemap: Option<Bound<'_, PyAny>>,
-    ) -> PyResult<Vec<PathBuf>> {
+    ) -> PyResult<Vec<String>> {
         let mut display = Vec::new();
         if let Some(e) = &exposure {
             crate::argv::push(&mut display, "exposure", e)?;
@@ -285,11 +285,13 @@ impl Film {
                     time: *time,
                     outputs: vec![path],
                 };
-                py.detach(|| -> anyhow::Result<Vec<PathBuf>> {
-                    pathwave::cli::render::check_outputs(&args, std::slice::from_ref(&shot))?;
-                    rendered.write(&args, &shot)
-                })
-                .map_err(errors::to_py)
+                let written = py
+                    .detach(|| -> anyhow::Result<Vec<PathBuf>> {
+                        pathwave::cli::render::check_outputs(&args, std::slice::from_ref(&shot))?;
+                        rendered.write(&args, &shot)
+                    })
+                    .map_err(errors::to_py)?;
+                Ok(written.iter().map(|p| p.display().to_string()).collect())
             }
             Source::File(f) => {
                 // A film file's own options are not known: the command line's defaults, and what is given here.
@@ -306,7 +308,7 @@ impl Film {
                     Ok(())
                 })
                 .map_err(errors::to_py)?;
-                Ok(vec![path])
+                Ok(vec![path.display().to_string()])
             }
         }
     }

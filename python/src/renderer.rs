@@ -168,7 +168,8 @@ impl Renderer {
         for w in &rendered.warnings {
             warn(py, &format!("{}: {w}", scene.path.display()))?;
         }
-        let interrupted = rendered.stats.interrupted && rendered.film.spp > 0;
+        // A signal during the last pass leaves a complete film; before the first pass ended, none.
+        let has_samples = rendered.film.spp > 0;
         let film = Film::rendered(all, path_text, args.common.time.unwrap_or(0.0), rendered);
         match stopped.into_inner().unwrap_or_else(|p| p.into_inner()) {
             None => Ok(film),
@@ -179,7 +180,7 @@ impl Renderer {
                     total
                 );
                 let err = errors::Interrupted::new_err(message);
-                let film = match interrupted {
+                let film = match has_samples {
                     true => Some(Py::new(py, film)?),
                     false => None,
                 };
@@ -260,7 +261,8 @@ fn upload<'a>(
 /// A warning through Python's warnings module, so that notebooks and pytest show it.
 pub fn warn(py: Python<'_>, message: &str) -> PyResult<()> {
     let warnings = py.import("warnings")?;
-    warnings.call_method1("warn", (message, py.get_type::<pyo3::exceptions::PyUserWarning>(), 2))?;
+    // Level 1 is the innermost Python frame: the line that called into pathwave.
+    warnings.call_method1("warn", (message, py.get_type::<pyo3::exceptions::PyUserWarning>(), 1))?;
     Ok(())
 }
 
