@@ -12,8 +12,8 @@ if rustup component list --installed 2>/dev/null | grep -q rustfmt; then
   cargo fmt --all --check
 fi
 if rustup component list --installed 2>/dev/null | grep -q clippy; then
-  cargo clippy --all-targets --locked -- -D warnings
-  cargo clippy -p pathwave-python --locked -- -D warnings
+  # The library, binary, tests and the Python module's crate in one run, so the two share the machine's cores.
+  cargo clippy --workspace --all-targets --locked -- -D warnings
 fi
 # tests/farm.rs starts a one-node Slurm (ci/slurm.sh installs slurm-wlm and munge with apt if missing): here it must run.
 export PATHWAVE_FARM_TEST=1
@@ -23,7 +23,8 @@ cargo test --locked
 # dev profile so it reuses what `cargo test` just compiled, into the venv ci/setup.sh made; then its pytest suite,
 # which compares it with the CLI built above.
 PY_VENV="$HOME/.cache/pathwave/python-venv"
-MATURIN_PEP517_ARGS="--profile dev --locked" "$PY_VENV/bin/pip" install -q --disable-pip-version-check \
+# The venv's bin/ on PATH: without build isolation maturin's build hook runs the `maturin` it installed there.
+PATH="$PY_VENV/bin:$PATH" MATURIN_PEP517_ARGS="--profile dev --locked" "$PY_VENV/bin/pip" install -q --disable-pip-version-check \
   --no-build-isolation --no-deps --force-reinstall .
 # As the Rust tests do: with the validation layer when it is installed, so a render fails on any of its errors.
 layer=explicit_layer.d/VkLayer_khronos_validation.json

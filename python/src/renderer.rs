@@ -114,16 +114,8 @@ impl Renderer {
         let camera_index = camera_options(&mut given, camera.as_ref())?;
         argv::push_all(&mut given, "render", settings, &REFUSED)?;
         // A camera index given here replaces the one the scene was loaded with.
-        let scene_argv: Vec<String> = match camera_index {
-            true => scene
-                .argv
-                .iter()
-                .filter(|a| !a.starts_with("--camera="))
-                .cloned()
-                .collect(),
-            false => scene.argv.clone(),
-        };
-        let all: Vec<String> = scene_argv.iter().chain(&given).cloned().collect();
+        let scene_argv = (scene.argv.iter()).filter(|a| !(camera_index && a.starts_with("--camera=")));
+        let all: Vec<String> = scene_argv.chain(&given).cloned().collect();
         let path_text = scene.path.display().to_string();
         let args = RenderArgs::parse_from(all.iter().cloned().chain(["--".into(), path_text.clone()]))
             .map_err(|e| errors::from_clap("render", e))?;
@@ -168,28 +160,9 @@ impl Renderer {
         for w in &rendered.warnings {
             warn(py, &format!("{}: {w}", scene.path.display()))?;
         }
-        // A signal during the last pass leaves a complete film; before the first pass ended, none.
-        let has_samples = rendered.film.spp > 0;
         let film = Film::rendered(all, path_text, args.common.time.unwrap_or(0.0), rendered);
-        match stopped.into_inner().unwrap_or_else(|p| p.into_inner()) {
-            None => Ok(film),
-            Some(e) if e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) => {
-                let message = format!(
-                    "interrupted: the film holds {} of {} samples per pixel",
-                    film.spp(),
-                    total
-                );
-                let err = errors::Interrupted::new_err(message);
-                let film = match has_samples {
-                    true => Some(Py::new(py, film)?),
-                    false => None,
-                };
-                err.value(py).setattr("film", film)?;
-                err.set_cause(py, Some(e));
-                Err(err)
-            }
-            Some(e) => Err(e),
-        }
+        let stopped = stopped.into_inner().unwrap_or_else(|p| p.into_inner());
+        finish(py, film, stopped, total)
     }
 
     fn __repr__(&self) -> String {
@@ -198,6 +171,31 @@ impl Renderer {
             Some(u) => format!("Renderer('{}')", u.renderer.context().device_name()),
             None => format!("Renderer({})", self.options.join(" ")),
         }
+    }
+}
+
+/// The film, or what stopped the render at a pass's end: a KeyboardInterrupt (Ctrl-C) becomes `Interrupted`
+/// holding the film (a signal during the last pass leaves a complete one; before the first pass ended, none);
+/// anything else the progress callback raised is raised as it is.
+fn finish(py: Python<'_>, film: Film, stopped: Option<PyErr>, total: u32) -> PyResult<Film> {
+    match stopped {
+        None => Ok(film),
+        Some(e) if e.is_instance_of::<pyo3::exceptions::PyKeyboardInterrupt>(py) => {
+            let message = format!(
+                "interrupted: the film holds {} of {} samples per pixel",
+                film.spp(),
+                total
+            );
+            let err = errors::Interrupted::new_err(message);
+            let film = match film.spp() > 0 {
+                true => Some(Py::new(py, film)?),
+                false => None,
+            };
+            err.value(py).setattr("film", film)?;
+            err.set_cause(py, Some(e));
+            Err(err)
+        }
+        Some(e) => Err(e),
     }
 }
 
