@@ -70,3 +70,15 @@ def renderer():
 @pytest.fixture(scope="session")
 def scene(cornell_path):
     return pathwave.Scene.load(cornell_path)
+
+
+@pytest.fixture
+def ctrl_c():
+    """Python's own Ctrl-C handler for the test, as an interactive session has it. A process started in the
+    background by a non-interactive shell inherits SIGINT ignored, and Python then installs no handler, so a
+    signal the test sends would be dropped and the render run to its end (hours for the tests that interrupt)."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)

@@ -33,7 +33,7 @@ def test_the_readme_example_runs(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().out.splitlines()[-1] == "True"
 
 
-def test_the_guide_examples_run(tmp_path, monkeypatch):
+def test_the_guide_examples_run(tmp_path, monkeypatch, ctrl_c):
     pytest.importorskip("matplotlib")
     os.environ.setdefault("MPLBACKEND", "Agg")
     (tmp_path / "scenes").symlink_to(ROOT / "scenes")

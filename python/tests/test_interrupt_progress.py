@@ -16,7 +16,9 @@ from support import film_meta, read_exr
 SIZE = (32, 24)
 
 
-def test_ctrl_c_raises_interrupted_with_a_valid_partial_film(renderer, scene, run_cli, cornell_path, tmp_path):
+def test_ctrl_c_raises_interrupted_with_a_valid_partial_film(
+    renderer, scene, run_cli, cornell_path, tmp_path, ctrl_c
+):
     """Catches Ctrl-C ignored until the render ends (2^16 spp here: minutes), raised as a plain KeyboardInterrupt
     or an Error, losing the samples done (no .film), or a partial film that is not valid: a sample count other
     than film.spp in some pixel, non-finite pixels, a file `pathwave diff` refuses (exit 2), or a file whose
