@@ -17,5 +17,6 @@ void main() {
     path_set(PATH_DIR, i, vec4(v.dir, 0.0));
     path_set(PATH_THROUGHPUT, i, spectrum_store(v.beta));
     path_set(PATH_RADIANCE, i, spectrum_store(v.radiance));
+    if (scene_has(FEATURE_MEDIA)) path_set(PATH_MEDIUM, i, uintBitsToFloat(v.media));
     queues[scene_has(FEATURE_ADAPTIVE) ? atomicAdd(counters.queue_count[0], 1u) : i] = i;
 }

@@ -37,6 +37,7 @@ void main() {
     v.hero_only = spectral() && (dir_bits & PATH_HERO_ONLY) != 0u;
     // The light BVH's normal at the ray's origin waits in the shadow direction's w, which connect does not read.
     v.light_normal = light_tree_on() ? path_get(PATH_SHADOW_DIR, path).w : 0.0;
+    v.media = scene_has(FEATURE_MEDIA) ? floatBitsToUint(path_get(PATH_MEDIUM, path)) : uvec4(0u);
     uint inst = scene_has(FEATURE_INSTANCES) ? (spectral() ? dir_bits & ~PATH_HERO_ONLY : dir_bits) : NO_INSTANCE;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
@@ -52,6 +53,7 @@ void main() {
         path_set(PATH_ORIGIN, path, v.origin);
         path_set(PATH_DIR, path, vec4(v.dir, v.hero_only ? uintBitsToFloat(PATH_HERO_ONLY) : 0.0));
         path_set(PATH_THROUGHPUT, path, spectrum_store(v.beta));
+        if (scene_has(FEATURE_MEDIA)) path_set(PATH_MEDIUM, path, uintBitsToFloat(v.media));
         queue_push(1u - cur, path);
     }
     check_loop_budget();

@@ -102,7 +102,7 @@ pub const TEX_DIFFUSE_TRANSMISSION_COLOR: u32 = 16;
 pub const TEX_DIFFUSE_ROUGHNESS: u32 = 17;
 pub const TEX_SLOTS: u32 = 18;
 /// 16-byte texels per material (layout.glsl's Material is 768 bytes).
-pub const MATERIAL_TEXELS: u32 = 48;
+pub const MATERIAL_TEXELS: u32 = 49;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
@@ -280,6 +280,10 @@ pub const FEATURE_DIFFUSE_ROUGHNESS: u32 = 524288;
 /// the table's lookups are not compiled in: lavapipe pays for the code of branches no lane takes (glass.gltf's shade
 /// stage ran 3x slower with it).
 pub const FEATURE_DIELECTRIC_MS: u32 = 1048576;
+/// Some used material is a volume whose medium scatters (KHR_materials_scatter): paths carry the volumes they are inside
+/// (PATH_MEDIUM), sample free flights through them and scatter there (media.glsl). Without it, a volume only absorbs,
+/// applied where a ray leaves it.
+pub const FEATURE_MEDIA: u32 = 2097152;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;
@@ -394,6 +398,10 @@ pub const PATH_HERO_ONLY: u32 = 0x80000000;
 pub const DIM_WAVELENGTH: u32 = 11;
 /// The light BVH's descent (x, then y once x has too few bits left); the point on the light keeps DIM_LIGHT.
 pub const DIM_LIGHT_PICK: u32 = 12;
+/// A free flight through a medium: x the channel (wavelength) whose exponential draws the distance, y the distance.
+pub const DIM_MEDIUM: u32 = 13;
+/// The direction a medium scatters to (Henyey-Greenstein).
+pub const DIM_PHASE: u32 = 14;
 
 /// Segments the shutter is cut into for motion: transforms (and skinned or morphed vertices) are evaluated at
 /// MOTION_SEGMENTS + 1 evenly spaced times, vertices move linearly between them. Four keep a quarter turn within the
@@ -453,6 +461,9 @@ pub const PATH_SHADOW_DIR: u32 = 6;
 /// rgb contribution if the shadow ray is unoccluded, w unused.
 pub const PATH_SHADOW_RADIANCE: u32 = 7;
 pub const PATH_FIELDS: u32 = 8;
+/// Under FEATURE_MEDIA only, allocated after the PATH_FIELDS every path has: the volumes the ray is inside (uint bits,
+/// media.glsl's stack).
+pub const PATH_MEDIUM: u32 = 8;
 
 /// The largest radiance per channel one sample may add to the film; film_add (layout.glsl) drops a sample beyond
 /// it, or not finite, and counts it (Counters::nonfinite). Its square is 1e30, so even 2^24 samples (the spp limit)

@@ -156,11 +156,12 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 768 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 784 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour (w: diffuse roughness), transmission (factor, thin), absorption,
 /// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
 /// (colour, roughness), anisotropy (strength, cos and sin of the rotation), iridescence (factor, film IOR, thickness
-/// minimum and maximum in nm), diffuse transmission (colour, factor), then one texture slot per TEX_*.
+/// minimum and maximum in nm), diffuse transmission (colour, factor), one texture slot per TEX_*, then the medium
+/// inside (single-scattering albedo, Henyey-Greenstein g).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -178,6 +179,8 @@ pub struct GpuMaterial {
     pub iridescence: [f32; 4],
     pub diffuse_transmission: [f32; 4],
     pub textures: [TextureSlot; crate::constants::TEX_SLOTS as usize],
+    /// KHR_materials_scatter's medium: rgb the single-scattering albedo (0: absorption alone), w g.
+    pub medium: [f32; 4],
 }
 
 /// 32 bytes: a material's use of a texture. uv' = (u . (uv, 1), v . (uv, 1)); `u[3]` holds the texture index bits
@@ -379,7 +382,7 @@ pub struct DebugSums {
 const _: () = assert!(std::mem::size_of::<DebugSums>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 768);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 784);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);
@@ -542,3 +545,17 @@ pub struct EnvRecord {
 const _: () = assert!(std::mem::size_of::<TraceRecord>() == 64);
 const _: () = assert!(std::mem::size_of::<BsdfRecord>() == 96);
 const _: () = assert!(std::mem::size_of::<EnvRecord>() == 48);
+
+/// 48 bytes: probe_phase's query and Henyey-Greenstein's answer (see `PhaseRecord` in layout.glsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct PhaseRecord {
+    pub d_in: [f32; 3],
+    pub g: f32,
+    pub x: [f32; 3],
+    pub pdf: f32,
+    pub wi: [f32; 3],
+    pub pad0: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<PhaseRecord>() == 48);

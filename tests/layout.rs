@@ -1,8 +1,8 @@
 //! Owns the Rust/GLSL layout contract: every struct in src/layout.rs must match its GLSL twin in shaders/include/layout.glsl, as read from the compiled SPIR-V by naga.
 use pathwave::layout::{
     AovSums, BsdfRecord, BvhNode, Counters, DebugSums, EnvRecord, Frame, GpuInstance, GpuLight, GpuLightNode,
-    GpuMaterial, GpuPunctual, GpuTexture, LightSelectRecord, MotionKey, TextureSlot, ToneMap, TraceRecord, TriColors,
-    TriShading, TriTangents, TriTexcoords, TriVerts,
+    GpuMaterial, GpuPunctual, GpuTexture, LightSelectRecord, MotionKey, PhaseRecord, TextureSlot, ToneMap, TraceRecord,
+    TriColors, TriShading, TriTangents, TriTexcoords, TriVerts,
 };
 use pathwave::render::{builtin_spirv, builtin_stage_names};
 
@@ -49,7 +49,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(BvhNode => "BvhNode", [origin, q0, q1]),
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
-        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, clearcoat, sheen, anisotropy, iridescence, diffuse_transmission, textures]),
+        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, clearcoat, sheen, anisotropy, iridescence, diffuse_transmission, textures, medium]),
         mirror!(TextureSlot => "TextureSlot", [u, v]),
         mirror!(ToneMap => "ToneMap", [film_width, film_height, out_width, out_height, samples, op, exposure, pad]),
         mirror!(GpuTexture => "TextureInfo", [offset, width, height, flags]),
@@ -68,6 +68,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(DebugSums => "DebugSums", [geometric, shading, uv]),
         mirror!(BsdfRecord => "BsdfRecord", [wo, material, x, front, wi, pdf, weight, flags, eval, pdf_wi, eval_reverse, pad0]),
         mirror!(EnvRecord => "EnvRecord", [x, pdf, dir, pdf_dir, radiance, pad0]),
+        mirror!(PhaseRecord => "PhaseRecord", [d_in, g, x, pdf, wi, pad0]),
         mirror!(Frame => "Frame", [
             cam_origin, cam_right, cam_up, cam_forward, width, height, sample_index, seed, bounce,
             max_depth, pass_pixels, pixel_offset, path_count, path_capacity, light_count, flags, env_prob, env_rotation, env_width, env_height,

@@ -74,7 +74,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 768 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 784 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
@@ -91,6 +91,8 @@ struct Material {
                          // a hit (material_at) w is the thickness there
     vec4 diffuse_transmission; // KHR_materials_diffuse_transmission: rgb colour, w factor
     TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
+    vec4 medium;         // KHR_materials_scatter inside a volumetric object: rgb single-scattering albedo (the share of
+                         // `attenuation` that scatters), w Henyey-Greenstein g. Read by load_medium alone.
 };
 
 // 16 bytes: a texture's texels[offset ..] (RGBA8, row 0 at the top), its size, and TEXTURE_* / WRAP_* flags.
@@ -277,6 +279,17 @@ struct EnvRecord {
     vec3 dir;
     float pdf_dir;
     vec3 radiance;
+    uint pad0;
+};
+
+// 48 bytes: probe_phase's query (the propagation direction before scattering, g, and in x the uniforms (xy) to sample
+// with or the direction to evaluate) and Henyey-Greenstein's answer: the direction and the phase function there.
+struct PhaseRecord {
+    vec3 d_in;
+    float g;
+    vec3 x;
+    float pdf;
+    vec3 wi;
     uint pad0;
 };
 

@@ -126,6 +126,7 @@ float tree_pmf(uint entry, vec3 p, vec3 n) { return tree_pmf_below(light_node_li
 
 // A receiver's normal in one float for the path state: octahedral, 12 bits a coordinate, as an integer below 2^24
 // so the float is exact through any load or texel fetch. Light selection and its pdf twin both use the decoded one.
+const float LIGHT_NORMAL_NONE = -1.0;
 float pack_light_normal(vec3 n) {
     n /= max(abs(n.x) + abs(n.y) + abs(n.z), 1e-30);
     vec2 o = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
@@ -133,6 +134,8 @@ float pack_light_normal(vec3 n) {
     return float(q.x | (q.y << 12u));
 }
 vec3 unpack_light_normal(float f) {
+    // A point in a medium has no normal: it packs as LIGHT_NORMAL_NONE, -1.
+    if (f < 0.0) return vec3(0.0);
     uint b = uint(f);
     vec2 o = vec2(b & 4095u, b >> 12u) * (2.0 / 4095.0) - 1.0;
     vec3 n = vec3(o, 1.0 - abs(o.x) - abs(o.y));

@@ -6,6 +6,7 @@
 #include "bsdf.glsl"
 #include "camera.glsl"
 #include "lights.glsl"
+#include "media.glsl"
 
 // Next-event estimation's ray: it adds `radiance` when nothing blocks origin -> origin + dir * origin.w.
 struct ShadowRay {
@@ -113,6 +114,49 @@ void shading_frame(Surface sf, uint tri, vec2 uv, uint inst, inout Bsdf bsdf, ou
     }
 }
 
+// A scattering in medium md at p, reached along d_in with throughput beta (the free flight's weight in it): next-event
+// estimation towards a light through the medium, MIS-weighted against the phase function, and the continuation drawn
+// from the phase function. A shadow ray that meets the volume's boundary is blocked (as in Mitsuba 3 and pbrt-v4: a
+// refracting boundary has no straight path through it); light from outside arrives by phase sampling through the
+// boundary's refraction instead. Returns whether the path goes on.
+bool scatter_path(uint pixel, uint s, uint bounce, vec3 p, vec3 d_in, Medium md, Spectrum beta, inout PathVertex v,
+                  inout ShadowRay shadow) {
+    bool alive = bounce < frame.max_depth;
+    if (frame.light_count > 0u) {
+        vec2 u_pick = light_tree_on() ? rand2(pixel, s, bounce, DIM_LIGHT_PICK) : vec2(0.0);
+        // No normal: the light BVH weighs its nodes without a receiver cosine, and its pdf twin at an emitter the
+        // continuation hits sees the same (LIGHT_NORMAL_NONE).
+        LightSample ls = sample_light(p, vec3(0.0), rand2(pixel, s, bounce, DIM_LIGHT), u_pick);
+        bool wanted = frame_estimator() != ESTIMATOR_BSDF || ls.delta;
+        if (alive && wanted && ls.pdf > 0.0) {
+            float phase = hg_phase(dot(d_in, ls.wi), md.g);
+            bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
+            float w = mis ? power_heuristic(ls.pdf, phase) : 1.0;
+            // The run to the light stays in this medium, or the shadow ray meets a surface and is blocked.
+            Spectrum contribution = beta * phase * medium_transmittance(md, ls.dist) * ls.radiance * (w / ls.pdf);
+            shadow.wanted = spectrum_positive(contribution);
+            shadow.origin = vec4(p, ls.dist * (1.0 - 1e-4));
+            shadow.dir = ls.wi;
+            shadow.radiance = contribution;
+        }
+    }
+    vec3 wi = hg_sample(d_in, md.g, rand2(pixel, s, bounce, DIM_PHASE));
+    // The phase function is sampled exactly: its weight is 1, the throughput only the free flight's. Roulette
+    // only takes what the throughput has lost (pbrt-v4's rule, without the surfaces' 0.95 cap): light diffusing
+    // through a dense, bright medium scatters hundreds of times, and a 5 % loss at each left almost none to leave it
+    // (the marble of scenes/subsurface.gltf rendered black, with fireflies).
+    if (bounce >= RR_START_BOUNCE) {
+        float survive = min(spectrum_max(beta), 1.0);
+        alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
+        beta /= survive;
+    }
+    v.origin = vec4(p, hg_phase(dot(d_in, wi), md.g));
+    v.dir = wi;
+    v.beta = beta;
+    if (light_tree_on()) v.light_normal = LIGHT_NORMAL_NONE;
+    return alive;
+}
+
 // Bounce `bounce` of sample s of pixel: v's ray found `hit` (t, triangle bits, barycentrics). Adds the emission the
 // ray sees (MIS-weighted), asks for a shadow ray towards a light in `shadow`, and turns v into the continuation.
 // Returns whether the path goes on. Randomness depends only on (pixel, s, bounce, dimension), so the wavefront and
@@ -128,6 +172,17 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     shadow.radiance = Spectrum(0.0);
     // After the camera or a delta bounce, nothing else could have found this light: it counts in full.
     bool camera_or_delta = bounce == 0u || ray_o.w == 0.0;
+
+    // Inside a scattering volume the ray may scatter before it reaches the surface (or, having left the scene through
+    // an open volume, anywhere): then the surface is not seen at all.
+    if (scene_has(FEATURE_MEDIA) && v.media.x != 0u) {
+        Medium md = medium_at(v.media.x);
+        float t;
+        float t_max = tri != NO_HIT ? hit.x : 1.0e30;
+        if (medium_sample(md, t_max, rand2(pixel, s, bounce, DIM_MEDIUM), beta, t)) {
+            return scatter_path(pixel, s, bounce, ray_o.xyz + t * ray_d, ray_d, md, beta, v, shadow);
+        }
+    }
 
     // No early exit: lavapipe runs every line for every lane anyway, so an early return only adds stores. A lane stops
     // being `alive` where its path ends; what follows still runs for it but changes nothing it returns.
@@ -191,7 +246,9 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     // it entered by refraction or diffusely.
     bool enters = (scene_has(FEATURE_TRANSMISSION) && m.transmission.x > 0.0) ||
                   (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && m.diffuse_transmission.w > 0.0);
-    if (enters && !front && m.transmission.y < 0.5) {
+    // With media, the path's medium stack has done that already, for every volume it is inside.
+    bool volumetric = enters && m.transmission.y < 0.5;
+    if (!scene_has(FEATURE_MEDIA) && volumetric && !front) {
         beta *= exp(-spectrum_unbounded(m.attenuation.rgb) * hit.x);
     }
     // Dispersion (KHR_materials_dispersion): the surface bends each wavelength its own way, so the direction sampled
@@ -240,6 +297,12 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
             bool mis = frame_estimator() == ESTIMATOR_MIS && !ls.delta;
             float w = mis ? power_heuristic(ls.pdf, bsdf_pdf(bsdf, wi_local)) : 1.0;
             Spectrum contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
+            if (scene_has(FEATURE_MEDIA)) {
+                // The run to the light crosses the medium on the side it leaves by, if any.
+                uint id = media_beyond(v.media, floatBitsToUint(tv.v0.w) + 1u, volumetric, front);
+                if (side > 0.0) id = v.media.x;
+                if (id != 0u) contribution *= medium_transmittance(medium_at(id), ls.dist);
+            }
             shadow.wanted = spectrum_positive(contribution);
             // The shadow ray starts off the surface but ends at the light's point itself, just short of it so it
             // cannot hit the emitter it aims at. Its length measured from p_pick instead would overshoot by the
@@ -261,6 +324,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
 
     // A direction the shading normal puts on one side and the true surface on the other carries no light.
     alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
+    // Through a volume's boundary, the path enters or leaves its medium.
+    if (scene_has(FEATURE_MEDIA) && bs.wi.z < 0.0) {
+        uint id = floatBitsToUint(tv.v0.w) + 1u;
+        if (volumetric) v.media = front ? media_enter(v.media, id) : media_leave(v.media, id);
+    }
     beta *= bs.weight;
     if (bounce >= RR_START_BOUNCE) {
         float survive = min(spectrum_max(beta), 0.95);

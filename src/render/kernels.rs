@@ -27,6 +27,7 @@ pub enum Stage {
     ProbeTrace,
     ProbeBsdf,
     ProbeEnv,
+    ProbePhase,
     ProbeRand,
     ProbeLightPick,
     ProbeLightSelect,
@@ -34,7 +35,7 @@ pub enum Stage {
 }
 
 impl Stage {
-    pub const ALL: [Stage; 20] = [
+    pub const ALL: [Stage; 21] = [
         Stage::Generate,
         Stage::QueueArgs,
         Stage::Extend,
@@ -51,6 +52,7 @@ impl Stage {
         Stage::ProbeTrace,
         Stage::ProbeBsdf,
         Stage::ProbeEnv,
+        Stage::ProbePhase,
         Stage::ProbeRand,
         Stage::ProbeLightPick,
         Stage::ProbeLightSelect,
@@ -76,6 +78,7 @@ impl Stage {
             Stage::ProbeTrace => "probe_trace",
             Stage::ProbeBsdf => "probe_bsdf",
             Stage::ProbeEnv => "probe_env",
+            Stage::ProbePhase => "probe_phase",
             Stage::ProbeRand => "probe_rand",
             Stage::ProbeLightPick => "probe_light_pick",
             Stage::ProbeLightSelect => "probe_light_select",
@@ -121,6 +124,7 @@ impl Stage {
             Stage::ProbeTrace
                 | Stage::ProbeBsdf
                 | Stage::ProbeEnv
+                | Stage::ProbePhase
                 | Stage::ProbeRand
                 | Stage::ProbeLightPick
                 | Stage::ProbeLightSelect

@@ -5,7 +5,7 @@ use super::{BvhReads, LightSampler, Renderer};
 use crate::bvh::{Ray, TraceHit};
 use crate::constants::*;
 use crate::error::Error;
-use crate::layout::{BsdfRecord, EnvRecord, Frame, LightSelectRecord, TraceRecord};
+use crate::layout::{BsdfRecord, EnvRecord, Frame, LightSelectRecord, PhaseRecord, TraceRecord};
 use crate::vk::Buffer;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -223,6 +223,31 @@ impl Renderer {
             .iter()
             .map(|r| (r.dir.into(), r.pdf, r.pdf_dir, r.radiance.into()))
             .collect())
+    }
+
+    /// Runs Henyey-Greenstein's phase function on the device (media.glsl) about `d_in` with anisotropy `g`: from `x`'s
+    /// uniforms (xy) it samples a direction, or with `evaluate` it takes x as the direction. Returns per query the
+    /// direction and the phase function's value there (which is sampling's pdf).
+    pub fn probe_phase(
+        &mut self,
+        d_in: glam::Vec3,
+        g: f32,
+        x: &[glam::Vec3],
+        evaluate: bool,
+    ) -> Result<Vec<(glam::Vec3, f32)>, Error> {
+        let records: Vec<PhaseRecord> = x
+            .iter()
+            .map(|x| PhaseRecord {
+                d_in: d_in.to_array(),
+                g,
+                x: x.to_array(),
+                ..Default::default()
+            })
+            .collect();
+        let mode = if evaluate { PROBE_EVALUATE } else { PROBE_SAMPLE };
+        let frame = Frame::probe(x.len() as u32, mode);
+        let (out, _) = self.run_probe(Kernel::of(Stage::ProbePhase), &records, frame, 1)?;
+        Ok(out.iter().map(|r| (r.wi.into(), r.pdf)).collect())
     }
 
     /// Every shared constant as the device's GLSL computes it, in crate::shaders::SHARED_CONSTANTS order.

@@ -1,7 +1,8 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
 use super::film::{ExactFilm, Film, RenderStats};
 use super::integrator::{Pass, FUSED_FALLBACK};
-use super::sizing::{path_capacity, size_pass, PathLimits};
+use super::settings::MEDIA_DEPTH_CAP;
+use super::sizing::{path_capacity, path_fields, size_pass, PathLimits};
 use super::Aovs;
 use super::{RenderSettings, Renderer, DEPTH_SAFETY_CAP};
 use crate::constants::*;
@@ -151,10 +152,11 @@ impl Renderer {
         let pixels = s.width as u64 * s.height as u64;
         let range = self.ctx.properties.limits.max_storage_buffer_range as u64;
         let film_bytes = film_bytes(s, range)?;
-        let capacity = path_capacity(pixels * s.spp as u64, self.path_limits());
+        let fields = path_fields(self.scene.features);
+        let capacity = path_capacity(pixels * s.spp as u64, self.path_limits(), fields);
         let ctx = &self.ctx;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let (paths, path_views, queues) = path_state(ctx, capacity)?;
+        let (paths, path_views, queues) = path_state(ctx, capacity, fields)?;
         let counters = Buffer::new(
             ctx,
             "counters",
@@ -469,7 +471,10 @@ impl Renderer {
             height: s.height,
             seed: s.seed,
             // The cap applies to unbounded paths only; an explicit depth is taken as given.
-            max_depth: s.max_depth.unwrap_or(DEPTH_SAFETY_CAP),
+            max_depth: s.max_depth.unwrap_or(match self.scene.features & FEATURE_MEDIA {
+                0 => DEPTH_SAFETY_CAP,
+                _ => MEDIA_DEPTH_CAP,
+            }),
             flags: s.estimator.code() << ESTIMATOR_SHIFT
                 | flag(s.energy_compensation, FLAG_ENERGY_COMPENSATION)
                 | flag(s.hide_environment, FLAG_HIDE_ENV)
@@ -506,9 +511,9 @@ fn film_bytes(s: &RenderSettings, range: u64) -> Result<u64, Error> {
 }
 
 /// The path state for `capacity` paths, its texel view, and the queues.
-fn path_state(ctx: &crate::vk::Context, capacity: u32) -> Result<(Buffer, TexelViews, Buffer), Error> {
+fn path_state(ctx: &crate::vk::Context, capacity: u32, fields: u32) -> Result<(Buffer, TexelViews, Buffer), Error> {
     let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-    let per_path = PATH_FIELDS as u64 * 16;
+    let per_path = fields as u64 * 16;
     let paths = Buffer::new(
         ctx,
         "path state",

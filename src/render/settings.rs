@@ -74,6 +74,11 @@ impl LightSampler {
 
 /// Bounces recorded when no `max_depth` is given: Russian roulette ends paths long before this.
 pub const DEPTH_SAFETY_CAP: u32 = 64;
+/// The same cap in a scene with scattering media (FEATURE_MEDIA), where each scattering is a bounce: light diffusing
+/// through a dense medium scatters hundreds of times. A path that reaches it ends there (its light beyond is lost, the
+/// image darkens where media are denser than this resolves), which bounds the work of a medium whose mean free path
+/// is far below the scene's size. An explicit --max-depth is taken as given.
+pub const MEDIA_DEPTH_CAP: u32 = 1024;
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {

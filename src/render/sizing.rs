@@ -1,6 +1,6 @@
 //! How many paths a pass holds and how it covers the image with them: pure arithmetic, tested here without a device.
 use super::Schedule;
-use crate::constants::{FOLLOW_ROWS_MAX, PATH_FIELDS};
+use crate::constants::{FEATURE_MEDIA, FOLLOW_ROWS_MAX, PATH_FIELDS};
 
 /// The device limits the path state must fit.
 #[derive(Clone, Copy, Debug)]
@@ -18,14 +18,23 @@ pub(super) struct PathLimits {
 /// of the image alone is larger. The budget is a sixteenth of the largest device-local heap (1024 paths at least),
 /// within one storage buffer's range: on lavapipe that is 2^20 paths (128 MiB), 6 % faster on the Cornell box than
 /// 2^18. path_count (rows x pixels, up to four times the capacity in a fused pass) must stay within u32.
-pub(super) fn path_capacity(wanted: u64, limits: PathLimits) -> u32 {
-    let per_path = PATH_FIELDS as u64 * 16;
+pub(super) fn path_capacity(wanted: u64, limits: PathLimits, fields: u32) -> u32 {
+    let per_path = fields as u64 * 16;
     let budget = (limits.device_local_heap / 16).max(per_path * 1024);
     wanted
         .min(limits.storage_range / per_path)
-        .min(limits.texel_elements / PATH_FIELDS as u64)
+        .min(limits.texel_elements / fields as u64)
         .min(budget / per_path)
         .min(u32::MAX as u64 / 4) as u32
+}
+
+/// The vec4 fields a path keeps for a scene of `features`: PATH_FIELDS, and the medium stack (PATH_MEDIUM) where
+/// media are.
+pub(super) fn path_fields(features: u32) -> u32 {
+    match features & FEATURE_MEDIA {
+        0 => PATH_FIELDS,
+        _ => PATH_FIELDS + 1,
+    }
 }
 
 /// How one pass covers `pixels` pixels: `chunks` dispatches of `chunk` pixels each (the last may hold fewer), every
@@ -182,24 +191,27 @@ mod tests {
             texel_elements: 1 << 27,
             device_local_heap: 1 << 35,
         };
-        assert_eq!(path_capacity(u64::MAX, lavapipe), (1 << 27) / per_path as u32);
-        assert_eq!(path_capacity(5000, lavapipe), 5000, "no more than wanted");
+        assert_eq!(
+            path_capacity(u64::MAX, lavapipe, PATH_FIELDS),
+            (1 << 27) / per_path as u32
+        );
+        assert_eq!(path_capacity(5000, lavapipe, PATH_FIELDS), 5000, "no more than wanted");
         let no_heap = PathLimits {
             device_local_heap: 0,
             ..lavapipe
         };
-        assert_eq!(path_capacity(u64::MAX, no_heap), 1024);
+        assert_eq!(path_capacity(u64::MAX, no_heap, PATH_FIELDS), 1024);
         let small_view = PathLimits {
             texel_elements: 64 * PATH_FIELDS as u64,
             ..lavapipe
         };
-        assert_eq!(path_capacity(u64::MAX, small_view), 64);
+        assert_eq!(path_capacity(u64::MAX, small_view, PATH_FIELDS), 64);
         let huge = PathLimits {
             storage_range: u64::MAX,
             texel_elements: u64::MAX,
             device_local_heap: u64::MAX,
         };
-        assert_eq!(path_capacity(u64::MAX, huge), u32::MAX / 4);
+        assert_eq!(path_capacity(u64::MAX, huge, PATH_FIELDS), u32::MAX / 4);
     }
 
     /// A fused pass too large for the path state reruns as wavefront passes of the rows that fit, the last holding

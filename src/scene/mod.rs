@@ -51,8 +51,11 @@ pub struct Material {
     pub transmission: f32,
     /// No KHR_materials_volume (or thickness 0): a thin sheet, light passes without bending.
     pub thin_walled: bool,
-    /// KHR_materials_volume absorption coefficient inside the object, per metre: -ln(attenuationColor) / distance.
+    /// KHR_materials_volume's attenuation coefficient inside the object, per metre: -ln(attenuationColor) / distance.
+    /// The medium's extinction: absorption alone, unless `medium` scatters part of it.
     pub attenuation: Vec3,
+    /// KHR_materials_scatter's volumetric mode: what of `attenuation` scatters, and how.
+    pub medium: Medium,
     /// baseColorFactor's alpha: opacity under alphaMode MASK and BLEND.
     pub alpha: f32,
     pub alpha_mode: AlphaMode,
@@ -190,6 +193,21 @@ impl Default for DiffuseTransmission {
     }
 }
 
+/// The medium inside a volumetric object (KHR_materials_scatter, scene/gltf/scatter.rs): per channel the
+/// single-scattering albedo rho_ss, so the scattering coefficient is `attenuation * albedo` and absorption the rest,
+/// and Henyey-Greenstein's g for the phase function. Zero albedo: a purely absorbing medium.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Medium {
+    pub albedo: Vec3,
+    pub anisotropy: f32,
+}
+
+impl Medium {
+    pub fn scatters(&self) -> bool {
+        self.albedo != Vec3::ZERO
+    }
+}
+
 /// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AlphaMode {
@@ -269,6 +287,7 @@ impl Default for Material {
             transmission: 0.0,
             thin_walled: true,
             attenuation: Vec3::ZERO,
+            medium: Medium::default(),
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
             base_color_texture: None,

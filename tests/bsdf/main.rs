@@ -6,6 +6,7 @@ mod agree;
 mod chi2;
 mod energy;
 mod lobes;
+mod phase;
 mod reciprocity;
 
 use common::rng::Rng;

@@ -27,6 +27,7 @@ pub fn all() -> Vec<(&'static str, GltfBuilder)> {
         ("anisotropy.gltf", anisotropy()),
         ("iridescence.gltf", iridescence()),
         ("translucency.gltf", translucency()),
+        ("subsurface.gltf", subsurface()),
         ("halves.gltf", halves()),
         ("prism.gltf", prism()),
     ]
@@ -634,6 +635,36 @@ pub fn translucency() -> GltfBuilder {
     b.quad("back light", upright([-3.0, 3.0], [0.2, 2.0], -2.5), back, FACING_Z);
     b.camera([0.0, 2.2, 6.5], [0.0, 0.6, 0.0], [0.0, 1.0, 0.0], 32.0);
     b
+}
+
+/// KHR_materials_scatter: four solid spheres of scattering media under smooth or slightly rough dielectric skins, lit
+/// by one area light above and to the left so light diffusing through them shows against their shadowed
+/// sides. Left to right: a white marble (dense, rho_ms near 1), a skin-like wax scattering red furthest, a green jade,
+/// and a thin milky glass scattering forwards (g 0.7). Mean free paths are 2 to 10 cm in spheres of 1 m.
+pub fn subsurface() -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let floor = b.material("floor", [0.4; 3], [0.0; 3], false);
+    let light = b.material("light", [0.0; 3], [20.0; 3], false);
+    b.quad("floor", level([-6.0, 6.0], 0.0, [-4.0, 4.0]), floor, FACING_UP);
+    b.quad("light", level([-2.8, -1.2], 4.0, [0.2, 1.8]), light, FACING_DOWN);
+    b.use_extension("KHR_materials_scatter");
+    // (name, roughness, ior, attenuation colour over distance (m), multiscatter colour, anisotropy)
+    let media = [
+        ("marble", 0.4, 1.5, [0.2, 0.2, 0.2], 0.05, [0.95, 0.94, 0.9], 0.0),
+        ("wax", 0.5, 1.45, [0.3, 0.15, 0.1], 0.05, [0.95, 0.6, 0.4], 0.3),
+        ("jade", 0.3, 1.6, [0.4, 0.2, 0.3], 0.1, [0.3, 0.85, 0.55], 0.0),
+        ("milk glass", 0.0, 1.5, [0.5, 0.5, 0.5], 0.5, [0.9, 0.9, 0.9], 0.7),
+    ];
+    for (col, (name, roughness, ior, attenuation, distance, multiscatter, g)) in media.into_iter().enumerate() {
+        let m = b.glass_material(name, [1.0; 3], ior, roughness, false, Some((attenuation, distance)));
+        b.material_json(m)["extensions"]["KHR_materials_scatter"] = serde_json::json!({
+            "scatterStrengthFactor": 1.0,
+            "multiscatterColorFactor": multiscatter,
+            "scatterAnisotropy": g,
+        });
+        b.sphere(name, stage_spot(col, 0.0), 0.5, m);
+    }
+    sphere_stage_camera(b)
 }
 
 /// Adaptive sampling's scene (tests/adaptive.rs, the bench): a grey floor seen from low down. The left half of the

@@ -69,6 +69,7 @@ pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
         ],
         diffuse_transmission: v4(m.diffuse_transmission.color, m.diffuse_transmission.factor),
         textures: m.texture_refs().map(slot),
+        medium: v4(m.medium.albedo, m.medium.anisotropy),
     }
 }
 

@@ -110,6 +110,13 @@ impl PackedScene {
         if any(|m| m.specular_color[3] != 0.0) {
             bits |= FEATURE_DIFFUSE_ROUGHNESS;
         }
+        // A scattering medium only matters where a path can enter it: through a volume's transmitting boundary.
+        if any(|m| {
+            let enterable = m.transmission[1] == 0.0 && (m.transmission[0] != 0.0 || m.diffuse_transmission[3] != 0.0);
+            enterable && m.medium[..3].iter().any(|&a| a > 0.0)
+        }) {
+            bits |= FEATURE_MEDIA;
+        }
         fn dielectric_layer(m: &GpuMaterial) -> bool {
             let textured = |slot: u32| m.textures[slot as usize].u[3].to_bits() != TEXTURE_NONE;
             m.params[3] != 0.0

@@ -295,7 +295,7 @@ impl Loader<'_> {
     }
 
     /// A textureInfo of an extension's JSON: the texture index (checked), texCoord and KHR_texture_transform.
-    fn json_texture(
+    pub(super) fn json_texture(
         &mut self,
         name: &str,
         ext_name: &str,

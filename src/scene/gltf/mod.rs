@@ -7,6 +7,7 @@ mod materials;
 mod meshes;
 mod meshopt;
 mod quantized;
+mod scatter;
 mod uri;
 mod validate;
 
@@ -44,12 +45,17 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
     // Archived, but common in older assets: read as a dielectric with F0 the specular colour (materials.rs).
     "KHR_materials_pbrSpecularGlossiness",
+    // A draft (glTF pull request 2579; scatter.rs pins the revision): the volumetric mode, not yet the thin-walled one,
+    // which is named in a warning where a file asks for it.
+    "KHR_materials_scatter",
     "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_unlit",
     "KHR_materials_variants",
     "KHR_materials_volume",
+    // The draft KHR_materials_scatter replaced (glTF pull request 2453), read as that draft defines it.
+    "KHR_materials_volume_scatter",
     "KHR_mesh_quantization",
     "KHR_meshopt_compression",
     // Animated through KHR_animation_pointer too.
