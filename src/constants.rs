@@ -284,6 +284,9 @@ pub const FEATURE_DIELECTRIC_MS: u32 = 1048576;
 /// (PATH_MEDIUM), sample free flights through them and scatter there (media.glsl). Without it, a volume only absorbs,
 /// applied where a ray leaves it.
 pub const FEATURE_MEDIA: u32 = 2097152;
+/// Some used thin-walled material scatters part of its transmission diffusely (KHR_materials_scatter's thin-walled
+/// mode): shading reads the material's scatter texel and reshapes its lobes (bsdf.glsl's thin_scatter).
+pub const FEATURE_THIN_SCATTER: u32 = 4194304;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;

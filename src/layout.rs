@@ -169,7 +169,8 @@ pub struct GpuMaterial {
     pub emission: [f32; 4],
     pub params: [f32; 4],
     pub specular_color: [f32; 4],
-    /// x factor, y 1 if thin-walled, z KHR_materials_dispersion (20 / Abbe number; 0 for thin walls), w unused.
+    /// x factor, y 1 if thin-walled, z KHR_materials_dispersion (20 / Abbe number; 0 for thin walls), w
+    /// KHR_materials_scatter's strength on a thin wall (0 in a volume).
     pub transmission: [f32; 4],
     pub attenuation: [f32; 4],
     pub alpha: [f32; 4],
@@ -179,7 +180,8 @@ pub struct GpuMaterial {
     pub iridescence: [f32; 4],
     pub diffuse_transmission: [f32; 4],
     pub textures: [TextureSlot; crate::constants::TEX_SLOTS as usize],
-    /// KHR_materials_scatter's medium: rgb the single-scattering albedo (0: absorption alone), w g.
+    /// KHR_materials_scatter: in a volume, rgb the medium's single-scattering albedo (0: absorption alone); on a thin
+    /// wall, rgb the scattering's colour; w g.
     pub medium: [f32; 4],
 }
 

@@ -7,7 +7,7 @@ use common::gltf_builder::{square, GltfBuilder, FACING_DOWN};
 use common::stats::{assert_same_within_noise, beyond_noise};
 use glam::{Mat4, Quat, Vec3};
 use pathwave::bvh::{brute_force, trace_two_level, Ray};
-use pathwave::constants::{FEATURE_INSTANCES, FEATURE_MOTION, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE};
+use pathwave::constants::{FEATURE_INSTANCES, FEATURE_MEDIA, FEATURE_MOTION, MOTION_SEGMENTS, NO_HIT, NO_INSTANCE};
 use pathwave::render::gpu_scene::try_pack_with;
 use pathwave::scene::{load, Instancing, Scene};
 use pathwave::{Renderer, RendererOptions};
@@ -54,7 +54,11 @@ fn spheres() -> GltfBuilder {
 /// `placed_spheres` moving over [0, 1] s: the rotated sphere slides and turns, the mirrored one stretches (staying
 /// mirrored), the nested one's parent swings it round; the squashed and plain ones stay still.
 fn moving_spheres() -> Scene {
-    let mut b = spheres();
+    moving(spheres())
+}
+
+/// `spheres()`'s scene moving as `moving_spheres` says, posed over the shutter.
+fn moving(mut b: GltfBuilder) -> Scene {
     let turn = |a: f32| Quat::from_rotation_z(0.6) * Quat::from_rotation_x(a);
     let (r0, r1) = (turn(0.0).to_array(), turn(1.2).to_array());
     b.slide("move", 2, [0.0, 1.0], [-1.5, 0.5, 0.0], [-1.1, 0.7, 0.3]);
@@ -321,6 +325,33 @@ fn a_moving_instanced_scene_renders_like_its_triangles_moved_one_by_one() {
 /// mirrored emitter's front turned (it emits outwards only), a stretched one's area taken in its mesh's space; and
 /// the same for emitters moving over the shutter. Each image must match the one whose emitters are placed triangle
 /// by triangle in the world.
+/// The moving spheres' glass filled with a scattering medium (KHR_materials_scatter): the medium stack and the free
+/// flights through instanced, mirrored and moving meshes. Catches a medium entered or left by the wrong face of a
+/// mirrored or moving instance (its stack then holds the wrong volume), or a scattering point placed in the wrong
+/// space: the instanced image would differ from the flattened one beyond noise.
+#[test]
+fn moving_instanced_scattering_media_render_like_their_triangles_moved_one_by_one() {
+    let mut b = spheres();
+    b.material_json(1)["extensions"]["KHR_materials_scatter"] =
+        json!({ "scatterStrengthFactor": 1.0, "multiscatterColorFactor": [0.8, 0.6, 0.5], "scatterAnisotropy": 0.3 });
+    b.use_extension("KHR_materials_scatter");
+    let scene = moving(b);
+    let features = try_pack_with(&scene, Instancing::Always).unwrap().features();
+    assert_ne!(
+        features & FEATURE_MEDIA,
+        0,
+        "the spheres should hold a scattering medium"
+    );
+    assert_ne!(features & FEATURE_INSTANCES, 0);
+    let s = common::settings(48, 36, 256, 6);
+    let flat = common::render(&mut renderer(&scene, Instancing::Never), &s);
+    let mut inst = renderer(&scene, Instancing::Always);
+    let a = common::render(&mut inst, &s);
+    let bad = beyond_noise(&a, &flat, 1e-3);
+    assert!(bad <= 3, "{bad} pixel channels differ beyond noise");
+    assert_schedules_agree(&mut inst, "moving scattering spheres");
+}
+
 #[test]
 fn instanced_emitters_light_the_scene_as_placed_ones_do() {
     use pathwave::{Estimator, RenderSettings};

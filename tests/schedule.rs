@@ -96,6 +96,26 @@ fn glass_punctual_textured_alpha_and_layered_scenes_are_the_same_bytes_either_wa
 }
 
 #[test]
+fn scattering_media_are_the_same_bytes_either_way() {
+    // The medium stack rides in the wavefront's extra path field (PATH_MEDIUM) and in follow's registers; so do the
+    // free flights' and scatterings' randomness, and the light BVH's pick at a scattering point without a normal
+    // (LIGHT_NORMAL_NONE in PATH_SHADOW_DIR.w). RGB and spectral (four channels in the free flights' mixture).
+    let mut r = renderer(&scenes_dir().join("subsurface.gltf"));
+    let s = settings(20, 16, 6, 13);
+    assert_schedules_agree("subsurface", &mut r, &s);
+    let spectral = RenderSettings {
+        spectral: true,
+        ..s.clone()
+    };
+    assert_schedules_agree("subsurface, spectral", &mut r, &spectral);
+    let tree = RenderSettings {
+        light_sampler: pathwave::LightSampler::Bvh,
+        ..s.clone()
+    };
+    assert_schedules_agree("subsurface, light tree", &mut r, &tree);
+}
+
+#[test]
 fn many_lights_through_the_light_tree_are_the_same_bytes_either_way() {
     // The lamp grid by the light BVH: the wavefront keeps the normal the tree picked with at a path's last vertex in
     // its path state (PATH_SHADOW_DIR.w) for the pdf twin at the next hit, the fused schedule in registers; and

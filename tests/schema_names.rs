@@ -82,8 +82,8 @@ fn load(material: Value) -> Result<String, String> {
 
 /// Schema properties pathwave does not read, as docs/guide/materials.md says: a path tracer measures the thickness its rays cross in
 /// the geometry itself, where a rasterizer needs the volume's thickness map. KHR_materials_scatter's textures are
-/// checked but not applied: its volumetric mode takes the factors (a texel on the surface does not say which owns the
-/// volume behind it), and its thin-walled mode, where they would apply, is not rendered yet.
+/// checked but not applied yet (the factors are; in a volume, a texel on the surface does not say which owns the
+/// medium behind it).
 const UNUSED_BY_DESIGN: &[(&str, &str)] = &[
     ("KHR_materials_volume", "thicknessTexture"),
     ("KHR_materials_scatter", "scatterTexture"),

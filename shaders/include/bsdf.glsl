@@ -13,6 +13,7 @@ const float DELTA_ALPHA = 1e-4;
 // Colours are Spectrum (spectrum.glsl): RGB, or the path's wavelengths under FEATURE_SPECTRAL.
 struct Bsdf {
     Spectrum base_color;
+    Spectrum diffuse_color; // the diffuse lobe's albedo: base_color, but where a thin wall scatters (thin_scatter)
     float metallic;
     float roughness;      // perceptual, for the energy tables
     float alpha;          // GGX alpha = roughness^2
@@ -94,6 +95,26 @@ const float ANISO_MIN_ALPHA = 1e-3;
 // KHR_materials_clearcoat fixes the coat's IOR at 1.5.
 const float CLEARCOAT_F0 = 0.04;
 
+// KHR_materials_scatter's thin-walled mode (FEATURE_THIN_SCATTER): strength S of the transmission lobe becomes the
+// draft's scatter_bsdf, Lambertian both ways in colour C, (1 + g) / 2 of it through the surface and (1 - g) / 2 back.
+// Its base is mix(diffuse(baseColor), mix(btdf baseColor, scatter_bsdf, S), T) under fresnel_mix's dielectric layer,
+// so the scattering joins the diffuse lobe under the layer: the glass keeps T (1 - S), and the diffuse lobe (the
+// share W = 1 - T (1 - S) of the base) reflects (1 - T) baseColor + T S (1 - g) / 2 C and sends T S (1 + g) / 2 C
+// through, as diffuse transmission does. Its reflection's albedo stays within 1: W - T S (1 + g) / 2 bounds it.
+void thin_scatter(inout Bsdf b, Material m) {
+    float t = b.transmission;
+    float s = clamp(m.transmission.w, 0.0, 1.0);
+    float g = m.medium.w;
+    Spectrum c = spectrum_reflectance(m.medium.rgb);
+    float w = 1.0 - t * (1.0 - s);
+    float through = t * s * 0.5 * (1.0 + g);
+    float back = t * s * 0.5 * (1.0 - g);
+    b.transmission = t * (1.0 - s);
+    b.diffuse_transmission = through / w;
+    b.dt_color = c;
+    b.diffuse_color = ((1.0 - t) * b.base_color + back * c) / max(w - through, 1e-7);
+}
+
 // front: wo is on the front (counter-clockwise) side, outside the object.
 Bsdf bsdf_from_material(Material m, bool front) {
     Bsdf b;
@@ -130,6 +151,8 @@ Bsdf bsdf_from_material(Material m, bool front) {
     b.diffuse_transmission = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? m.diffuse_transmission.w : 0.0;
     b.dt_color = scene_has(FEATURE_DIFFUSE_TRANSMISSION) ? spectrum_reflectance(m.diffuse_transmission.rgb) : Spectrum(0.0);
     b.diffuse_roughness = scene_has(FEATURE_DIFFUSE_ROUGHNESS) ? clamp(m.specular_color.w, 0.0, 1.0) : 0.0;
+    b.diffuse_color = b.base_color;
+    if (scene_has(FEATURE_THIN_SCATTER) && b.thin && m.transmission.w > 0.0 && b.transmission > 0.0) thin_scatter(b, m);
     if (b.anisotropic) {
         float s = m.anisotropy.x;
         b.aniso_alpha = vec2(mix(b.alpha, 1.0, s * s), max(b.alpha, ANISO_MIN_ALPHA));
@@ -654,8 +677,8 @@ vec4 lobe_probabilities(Bsdf b, vec3 wo) {
     Spectrum fd = dielectric_fresnel(b, wo.z);
     float opaque = (1.0 - b.metallic) * (1.0 - b.transmission);
     float spec = opaque * b.specular * spectrum_luminance(fd) + b.metallic * spectrum_luminance(metal_fresnel(b, wo.z));
-    Spectrum tint = b.base_color;
-    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) tint = mix(b.base_color, b.dt_color, b.diffuse_transmission);
+    Spectrum tint = b.diffuse_color;
+    if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) tint = mix(b.diffuse_color, b.dt_color, b.diffuse_transmission);
     float diff = opaque * (1.0 - b.specular * spectrum_max(fd)) * spectrum_luminance(tint);
     if (scene_has(FEATURE_COAT)) diff += opaque * spectrum_luminance(b.coat_ms_o);
     if (b.compensate && !bsdf_is_delta(b) && b.metallic > 0.0) {
@@ -796,7 +819,7 @@ Spectrum base_eval(Bsdf b, vec3 wo, vec3 wi) {
     vec3 h = normalize(wo + wi);
     float c = dot(wo, h);
     Spectrum fd = dielectric_fresnel(b, c);
-    Spectrum diffuse = opaque * coat_transmittance(b, wi, ms_i) * diffuse_lobe(b, b.base_color, wo, wi);
+    Spectrum diffuse = opaque * coat_transmittance(b, wi, ms_i) * diffuse_lobe(b, b.diffuse_color, wo, wi);
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) diffuse *= 1.0 - b.diffuse_transmission;
     if (b.metallic > 0.0) diffuse += b.metallic * metal_multiple_scattering(b, wi);
     if (scene_has(FEATURE_COAT) && opaque > 0.0) diffuse += opaque * coat_ms_eval(b, ms_i);

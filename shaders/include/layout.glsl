@@ -81,7 +81,8 @@ struct Material {
     vec4 params;         // x metallic, y roughness (perceptual: alpha = y^2), z IOR, w KHR_materials_specular weight
     vec4 specular_color; // rgb KHR_materials_specular colour factor, w KHR_materials_diffuse_roughness factor
     vec4 transmission;   // x KHR_materials_transmission factor, y 1 if thin-walled (no KHR_materials_volume), z
-                         // KHR_materials_dispersion's 20 / Abbe number (0 when thin-walled), w unused
+                         // KHR_materials_dispersion's 20 / Abbe number (0 when thin-walled), w KHR_materials_scatter's
+                         // strength on a thin wall (0 in a volume)
     vec4 attenuation;    // rgb KHR_materials_volume absorption coefficient (1/m) inside the object, w unused
     vec4 alpha;          // x: ALPHA_* mode (uint bits), y: alphaCutoff, z: normalTexture scale, w: MATERIAL_* bits
     vec4 clearcoat;      // KHR_materials_clearcoat: x factor, y roughness (perceptual), z its normal map's scale, w unused
@@ -92,7 +93,8 @@ struct Material {
     vec4 diffuse_transmission; // KHR_materials_diffuse_transmission: rgb colour, w factor
     TextureSlot textures[TEX_SLOTS]; // indexed by TEX_*
     vec4 medium;         // KHR_materials_scatter inside a volumetric object: rgb single-scattering albedo (the share of
-                         // `attenuation` that scatters), w Henyey-Greenstein g. Read by load_medium alone.
+                         // `attenuation` that scatters), w Henyey-Greenstein g (read by load_medium); on a thin wall,
+                         // rgb its colour, w its g (read by load_material under FEATURE_THIN_SCATTER)
 };
 
 // 16 bytes: a texture's texels[offset ..] (RGBA8, row 0 at the top), its size, and TEXTURE_* / WRAP_* flags.

@@ -31,8 +31,9 @@ Material load_material(uint i) {
     for (uint k = 0u; k < TEX_SLOTS; ++k) {
         m.textures[k] = TextureSlot(FETCH(material_texels, b + 12u + 2u * k), FETCH(material_texels, b + 13u + 2u * k));
     }
-    // Shading at a surface never needs the medium behind it: one texel read fewer per hit.
-    m.medium = vec4(0.0);
+    // Shading at a surface never needs the medium behind it: one texel read fewer per hit, but for a thin wall's
+    // scattering.
+    m.medium = scene_has(FEATURE_THIN_SCATTER) ? FETCH(material_texels, b + MATERIAL_TEXELS - 1u) : vec4(0.0);
     return m;
 }
 // The medium inside material i (KHR_materials_volume, with KHR_materials_scatter): its extinction (1/m) and, in

@@ -56,6 +56,8 @@ pub struct Material {
     pub attenuation: Vec3,
     /// KHR_materials_scatter's volumetric mode: what of `attenuation` scatters, and how.
     pub medium: Medium,
+    /// KHR_materials_scatter's thin-walled mode: part of the transmission turns diffuse.
+    pub thin_scatter: ThinScatter,
     /// baseColorFactor's alpha: opacity under alphaMode MASK and BLEND.
     pub alpha: f32,
     pub alpha_mode: AlphaMode,
@@ -208,6 +210,26 @@ impl Medium {
     }
 }
 
+/// KHR_materials_scatter on a thin-walled surface (no KHR_materials_volume, or thickness 0): `strength` of the
+/// transmission lobe becomes the draft's scatter_bsdf, Lambertian on both sides tinted by `color`, a share (1 + g) / 2
+/// through the surface and (1 - g) / 2 back (g = `anisotropy`), under the dielectric layer as the diffuse base is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinScatter {
+    pub strength: f32,
+    pub color: Vec3,
+    pub anisotropy: f32,
+}
+
+impl Default for ThinScatter {
+    fn default() -> Self {
+        ThinScatter {
+            strength: 0.0,
+            color: Vec3::ONE,
+            anisotropy: 0.0,
+        }
+    }
+}
+
 /// glTF's alphaMode. Transparent parts are skipped by every ray, camera, extension and shadow alike.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AlphaMode {
@@ -288,6 +310,7 @@ impl Default for Material {
             thin_walled: true,
             attenuation: Vec3::ZERO,
             medium: Medium::default(),
+            thin_scatter: ThinScatter::default(),
             alpha: 1.0,
             alpha_mode: AlphaMode::Opaque,
             base_color_texture: None,

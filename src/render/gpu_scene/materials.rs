@@ -44,7 +44,7 @@ pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
             m.transmission,
             if m.thin_walled { 1.0 } else { 0.0 },
             if m.thin_walled { 0.0 } else { m.dispersion },
-            0.0,
+            if m.thin_walled { m.thin_scatter.strength } else { 0.0 },
         ],
         attenuation: v4(m.attenuation, 0.0),
         alpha: [
@@ -69,7 +69,12 @@ pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
         ],
         diffuse_transmission: v4(m.diffuse_transmission.color, m.diffuse_transmission.factor),
         textures: m.texture_refs().map(slot),
-        medium: v4(m.medium.albedo, m.medium.anisotropy),
+        // A volume's medium; on a thin wall, KHR_materials_scatter's colour and g (its strength in transmission.w).
+        medium: if m.thin_walled {
+            v4(m.thin_scatter.color, m.thin_scatter.anisotropy)
+        } else {
+            v4(m.medium.albedo, m.medium.anisotropy)
+        },
     }
 }
 

@@ -117,6 +117,10 @@ impl PackedScene {
         }) {
             bits |= FEATURE_MEDIA;
         }
+        // Its diffuse share is the diffuse-transmission lobe's code.
+        if any(|m| m.transmission[1] != 0.0 && m.transmission[3] > 0.0 && m.transmission[0] > 0.0) {
+            bits |= FEATURE_THIN_SCATTER | FEATURE_DIFFUSE_TRANSMISSION;
+        }
         fn dielectric_layer(m: &GpuMaterial) -> bool {
             let textured = |slot: u32| m.textures[slot as usize].u[3].to_bits() != TEXTURE_NONE;
             m.params[3] != 0.0

@@ -2,7 +2,9 @@
 use super::{scene_err, uri, Loader};
 use crate::error::Error;
 use crate::scene::texture::{self, Texture, TextureRef};
-use crate::scene::{AlphaMode, Anisotropy, Clearcoat, DiffuseTransmission, Iridescence, Material, Medium, Sheen};
+use crate::scene::{
+    AlphaMode, Anisotropy, Clearcoat, DiffuseTransmission, Iridescence, Material, Medium, Sheen, ThinScatter,
+};
 use glam::Vec3;
 use gltf::json::Value;
 
@@ -61,7 +63,7 @@ impl Loader<'_> {
         let diffuse_transmission = self.diffuse_transmission(&name, m)?;
         let (diffuse_roughness, diffuse_roughness_texture) = self.diffuse_roughness(&name, m)?;
         let dispersion = self.dispersion(&name, m)?;
-        let medium = self.medium(&name, m, t.thin_walled)?;
+        let (medium, thin_scatter) = self.scatter(&name, m, t.thin_walled)?;
         let unlit = m.extension_value("KHR_materials_unlit").is_some();
         let mut pbr_metallic = base.metallic;
         let mut specular = d.specular.clamp(0.0, 1.0);
@@ -75,6 +77,7 @@ impl Loader<'_> {
             thin_walled: t.thin_walled,
             attenuation: t.attenuation,
             medium: if unlit { Medium::default() } else { medium },
+            thin_scatter: if unlit { ThinScatter::default() } else { thin_scatter },
             name,
             base_color: Vec3::new(c[0], c[1], c[2]).clamp(Vec3::ZERO, Vec3::ONE),
             emission: emission.max(Vec3::ZERO),

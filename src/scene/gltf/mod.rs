@@ -45,8 +45,8 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_iridescence",
     // Archived, but common in older assets: read as a dielectric with F0 the specular colour (materials.rs).
     "KHR_materials_pbrSpecularGlossiness",
-    // A draft (glTF pull request 2579; scatter.rs pins the revision): the volumetric mode, not yet the thin-walled one,
-    // which is named in a warning where a file asks for it.
+    // A draft (glTF pull request 2579; scatter.rs pins the revision): both its volumetric and thin-walled modes, its
+    // factors (its textures are named in a warning).
     "KHR_materials_scatter",
     "KHR_materials_sheen",
     "KHR_materials_specular",

@@ -9,7 +9,7 @@
 //! `scatterFactor`/`scatterTexture`: both are read, the README's first.
 use super::{scene_err, Loader};
 use crate::error::Error;
-use crate::scene::Medium;
+use crate::scene::{Medium, ThinScatter};
 use glam::Vec3;
 use gltf::json::Value;
 
@@ -41,14 +41,20 @@ pub fn single_scatter_albedo(rho_ms: f32, g: f32) -> f32 {
 }
 
 impl Loader<'_> {
-    /// The medium inside material `name`: scattering when KHR_materials_scatter (or the older name) asks for it and the
-    /// material is volumetric; otherwise none (absorption alone, KHR_materials_volume's). Values outside the schema's
-    /// ranges are refused naming the material and the property.
-    pub(super) fn medium(&mut self, name: &str, m: &gltf::Material, thin_walled: bool) -> Result<Medium, Error> {
+    /// What KHR_materials_scatter (or the older name) makes of material `name`: the medium inside a volumetric one
+    /// (none: absorption alone, KHR_materials_volume's), or the thin-walled mode's diffuse share of the transmission.
+    /// Values outside the schema's ranges are refused naming the material and the property.
+    pub(super) fn scatter(
+        &mut self,
+        name: &str,
+        m: &gltf::Material,
+        thin_walled: bool,
+    ) -> Result<(Medium, ThinScatter), Error> {
+        let none = (Medium::default(), ThinScatter::default());
         let (what, ext, legacy) = match (m.extension_value(SCATTER), m.extension_value(VOLUME_SCATTER)) {
             (Some(ext), _) => (SCATTER, ext, false),
             (None, Some(ext)) => (VOLUME_SCATTER, ext, true),
-            (None, None) => return Ok(Medium::default()),
+            (None, None) => return Ok(none),
         };
         let f = self.scatter_factors(name, what, ext, legacy)?;
         let textures = ["scatterStrengthTexture", "scatterTexture", "multiscatterColorTexture"];
@@ -56,18 +62,25 @@ impl Loader<'_> {
             // Checked like every texture reference, so a broken one is refused as elsewhere.
             self.json_texture(name, what, ext, key)?;
             self.warn(format!(
-                "material '{name}': {what}.{key} is not applied (the medium takes the factors: a texture on the \
-                 surface does not say which texel owns the volume behind it)"
+                "material '{name}': {what}.{key} is not applied (the factors are: in a volume, a texture on the \
+                 surface does not say which texel owns the medium behind it)"
             ));
         }
         if thin_walled {
-            if f.strength > 0.0 && f.color != Vec3::ZERO {
+            // The old draft scatters only inside a volume.
+            if legacy {
                 self.warn(format!(
-                    "material '{name}': {what}'s thin-walled mode (no KHR_materials_volume, or thicknessFactor 0) is \
-                     not rendered yet: the surface renders as without {what}"
+                    "material '{name}': {what} acts only inside a volume (KHR_materials_volume with thicknessFactor \
+                     above 0): ignored on this thin-walled material"
                 ));
+                return Ok(none);
             }
-            return Ok(Medium::default());
+            let thin = ThinScatter {
+                strength: f.strength,
+                color: f.color,
+                anisotropy: f.anisotropy,
+            };
+            return Ok((Medium::default(), thin));
         }
         let rho_ms = f.color * f.strength;
         let g_fit = if f.legacy { 0.0 } else { f.anisotropy };
@@ -76,10 +89,11 @@ impl Loader<'_> {
             single_scatter_albedo(rho_ms.y, g_fit),
             single_scatter_albedo(rho_ms.z, g_fit),
         );
-        Ok(Medium {
+        let medium = Medium {
             albedo,
             anisotropy: if albedo == Vec3::ZERO { 0.0 } else { f.anisotropy },
-        })
+        };
+        Ok((medium, ThinScatter::default()))
     }
 
     fn scatter_factors(&self, name: &str, what: &str, ext: &Value, legacy: bool) -> Result<Factors, Error> {
