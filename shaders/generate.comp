@@ -17,6 +17,9 @@ void main() {
     path_set(PATH_DIR, i, vec4(v.dir, 0.0));
     path_set(PATH_THROUGHPUT, i, spectrum_store(v.beta));
     path_set(PATH_RADIANCE, i, spectrum_store(v.radiance));
-    if (scene_has(FEATURE_MEDIA)) path_set(PATH_MEDIUM, i, uintBitsToFloat(v.media));
+    if (scene_has(FEATURE_MEDIA)) {
+        path_set(PATH_MEDIUM, i, uintBitsToFloat(v.media));
+        path_set(PATH_MEDIUM_RATIOS, i, v.media_ratios);
+    }
     queues[scene_has(FEATURE_ADAPTIVE) ? atomicAdd(counters.queue_count[0], 1u) : i] = i;
 }

@@ -38,6 +38,7 @@ void main() {
     // The light BVH's normal at the ray's origin waits in the shadow direction's w, which connect does not read.
     v.light_normal = light_tree_on() ? path_get(PATH_SHADOW_DIR, path).w : 0.0;
     v.media = scene_has(FEATURE_MEDIA) ? floatBitsToUint(path_get(PATH_MEDIUM, path)) : uvec4(0u);
+    v.media_ratios = scene_has(FEATURE_MEDIA) ? path_get(PATH_MEDIUM_RATIOS, path) : Spectrum(1.0);
     uint inst = scene_has(FEATURE_INSTANCES) ? (spectral() ? dir_bits & ~PATH_HERO_ONLY : dir_bits) : NO_INSTANCE;
     bool alive = shade_path(path_pixel(path), path_sample(path), frame.bounce, path_get(PATH_HIT, path), inst, v, shadow);
 
@@ -53,7 +54,10 @@ void main() {
         path_set(PATH_ORIGIN, path, v.origin);
         path_set(PATH_DIR, path, vec4(v.dir, v.hero_only ? uintBitsToFloat(PATH_HERO_ONLY) : 0.0));
         path_set(PATH_THROUGHPUT, path, spectrum_store(v.beta));
-        if (scene_has(FEATURE_MEDIA)) path_set(PATH_MEDIUM, path, uintBitsToFloat(v.media));
+        if (scene_has(FEATURE_MEDIA)) {
+            path_set(PATH_MEDIUM, path, uintBitsToFloat(v.media));
+            path_set(PATH_MEDIUM_RATIOS, path, v.media_ratios);
+        }
         queue_push(1u - cur, path);
     }
     check_loop_budget();

@@ -401,7 +401,8 @@ pub const PATH_HERO_ONLY: u32 = 0x80000000;
 pub const DIM_WAVELENGTH: u32 = 11;
 /// The light BVH's descent (x, then y once x has too few bits left); the point on the light keeps DIM_LIGHT.
 pub const DIM_LIGHT_PICK: u32 = 12;
-/// A free flight through a medium: x the channel (wavelength) whose exponential draws the distance, y the distance.
+/// Free flights through media: x at bounce 0 the channel whose exponentials draw the path's distances (RGB), y at
+/// each bounce the distance.
 pub const DIM_MEDIUM: u32 = 13;
 /// The direction a medium scatters to (Henyey-Greenstein).
 pub const DIM_PHASE: u32 = 14;
@@ -467,6 +468,9 @@ pub const PATH_FIELDS: u32 = 8;
 /// Under FEATURE_MEDIA only, allocated after the PATH_FIELDS every path has: the volumes the ray is inside (uint bits,
 /// media.glsl's stack).
 pub const PATH_MEDIUM: u32 = 8;
+/// Under FEATURE_MEDIA only: each channel's density of the path's free flights over their mean (media.glsl's
+/// medium_sample).
+pub const PATH_MEDIUM_RATIOS: u32 = 9;
 
 /// The largest radiance per channel one sample may add to the film; film_add (layout.glsl) drops a sample beyond
 /// it, or not finite, and counts it (Counters::nonfinite). Its square is 1e30, so even 2^24 samples (the spp limit)

@@ -62,6 +62,7 @@ struct PathVertex {
     bool hero_only;    // a dispersive surface left the path its hero wavelength alone (spectral transport)
     float light_normal; // the normal the light BVH picked with at the ray's origin (pack_light_normal)
     uvec4 media;       // the volumes the ray is inside (FEATURE_MEDIA: media.glsl's stack)
+    Spectrum media_ratios; // each channel's density of the path's free flights over their mean (medium_sample)
 };
 
 // Sample s of pixel (at xy = pixel_xy(pixel)), about to trace its camera ray: full throughput, nothing gathered,
@@ -77,6 +78,7 @@ PathVertex start_path(uvec2 xy, uint pixel, uint s) {
     v.hero_only = false;
     v.light_normal = 0.0;
     v.media = uvec4(0u);
+    v.media_ratios = Spectrum(1.0);
     return v;
 }
 

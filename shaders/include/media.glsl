@@ -57,42 +57,45 @@ Spectrum medium_transmittance(Medium md, float t) {
     return exp(-md.sigma_t * t);
 }
 
-// Channels a colour carries: RGB's three, or the path's wavelengths.
-uint medium_channels() {
-    return spectral() ? uint(WAVELENGTHS) : 3u;
-}
-
+// The mean over a colour's channels: RGB's three, or the path's wavelengths.
 float channel_mean(Spectrum c) {
     return spectral() ? 0.25 * (c.x + c.y + c.z + c.w) : (c.x + c.y + c.z) / 3.0;
 }
 
+// The channel whose exponentials draw every free flight of sample s of pixel: one for the whole path, so that the
+// path's weight can be taken against all channels' densities of the whole path (medium_sample). The path's own hero
+// wavelength in spectral transport (already uniform over the spectrum); a uniform choice of R, G or B otherwise.
+uint medium_channel(uint pixel, uint s) {
+    return spectral() ? 0u : min(uint(rand2(pixel, s, 0u, DIM_MEDIUM).x * 3.0), 2u);
+}
+
 // A ray's run of length t_max (1e30 when it leaves the scene) through md: whether it scatters on the way, at distance
 // t, with beta weighted for either outcome. A purely absorbing medium only attenuates (no noise). Otherwise the
-// distance is drawn from one channel's exponential, the channel uniform (u.x), and beta divides by the mean of every
-// channel's density: the one-sample balance heuristic over channels (spectral MIS, as Mitsuba 3's volpathmis and
-// pbrt-v4's rescaled path probabilities do), so each channel stays unbiased, a chromatic medium's weights stay below
-// the channel count, and no majorant or null collision is needed in a homogeneous medium.
-bool medium_sample(Medium md, float t_max, vec2 u, inout Spectrum beta, out float t) {
+// distance is drawn from channel c's exponential (medium_channel) with the uniform u, and the path is weighted by the
+// one-sample balance heuristic over the channels of the whole path, as pbrt-v4's rescaled path probabilities do
+// (spectral MIS; Mitsuba 3's volpathmis likewise): `ratios` holds every channel's density of the path's free flights
+// so far over their mean (1 at the camera), so beta stays f / mean over channels of the path's density, below the
+// channel count times the albedo, however many scatterings the path makes. Weighting each event by the mean of its
+// own densities instead lets the weights' product wander per channel over hundreds of scatterings (coloured noise in
+// dense chromatic media). Homogeneous media need no majorant or null collision.
+bool medium_sample(Medium md, float t_max, uint c, float u, inout Spectrum beta, inout Spectrum ratios, out float t) {
     t = t_max;
     if (!md.scatters) {
         beta *= medium_transmittance(md, t_max);
         return false;
     }
-    uint n = medium_channels();
-    uint c = min(uint(u.x * float(n)), n - 1u);
     float sigma_c = md.sigma_t[c];
-    float t_c = sigma_c > 0.0 ? -log(1.0 - u.y) / sigma_c : 3.0e38;
-    if (t_c < t_max) {
-        t = t_c;
-        Spectrum tr = medium_transmittance(md, t);
-        float pdf = channel_mean(md.sigma_t * tr);
-        beta = pdf > 0.0 ? beta * md.sigma_t * md.albedo * tr / pdf : Spectrum(0.0);
-        return true;
-    }
-    Spectrum tr = medium_transmittance(md, t_max);
-    float pdf = channel_mean(tr);
-    beta = pdf > 0.0 ? beta * tr / pdf : Spectrum(0.0);
-    return false;
+    float t_c = sigma_c > 0.0 ? -log(1.0 - u) / sigma_c : 3.0e38;
+    bool scatters = t_c < t_max;
+    t = scatters ? t_c : t_max;
+    Spectrum tr = medium_transmittance(md, t);
+    // Each channel's density of this outcome (scattering at t, or passing t_max), and f.
+    Spectrum pdf = scatters ? md.sigma_t * tr : tr;
+    Spectrum f = scatters ? md.sigma_t * md.albedo * tr : tr;
+    float mean = channel_mean(ratios * pdf);
+    beta = mean > 0.0 ? beta * f / mean : Spectrum(0.0);
+    ratios = mean > 0.0 ? ratios * pdf / mean : ratios;
+    return scatters;
 }
 
 // Henyey-Greenstein's density over directions for cos_theta between the propagation directions before and after the

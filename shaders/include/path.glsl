@@ -179,7 +179,8 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         Medium md = medium_at(v.media.x);
         float t;
         float t_max = tri != NO_HIT ? hit.x : 1.0e30;
-        if (medium_sample(md, t_max, rand2(pixel, s, bounce, DIM_MEDIUM), beta, t)) {
+        float u = rand2(pixel, s, bounce, DIM_MEDIUM).y;
+        if (medium_sample(md, t_max, medium_channel(pixel, s), u, beta, v.media_ratios, t)) {
             return scatter_path(pixel, s, bounce, ray_o.xyz + t * ray_d, ray_d, md, beta, v, shadow);
         }
     }

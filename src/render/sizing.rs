@@ -28,12 +28,12 @@ pub(super) fn path_capacity(wanted: u64, limits: PathLimits, fields: u32) -> u32
         .min(u32::MAX as u64 / 4) as u32
 }
 
-/// The vec4 fields a path keeps for a scene of `features`: PATH_FIELDS, and the medium stack (PATH_MEDIUM) where
-/// media are.
+/// The vec4 fields a path keeps for a scene of `features`: PATH_FIELDS, and where media are, the medium stack and
+/// the free flights' channel densities (PATH_MEDIUM, PATH_MEDIUM_RATIOS).
 pub(super) fn path_fields(features: u32) -> u32 {
     match features & FEATURE_MEDIA {
         0 => PATH_FIELDS,
-        _ => PATH_FIELDS + 1,
+        _ => PATH_FIELDS + 2,
     }
 }
 
