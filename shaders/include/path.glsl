@@ -114,6 +114,15 @@ void shading_frame(Surface sf, uint tri, vec2 uv, uint inst, inout Bsdf bsdf, ou
     }
 }
 
+// Russian roulette from bounce RR_START_BOUNCE on: the path survives with its throughput's largest component, at most
+// `cap`, and the survivor's throughput is divided by that. Returns whether it survives.
+bool roulette(uint pixel, uint s, uint bounce, float cap, inout Spectrum beta) {
+    if (bounce < RR_START_BOUNCE) return true;
+    float survive = min(spectrum_max(beta), cap);
+    beta /= survive;
+    return rand2(pixel, s, bounce, DIM_RR).x < survive;
+}
+
 // A scattering in medium md at p, reached along d_in with throughput beta (the free flight's weight in it): next-event
 // estimation towards a light through the medium, MIS-weighted against the phase function, and the continuation drawn
 // from the phase function. A shadow ray that meets the volume's boundary is blocked (as in Mitsuba 3 and pbrt-v4: a
@@ -145,11 +154,7 @@ bool scatter_path(uint pixel, uint s, uint bounce, vec3 p, vec3 d_in, Medium md,
     // only takes what the throughput has lost (pbrt-v4's rule, without the surfaces' 0.95 cap): light diffusing
     // through a dense, bright medium scatters hundreds of times, and a 5 % loss at each left almost none to leave it
     // (the marble of scenes/subsurface.gltf rendered black, with fireflies).
-    if (bounce >= RR_START_BOUNCE) {
-        float survive = min(spectrum_max(beta), 1.0);
-        alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
-        beta /= survive;
-    }
+    alive = roulette(pixel, s, bounce, 1.0, beta) && alive;
     v.origin = vec4(p, hg_phase(dot(d_in, wi), md.g));
     v.dir = wi;
     v.beta = beta;
@@ -249,6 +254,8 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
                   (scene_has(FEATURE_DIFFUSE_TRANSMISSION) && m.diffuse_transmission.w > 0.0);
     // With media, the path's medium stack has done that already, for every volume it is inside.
     bool volumetric = enters && m.transmission.y < 0.5;
+    // This surface's volume as the medium stack names it.
+    uint medium_id = floatBitsToUint(tv.v0.w) + 1u;
     if (!scene_has(FEATURE_MEDIA) && volumetric && !front) {
         beta *= exp(-spectrum_unbounded(m.attenuation.rgb) * hit.x);
     }
@@ -300,8 +307,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
             Spectrum contribution = beta * f * abs(wi_local.z) * ls.radiance * (w / ls.pdf);
             if (scene_has(FEATURE_MEDIA)) {
                 // The run to the light crosses the medium on the side it leaves by, if any.
-                uint id = media_beyond(v.media, floatBitsToUint(tv.v0.w) + 1u, volumetric, front);
-                if (side > 0.0) id = v.media.x;
+                uint id = side > 0.0 ? v.media.x : media_beyond(v.media, medium_id, volumetric, front);
                 if (id != 0u) contribution *= medium_transmittance(medium_at(id), ls.dist);
             }
             shadow.wanted = spectrum_positive(contribution);
@@ -326,16 +332,11 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
     // A direction the shading normal puts on one side and the true surface on the other carries no light.
     alive = alive && ok && dot(n_in, wi) * bs.wi.z > 0.0;
     // Through a volume's boundary, the path enters or leaves its medium.
-    if (scene_has(FEATURE_MEDIA) && bs.wi.z < 0.0) {
-        uint id = floatBitsToUint(tv.v0.w) + 1u;
-        if (volumetric) v.media = front ? media_enter(v.media, id) : media_leave(v.media, id);
+    if (scene_has(FEATURE_MEDIA) && volumetric && bs.wi.z < 0.0) {
+        v.media = front ? media_enter(v.media, medium_id) : media_leave(v.media, medium_id);
     }
     beta *= bs.weight;
-    if (bounce >= RR_START_BOUNCE) {
-        float survive = min(spectrum_max(beta), 0.95);
-        alive = alive && rand2(pixel, s, bounce, DIM_RR).x < survive;
-        beta /= survive;
-    }
+    alive = roulette(pixel, s, bounce, 0.95, beta) && alive;
     // w = 0 marks a delta bounce: the next emission hit is not weighted against light sampling.
     v.origin = vec4(bs.wi.z > 0.0 ? p_off : p_back, bs.delta ? 0.0 : bs.pdf);
     v.dir = wi;
