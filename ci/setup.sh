@@ -64,6 +64,19 @@ if [ ! -f "$PY_STAMP" ]; then
   touch "$PY_STAMP"
 fi
 
+# Mitsuba 3, the independent reference tests/media.rs compares scattering media with (tests/mitsuba/render_gltf.py).
+# Its LLVM variant JIT-compiles through the system's libLLVM, which lavapipe (mesa-vulkan-drivers) already needs.
+MI_VENV="$HOME/.cache/pathwave/mitsuba-venv"
+MI_TOOLS=(mitsuba==3.9.1 drjit==1.5.0 numpy==2.4.6)
+MI_STAMP="$MI_VENV/.installed-$(echo "${MI_TOOLS[*]}" | tr ' ' '+')"
+if [ ! -f "$MI_STAMP" ]; then
+  echo "ci/setup.sh: installing ${MI_TOOLS[*]} into $MI_VENV"
+  rm -rf "$MI_VENV"
+  python3 -m venv "$MI_VENV"
+  "$MI_VENV/bin/pip" install -q --disable-pip-version-check "${MI_TOOLS[@]}"
+  touch "$MI_STAMP"
+fi
+
 # A second lavapipe, Mesa 25 from the backports suite, beside the system's: tests/ray_query.rs runs ray-query
 # traversal on it while everything else keeps the system's driver.
 bash "$(dirname "$0")/lavapipe-rt.sh" >/dev/null
