@@ -69,9 +69,11 @@ class Mitsuba:
         self.mi = mi
         desc = json.load(open(req["scene"]))
         cam = desc["camera"]
+        media = any((m.get("dielectric") or {}).get("interior") for m in desc["meshes"])
         scene = {
             "type": "scene",
-            "integrator": {"type": "path", "max_depth": -1},
+            # volpath only where there are media: it is the same estimator as path without them, and slower.
+            "integrator": {"type": "volpath" if media else "path", "max_depth": -1},
             "sensor": {
                 "type": "perspective",
                 "fov": cam["yfov_deg"],
@@ -93,12 +95,22 @@ class Mitsuba:
             shape = {
                 "type": "ply",
                 "filename": m["ply"],
-                "face_normals": True,
-                "bsdf": {
-                    "type": "diffuse",
-                    "reflectance": {"type": "rgb", "value": m["reflectance"]},
-                },
+                # Shading normals when pathwave has them (the PLY then carries them), else the faces'.
+                "face_normals": not m.get("smooth", False),
             }
+            if m.get("dielectric"):
+                d = m["dielectric"]
+                # Outside is vacuum, as in glTF (Mitsuba's default ext_ior is air's 1.000277). pathwave treats
+                # alpha below 1e-4 as a smooth interface.
+                if d["alpha"] < 1e-4:
+                    shape["bsdf"] = {"type": "dielectric", "int_ior": d["ior"], "ext_ior": 1.0}
+                else:
+                    shape["bsdf"] = {"type": "roughdielectric", "distribution": "ggx", "alpha": d["alpha"],
+                                     "int_ior": d["ior"], "ext_ior": 1.0}
+                if d.get("interior"):
+                    shape["interior"] = homogeneous(d["interior"])
+            else:
+                shape["bsdf"] = {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["reflectance"]}}
             if m.get("radiance_texture"):
                 # Linear texels already times the emissive factor; bilinear, as pathwave filters them.
                 tex = m["radiance_texture"]
@@ -127,6 +139,22 @@ class Mitsuba:
         seconds = time.perf_counter() - start
         np.asarray(img, dtype=np.float32)[..., :3].tofile(req["out"])
         return {"seconds": seconds}
+
+
+def homogeneous(medium):
+    """Mitsuba's homogeneous medium for pathwave's: extinction per scene unit, single-scattering albedo, HG's g."""
+    sigma_t = [float(x) for x in medium["sigma_t"]]
+    # RGB values given to Mitsuba must lie in [0, 1]: the extinction travels normalised, its size in `scale`.
+    scale = max(sigma_t)
+    return {
+        "type": "homogeneous",
+        "sigma_t": {"type": "rgb", "value": [x / scale for x in sigma_t]},
+        "scale": scale,
+        "albedo": {"type": "rgb", "value": medium["albedo"]},
+        "phase": {"type": "hg", "g": medium["g"]},
+        # Behind a dielectric no shadow ray reaches a light, as Mitsuba's documentation says: do not trace them.
+        "sample_emitters": False,
+    }
 
 
 def main():

@@ -70,6 +70,7 @@ pub fn run(o: &BenchOptions, progress: &mut dyn FnMut(&str)) -> Result<BenchRepo
         mitsuba: None,
         mitsuba_spectral: None,
         mitsuba_lights: Vec::new(),
+        mitsuba_media: None,
         light_tree: None,
         adaptive: Vec::new(),
         total: Duration::ZERO,
@@ -122,7 +123,7 @@ fn run_fixed(
     Ok(())
 }
 
-/// Mitsuba on the Cornell box, RGB then spectral, then adaptive against uniform sampling on three scenes.
+/// Mitsuba on the Cornell box, RGB then spectral, and on the subsurface scene; then adaptive against uniform sampling on three scenes.
 fn against_mitsuba(
     o: &BenchOptions,
     cornell: &Path,
@@ -143,6 +144,16 @@ fn against_mitsuba(
     report.mitsuba = Some(mitsuba(case(cornell, false, o.light_sampler), progress)?);
     progress("Mitsuba comparison, spectral");
     report.mitsuba_spectral = Some(mitsuba(case(cornell, true, o.light_sampler), progress)?);
+    // Scattering media: four spheres of dense, chromatic media behind rough and smooth glass under a small light,
+    // against Mitsuba's volpath. Smaller, as its paths are hundreds of scatterings long.
+    progress("Mitsuba comparison, subsurface");
+    let subsurface = o.scenes.join("subsurface.gltf");
+    let media = compare::MitsubaCase {
+        size: (128, 128),
+        reference_spp: 4096,
+        ..case(&subsurface, false, o.light_sampler)
+    };
+    report.mitsuba_media = Some(mitsuba(media, progress)?);
     // The halves scene's noise is uneven, where adaptive sampling pays; the others' is about even.
     let halves = o.scenes.join("halves.gltf");
     for scene in [cornell, glass, halves.as_path()] {

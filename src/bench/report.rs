@@ -15,6 +15,8 @@ pub struct BenchReport {
     pub mitsuba_spectral: Option<MitsubaComparison>,
     /// The lamp grid, the city block and the emissive panel, once per light sampler.
     pub mitsuba_lights: Vec<MitsubaComparison>,
+    /// scenes/subsurface.gltf (scattering media behind glass) against Mitsuba's volpath.
+    pub mitsuba_media: Option<MitsubaComparison>,
     /// The light BVH's build over the terrain with every triangle emitting: (emitters, depth, seconds).
     pub light_tree: Option<(usize, u32, f64)>,
     /// With the Mitsuba comparison: --adaptive against uniform sampling at equal time, per scene.
@@ -79,6 +81,7 @@ impl BenchReport {
             .mitsuba
             .iter()
             .chain(&self.mitsuba_spectral)
+            .chain(&self.mitsuba_media)
             .chain(&self.mitsuba_lights)
         {
             s += &m.summary();
@@ -234,6 +237,7 @@ impl BenchReport {
             "mitsuba": self.mitsuba.as_ref().map(|m| m.json()),
             "mitsuba_spectral": self.mitsuba_spectral.as_ref().map(|m| m.json()),
             "mitsuba_lights": self.mitsuba_lights.iter().map(|m| m.json()).collect::<Vec<_>>(),
+            "mitsuba_media": self.mitsuba_media.as_ref().map(|m| m.json()),
             "light_tree": self.light_tree.map(|(emitters, depth, build_s)| serde_json::json!({"emitters": emitters, "depth": depth, "build_s": build_s})),
             "adaptive": self.adaptive.iter().map(|a| a.json()).collect::<Vec<_>>(),
             "total_s": self.total.as_secs_f64(),

@@ -10,8 +10,10 @@ use std::path::{Path, PathBuf};
 /// Writes `scene` for the helper: one PLY per material and a JSON description. Only what both renderers agree on
 /// translates: Lambertian materials (KHR_materials_specular 0), emissive triangles (an emissive texture too: its
 /// texels times the emissive factor, linear, in an EXR the emitter's bitmap reads bilinearly with the sampler's wrap
-/// mode) and a pinhole camera. Returns the description's path and a text that names the scene's content (not where
-/// its files are) for the reference cache.
+/// mode), clear volumetric dielectrics (Mitsuba's `dielectric` or `roughdielectric`) with what their volume holds (a
+/// `homogeneous` medium: KHR_materials_volume's attenuation, KHR_materials_scatter's albedo and anisotropy) and a
+/// pinhole camera. Returns the description's path and a text that names the scene's content (not where its files
+/// are) for the reference cache.
 pub(super) fn write_mitsuba_scene(scene: &Scene, size: (u32, u32), dir: &Path) -> Result<(PathBuf, String), Error> {
     if scene.environment.is_some() || !scene.punctual.is_empty() {
         return Err(err("only scenes lit by emissive triangles translate to Mitsuba"));
@@ -54,6 +56,7 @@ fn write_material(
     dir: &Path,
 ) -> Result<Option<(Value, Value)>, Error> {
     let lambertian = m.specular == 0.0 && m.metallic == 0.0 && m.transmission == 0.0;
+    let dielectric = dielectric(m);
     let emissive_map = m.emissive_texture.filter(|r| {
         let t = &scene.textures[r.texture];
         r.tex_coord == 0 && r.transform == scene::texture::IDENTITY_TRANSFORM && !t.nearest && t.wrap_s == t.wrap_t
@@ -64,21 +67,38 @@ fn write_material(
     if tris.is_empty() {
         return Ok(None);
     }
-    if !lambertian || textured || m.double_sided || m.alpha_tested() {
+    let layered = m.clearcoat.factor > 0.0
+        || m.sheen.color != Vec3::ZERO
+        || m.anisotropy.strength != 0.0
+        || m.iridescence.factor > 0.0
+        || m.diffuse_transmission.factor > 0.0
+        || m.diffuse_roughness > 0.0
+        || m.unlit;
+    let plain = (lambertian && !m.double_sided) || dielectric.is_some();
+    if !plain || layered || textured || m.alpha_tested() {
         return Err(err(format!(
             "material '{}' does not translate to Mitsuba (only single-sided Lambertian ones, untextured but for \
-             their emission, do)",
+             their emission, and clear volumetric dielectrics do)",
             m.name
         )));
     }
     let ply = dir.join(format!("mesh{k}.ply"));
-    let bytes = ply_bytes(soup, &tris, emissive_map.is_some());
+    let smooth = has_vertex_normals(soup, &tris);
+    let bytes = ply_bytes(soup, &tris, emissive_map.is_some(), smooth);
     let e = m.emission;
     let mut mesh = json!({
         "ply": format!("{:016x}", fnv_bytes(&bytes)),
         "reflectance": m.base_color.to_array(),
         "radiance": if e.max_element() > 0.0 { json!(e.to_array()) } else { Value::Null },
     });
+    if let Some(d) = dielectric {
+        // Lambertian entries keep their old shape, so their references stay cached.
+        mesh.as_object_mut().unwrap().remove("reflectance");
+        mesh["dielectric"] = d;
+    }
+    if smooth {
+        mesh["smooth"] = json!(true);
+    }
     let named = if let Some(r) = emissive_map.filter(|_| e.max_element() > 0.0) {
         let exr = dir.join(format!("emission{k}.exr"));
         mesh["radiance_texture"] = write_emission(scene, r, e, &exr)?;
@@ -93,17 +113,60 @@ fn write_material(
     Ok(Some((named, mesh)))
 }
 
+/// A clear volumetric dielectric's entry in the description: Mitsuba's smooth or GGX `roughdielectric` (alpha the
+/// square of the perceptual roughness, as pathwave's) between the material's IOR and 1, and the `homogeneous` medium
+/// inside it (none when it neither absorbs nor scatters). None for any other material. The glTF model's glass lobe is
+/// this interface when the dielectric layer is whole (KHR_materials_specular 1, white) and the transmission white and
+/// complete: pathwave reflects it by the exact Fresnel, as Mitsuba does.
+fn dielectric(m: &Material) -> Option<Value> {
+    let clear = m.transmission == 1.0
+        && m.metallic == 0.0
+        && m.specular == 1.0
+        && m.specular_color == Vec3::ONE
+        && m.base_color == Vec3::ONE
+        && m.emission == Vec3::ZERO
+        && m.dispersion == 0.0;
+    if !clear || m.thin_walled {
+        return None;
+    }
+    let sigma_t = m.attenuation;
+    let interior = if sigma_t.max_element() > 0.0 {
+        json!({
+            "sigma_t": sigma_t.to_array(),
+            "albedo": m.medium.albedo.to_array(),
+            "g": m.medium.anisotropy,
+        })
+    } else {
+        Value::Null
+    };
+    Some(json!({"ior": m.ior, "alpha": m.roughness * m.roughness, "interior": interior}))
+}
+
+/// Whether triangles `tris` carry shading normals of their own (smooth shading) rather than their faces' normals.
+fn has_vertex_normals(soup: &TriangleSoup, tris: &[usize]) -> bool {
+    tris.iter().any(|&t| {
+        let [a, b, c] = soup.positions()[t];
+        let face = (b - a).cross(c - a).normalize_or_zero();
+        soup.normals()[t].iter().any(|n| n.dot(face) < 0.9999)
+    })
+}
+
 /// A binary PLY of `soup`'s triangles `tris`, each with three vertices of its own, with texture coordinates when
-/// `with_uv`.
-fn ply_bytes(soup: &TriangleSoup, tris: &[usize], with_uv: bool) -> Vec<u8> {
+/// `with_uv` and shading normals when `with_normals`.
+fn ply_bytes(soup: &TriangleSoup, tris: &[usize], with_uv: bool, with_normals: bool) -> Vec<u8> {
     let uv = if with_uv {
         "property float u\nproperty float v\n"
     } else {
         ""
     };
+    let normals = if with_normals {
+        "property float nx\nproperty float ny\nproperty float nz\n"
+    } else {
+        ""
+    };
     let mut bytes = format!(
         "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
-         property float z\n{uv}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+         property float z\n{normals}{uv}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
         3 * tris.len(),
         tris.len()
     )
@@ -111,6 +174,10 @@ fn ply_bytes(soup: &TriangleSoup, tris: &[usize], with_uv: bool) -> Vec<u8> {
     for &t in tris {
         for c in 0..3 {
             bytes.extend(soup.positions()[t][c].to_array().iter().flat_map(|x| x.to_le_bytes()));
+            if with_normals {
+                let n = soup.normals()[t][c].normalize_or_zero();
+                bytes.extend(n.to_array().iter().flat_map(|x| x.to_le_bytes()));
+            }
             if with_uv {
                 let w = soup.texcoords()[t][c];
                 bytes.extend([w.x, w.y].iter().flat_map(|x| x.to_le_bytes()));
