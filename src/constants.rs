@@ -100,9 +100,13 @@ pub const TEX_DIFFUSE_TRANSMISSION: u32 = 15;
 pub const TEX_DIFFUSE_TRANSMISSION_COLOR: u32 = 16;
 /// KHR_materials_diffuse_roughness: the roughness (R).
 pub const TEX_DIFFUSE_ROUGHNESS: u32 = 17;
-pub const TEX_SLOTS: u32 = 18;
-/// 16-byte texels per material (layout.glsl's Material is 768 bytes).
-pub const MATERIAL_TEXELS: u32 = 49;
+/// KHR_materials_scatter on a thin wall: the strength (A) and the colour (sRGB RGB). The last slots, as only
+/// FEATURE_THIN_SCATTER's shaders read them (scene_reads.glsl's load_material).
+pub const TEX_SCATTER_STRENGTH: u32 = 18;
+pub const TEX_SCATTER_COLOR: u32 = 19;
+pub const TEX_SLOTS: u32 = 20;
+/// 16-byte texels per material (layout.glsl's Material is 848 bytes).
+pub const MATERIAL_TEXELS: u32 = 53;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.

@@ -156,7 +156,7 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 784 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 848 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour (w: diffuse roughness), transmission (factor, thin), absorption,
 /// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
 /// (colour, roughness), anisotropy (strength, cos and sin of the rotation), iridescence (factor, film IOR, thickness
@@ -384,7 +384,7 @@ pub struct DebugSums {
 const _: () = assert!(std::mem::size_of::<DebugSums>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 784);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 848);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);

@@ -300,6 +300,52 @@ fn diffuse_transmission_textures_land_on_their_halves() {
     }
 }
 
+// KHR_materials_scatter's textures on a thin wall (white, smooth, fully transmissive, no specular layer) before the unlit red
+// card. scatterStrengthTexture's A takes the left half to plain transmission (the card seen through it) and the right
+// to the draft's scatter_bsdf, which at g = -0.98 sends 99 % of the light back (dark); multiscatterColorTexture's
+// (sRGB) RGB, at strength 1 and g = 0.98, is black on the left (nothing through) and white on the right (the card,
+// diffusely). Would catch either texture ignored, read from the wrong channel, or only the factors applied.
+#[test]
+fn thin_wall_scatter_textures_land_on_their_halves() {
+    let bsdf = pathwave::Estimator::Bsdf;
+    let scatter = |g: f32| json!({ "scatterStrengthFactor": 1.0, "scatterAnisotropy": g });
+    for (slot, g, left, right, through) in [
+        (
+            "scatterStrengthTexture",
+            -0.98,
+            [255, 255, 255, 0],
+            [255, 255, 255, 255],
+            [true, false],
+        ),
+        (
+            "multiscatterColorTexture",
+            0.98,
+            [0, 0, 0, 255],
+            [255, 255, 255, 255],
+            [false, true],
+        ),
+    ] {
+        let mut b = halves_over([1.0; 3], "KHR_materials_scatter", scatter(g), slot, left, right);
+        // Smooth, so that plain transmission shows the card sharply and whole.
+        b.material_json(0)["pbrMetallicRoughness"]["roughnessFactor"] = json!(0.0);
+        let ext = &mut b.material_json(0)["extensions"];
+        ext["KHR_materials_transmission"] = json!({ "transmissionFactor": 1.0 });
+        b.use_extension("KHR_materials_transmission");
+        red_card_behind(&mut b, 30.0);
+        let scene = common::load_built(&b, "layers.gltf");
+        assert!(scene.materials[0].thin_scatter.strength > 0.0 && scene.materials[0].thin_walled);
+        let [l, r] = halves_of(&render(&b, None, 64, bsdf, 2));
+        eprintln!("{slot}: left {l:?}, right {r:?}");
+        for ((side, (red, _)), through) in ["left", "right"].iter().zip([l, r]).zip(through) {
+            if through {
+                assert!(red > 0.8, "{slot}: the red card through the {side} half: {red}");
+            } else {
+                assert!(red < 0.05, "{slot}: nothing through the {side} half: {red}");
+            }
+        }
+    }
+}
+
 // A rough coat over black under a directional light 45 degrees towards +x: the highlight seen head-on needs a coat
 // normal tilted 22.5 degrees towards the light. The coat's own normal map tilts it towards +x on one run and -x on the
 // other; the base has no map, so only the coat's can do this. Would catch clearcoatNormalTexture ignored, or the coat

@@ -74,7 +74,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 784 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 848 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided

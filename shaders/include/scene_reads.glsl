@@ -28,7 +28,9 @@ Material load_material(uint i) {
     m.anisotropy = FETCH(material_texels, b + 9u);
     m.iridescence = FETCH(material_texels, b + 10u);
     m.diffuse_transmission = FETCH(material_texels, b + 11u);
-    for (uint k = 0u; k < TEX_SLOTS; ++k) {
+    // The thin wall's scattering slots come last and are read only where a material has it.
+    uint slots = scene_has(FEATURE_THIN_SCATTER) ? TEX_SLOTS : TEX_SCATTER_STRENGTH;
+    for (uint k = 0u; k < slots; ++k) {
         m.textures[k] = TextureSlot(FETCH(material_texels, b + 12u + 2u * k), FETCH(material_texels, b + 13u + 2u * k));
     }
     // Shading at a surface never needs the medium behind it: one texel read fewer per hit, but for a thin wall's

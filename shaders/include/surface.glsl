@@ -104,6 +104,14 @@ Material material_at(Material m, uint tri, vec2 b) {
             m.diffuse_transmission.rgb *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR], tri, b, true).rgb;
         }
     }
+    if (scene_has(FEATURE_THIN_SCATTER)) {
+        if (slot_used(m.textures[TEX_SCATTER_STRENGTH])) {
+            m.transmission.w *= sample_slot(m.textures[TEX_SCATTER_STRENGTH], tri, b, false).a;
+        }
+        if (slot_used(m.textures[TEX_SCATTER_COLOR])) {
+            m.medium.rgb *= sample_slot(m.textures[TEX_SCATTER_COLOR], tri, b, true).rgb;
+        }
+    }
     if (scene_has(FEATURE_IRIDESCENCE)) {
         if (slot_used(m.textures[TEX_IRIDESCENCE])) m.iridescence.x *= sample_slot(m.textures[TEX_IRIDESCENCE], tri, b, false).r;
         if (slot_used(m.textures[TEX_IRIDESCENCE_THICKNESS])) {

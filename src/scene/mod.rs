@@ -218,6 +218,9 @@ pub struct ThinScatter {
     pub strength: f32,
     pub color: Vec3,
     pub anisotropy: f32,
+    /// A multiplies `strength`, sRGB RGB multiplies `color`.
+    pub strength_texture: Option<TextureRef>,
+    pub color_texture: Option<TextureRef>,
 }
 
 impl Default for ThinScatter {
@@ -226,6 +229,8 @@ impl Default for ThinScatter {
             strength: 0.0,
             color: Vec3::ONE,
             anisotropy: 0.0,
+            strength_texture: None,
+            color_texture: None,
         }
     }
 }
@@ -269,6 +274,8 @@ impl Material {
             self.diffuse_transmission.texture,
             self.diffuse_transmission.color_texture,
             self.diffuse_roughness_texture,
+            self.thin_scatter.strength_texture,
+            self.thin_scatter.color_texture,
         ]
     }
 

@@ -626,6 +626,7 @@ fn thin_scatter(base: Vec3, roughness: f32, specular: f32, t: f32, strength: f32
             strength,
             color,
             anisotropy: g,
+            ..Default::default()
         },
         ..glass(roughness, 1.5, true)
     }

@@ -57,14 +57,25 @@ impl Loader<'_> {
             (None, None) => return Ok(none),
         };
         let f = self.scatter_factors(name, what, ext, legacy)?;
-        let textures = ["scatterStrengthTexture", "scatterTexture", "multiscatterColorTexture"];
-        for key in textures.iter().filter(|k| ext.get(**k).is_some()) {
-            // Checked like every texture reference, so a broken one is refused as elsewhere.
-            self.json_texture(name, what, ext, key)?;
-            self.warn(format!(
-                "material '{name}': {what}.{key} is not applied (the factors are: in a volume, a texture on the \
-                 surface does not say which texel owns the medium behind it)"
-            ));
+        // Checked like every texture reference, so a broken one is refused as elsewhere. The strength's texture
+        // has the README's name, or the schema's at the implemented revision.
+        let strength_key = match ext.get("scatterStrengthTexture") {
+            Some(_) => "scatterStrengthTexture",
+            None => "scatterTexture",
+        };
+        let strength_texture = self.json_texture(name, what, ext, strength_key)?;
+        let color_texture = self.json_texture(name, what, ext, "multiscatterColorTexture")?;
+        if !thin_walled || legacy {
+            for key in [strength_key, "multiscatterColorTexture"]
+                .iter()
+                .filter(|k| ext.get(**k).is_some())
+            {
+                self.warn(format!(
+                    "material '{name}': {what}.{key} is not applied inside a volume (its factor is): a texture on \
+                     the surface does not say which texel owns the medium behind it, and the draft warns that \
+                     letting each texel decide breaks reciprocity"
+                ));
+            }
         }
         if thin_walled {
             // The old draft scatters only inside a volume.
@@ -79,6 +90,8 @@ impl Loader<'_> {
                 strength: f.strength,
                 color: f.color,
                 anisotropy: f.anisotropy,
+                strength_texture,
+                color_texture,
             };
             return Ok((Medium::default(), thin));
         }
