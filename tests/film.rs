@@ -77,14 +77,25 @@ fn one_sample_s_exact_sums_are_its_fixed_point_quanta_on_both_schedules() {
 }
 
 /// Catches sums whose bits depend on how the samples were grouped: passes of different sizes (one sample a pass
-/// against many), the two schedules, and the float film's mean against the exact film's within rounding.
+/// against many), the two schedules, and the float film's mean against the exact film's within rounding; on the
+/// Cornell box and on scattering media (subsurface.gltf: long paths carrying a medium stack).
 #[test]
 fn exact_sums_do_not_depend_on_passes_or_schedules() {
-    let mut r = scene_renderer(&pathwave::scene::load(&cornell(), None).unwrap());
+    for scene in [cornell(), common::scenes_dir().join("subsurface.gltf")] {
+        exact_sums_agree(&scene);
+    }
+}
+
+fn exact_sums_agree(scene: &Path) {
+    let name = scene.file_name().unwrap().to_string_lossy();
+    let mut r = scene_renderer(&pathwave::scene::load(scene, None).unwrap());
     let s = settings(32, 24, 24, 3);
     let wavefront = exact(&mut r, &s, Schedule::Wavefront);
     let fused = exact(&mut r, &s, Schedule::Fused);
-    assert_eq!(wavefront.exact, fused.exact, "the schedules' exact films differ");
+    assert_eq!(
+        wavefront.exact, fused.exact,
+        "{name}: the schedules' exact films differ"
+    );
     // One sample at a time, through the progressive API.
     r.set_schedule(Schedule::Wavefront);
     let s1 = RenderSettings {
@@ -96,7 +107,10 @@ fn exact_sums_do_not_depend_on_passes_or_schedules() {
         r.advance(&mut session, 1).unwrap();
     }
     let stepped = r.film(&session).unwrap();
-    assert_eq!(stepped.exact, wavefront.exact, "one sample a pass gives other bits");
+    assert_eq!(
+        stepped.exact, wavefront.exact,
+        "{name}: one sample a pass gives other bits"
+    );
     // Sample ranges added on the host give the render of their union.
     let mut part = |a: u32, b: u32| {
         let s = RenderSettings {
@@ -112,9 +126,12 @@ fn exact_sums_do_not_depend_on_passes_or_schedules() {
     assert_eq!(
         Some(&sum),
         wavefront.exact.as_ref(),
-        "parts 0..5, 5..16, 16..24 do not add up to 0..24"
+        "{name}: parts 0..5, 5..16, 16..24 do not add up to 0..24"
     );
-    assert!(sum.add(&part(4, 6)).is_err(), "overlapping ranges must be refused");
+    assert!(
+        sum.add(&part(4, 6)).is_err(),
+        "{name}: overlapping ranges must be refused"
+    );
     // The float film's mean agrees to rounding.
     r.set_schedule(Schedule::Wavefront);
     let float = render(&mut r, &s).mean();
@@ -122,7 +139,7 @@ fn exact_sums_do_not_depend_on_passes_or_schedules() {
         for c in 0..3 {
             assert!(
                 (a[c] - b[c]).abs() <= 1e-5 * b[c].abs().max(1e-3),
-                "pixel {p}: {} against {}",
+                "{name}: pixel {p}: {} against {}",
                 a[c],
                 b[c]
             );
