@@ -105,7 +105,10 @@ def bsdf_and_interior(mat):
         raise SystemExit(f"material {mat.get('name')!r}: only clear dielectrics (transmission 1, white) translate")
     ior = ext.get("KHR_materials_ior", {}).get("ior", 1.5)
     # ext_ior 1: the glTF world is vacuum-like (Mitsuba's default outside is air, 1.000277).
-    if roughness == 0.0:
+    if ior == 1.0:
+        # An interface between equal indices is no interface: Mitsuba's null BSDF, which shadow rays cross.
+        bsdf = {"type": "null"}
+    elif roughness == 0.0:
         bsdf = {"type": "dielectric", "int_ior": ior, "ext_ior": 1.0}
     else:
         bsdf = {"type": "roughdielectric", "distribution": "ggx", "alpha": roughness**2, "int_ior": ior,
@@ -134,7 +137,7 @@ def bsdf_and_interior(mat):
         "albedo": {"type": "rgb", "value": albedo},
         "phase": {"type": "hg", "g": g},
         # Inside a dielectric every shadow ray is blocked: Mitsuba's documentation says to trace none.
-        "sample_emitters": False,
+        "sample_emitters": bsdf["type"] == "null",
     }
     return bsdf, interior
 
