@@ -38,44 +38,34 @@ if ! command -v cargo >/dev/null 2>&1; then
   fi
 fi
 
+# Makes the venv $1 hold what `pip install` of the remaining arguments installs, once: a stamp named after those
+# arguments marks it done, and other arguments (a new pin) rebuild it from scratch.
+venv_with() {
+  local venv="$1"
+  shift
+  local stamp
+  stamp="$venv/.installed-$(echo "$*" | tr ' ' '+')"
+  [ -f "$stamp" ] && return 0
+  echo "ci/setup.sh: installing $* into $venv"
+  rm -rf "$venv"
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install -q --disable-pip-version-check "$@"
+  touch "$stamp"
+}
+
 # Intel Open Image Denoise for --denoise and tests/denoise.rs: no Debian package has it, PyPI's pyoidn wheel ships
 # libOpenImageDenoise.so.2 with its CPU device. Installed without its Python dependencies (pathwave only loads the
 # library) into a venv of its own, where pathwave looks for it (src/denoise.rs).
-OIDN_VENV="$HOME/.cache/pathwave/oidn-venv"
-if [ ! -f "$OIDN_VENV/.installed-2.5.1.0" ]; then
-  echo "ci/setup.sh: installing Open Image Denoise (pyoidn 2.5.1.0) into $OIDN_VENV"
-  rm -rf "$OIDN_VENV"
-  python3 -m venv "$OIDN_VENV"
-  "$OIDN_VENV/bin/pip" install -q --disable-pip-version-check --no-deps pyoidn==2.5.1.0
-  touch "$OIDN_VENV/.installed-2.5.1.0"
-fi
+venv_with "$HOME/.cache/pathwave/oidn-venv" --no-deps pyoidn==2.5.1.0
 
 # The Python module's build and test tools (ci/test.sh installs the module itself, built from the checkout, into
 # this venv): maturin builds it, pytest runs python/tests, OpenEXR reads the EXRs pathwave writes (a reader pathwave
 # did not write), numpy is what the module returns, matplotlib draws the guide's example (python/tests/test_guide.py).
-PY_VENV="$HOME/.cache/pathwave/python-venv"
-PY_TOOLS=(maturin==1.16.0 numpy==2.4.6 pytest==9.0.3 OpenEXR==3.5.3 matplotlib==3.10.8)
-PY_STAMP="$PY_VENV/.installed-$(echo "${PY_TOOLS[*]}" | tr ' ' '+')"
-if [ ! -f "$PY_STAMP" ]; then
-  echo "ci/setup.sh: installing ${PY_TOOLS[*]} into $PY_VENV"
-  rm -rf "$PY_VENV"
-  python3 -m venv "$PY_VENV"
-  "$PY_VENV/bin/pip" install -q --disable-pip-version-check "${PY_TOOLS[@]}"
-  touch "$PY_STAMP"
-fi
+venv_with "$HOME/.cache/pathwave/python-venv" maturin==1.16.0 numpy==2.4.6 pytest==9.0.3 OpenEXR==3.5.3 matplotlib==3.10.8
 
 # Mitsuba 3, the independent reference tests/media.rs compares scattering media with (tests/mitsuba/render_gltf.py).
 # Its LLVM variant JIT-compiles through the system's libLLVM, which lavapipe (mesa-vulkan-drivers) already needs.
-MI_VENV="$HOME/.cache/pathwave/mitsuba-venv"
-MI_TOOLS=(mitsuba==3.9.1 drjit==1.5.0 numpy==2.4.6)
-MI_STAMP="$MI_VENV/.installed-$(echo "${MI_TOOLS[*]}" | tr ' ' '+')"
-if [ ! -f "$MI_STAMP" ]; then
-  echo "ci/setup.sh: installing ${MI_TOOLS[*]} into $MI_VENV"
-  rm -rf "$MI_VENV"
-  python3 -m venv "$MI_VENV"
-  "$MI_VENV/bin/pip" install -q --disable-pip-version-check "${MI_TOOLS[@]}"
-  touch "$MI_STAMP"
-fi
+venv_with "$HOME/.cache/pathwave/mitsuba-venv" mitsuba==3.9.1 drjit==1.5.0 numpy==2.4.6
 
 # A second lavapipe, Mesa 25 from the backports suite, beside the system's: tests/ray_query.rs runs ray-query
 # traversal on it while everything else keeps the system's driver.
