@@ -40,6 +40,15 @@ pub fn single_scatter_albedo(rho_ms: f32, g: f32) -> f32 {
     ((1.0 - s * s) / (1.0 - g * s * s)).clamp(0.0, 1.0) as f32
 }
 
+/// The strength's key as `ext` spells it: the README's `readme` when present, else the schema's `schema`.
+fn spelled<'a>(ext: &Value, readme: &'a str, schema: &'a str) -> &'a str {
+    if ext.get(readme).is_some() {
+        readme
+    } else {
+        schema
+    }
+}
+
 impl Loader<'_> {
     /// What KHR_materials_scatter (or the older name) makes of material `name`: the medium inside a volumetric one
     /// (none: absorption alone, KHR_materials_volume's), or the thin-walled mode's diffuse share of the transmission.
@@ -59,10 +68,7 @@ impl Loader<'_> {
         let f = self.scatter_factors(name, what, ext, legacy)?;
         // Checked like every texture reference, so a broken one is refused as elsewhere. The strength's texture
         // has the README's name, or the schema's at the implemented revision.
-        let strength_key = match ext.get("scatterStrengthTexture") {
-            Some(_) => "scatterStrengthTexture",
-            None => "scatterTexture",
-        };
+        let strength_key = spelled(ext, "scatterStrengthTexture", "scatterTexture");
         let strength_texture = self.json_texture(name, what, ext, strength_key)?;
         let color_texture = self.json_texture(name, what, ext, "multiscatterColorTexture")?;
         if !thin_walled || legacy {
@@ -125,11 +131,7 @@ impl Loader<'_> {
         let strength = if legacy {
             1.0
         } else {
-            let key = if ext.get("scatterStrengthFactor").is_some() {
-                "scatterStrengthFactor"
-            } else {
-                "scatterFactor"
-            };
+            let key = spelled(ext, "scatterStrengthFactor", "scatterFactor");
             number(key, 0.0, &unit, "a number in [0, 1]")?
         };
         let color_keys: &[&str] = if legacy {
