@@ -162,6 +162,11 @@ impl Integrator {
         self.schedule.current()
     }
 
+    /// Whether the next pass is one of the schedule trial's (ScheduleChoice::trial_rows sizes them).
+    pub fn in_trial(&self) -> bool {
+        self.schedule.in_trial()
+    }
+
     /// Sample rows the next follow dispatch takes (see FOLLOW_SAMPLES).
     pub fn follow_rows(&self) -> u32 {
         self.follow.rows

@@ -1,6 +1,7 @@
 //! A progressive render: the film and path state on the device, and the passes that add samples to them.
 use super::film::{ExactFilm, Film, RenderStats};
 use super::integrator::{Pass, FUSED_FALLBACK};
+use super::schedule::{Schedule, ScheduleChoice};
 use super::settings::MEDIA_DEPTH_CAP;
 use super::sizing::{path_capacity, path_fields, size_pass, PathLimits};
 use super::Aovs;
@@ -366,7 +367,11 @@ impl Renderer {
             }
             None => session.pixels,
         };
-        let size = size_pass(pixels, capacity, self.integrator.schedule(), samples);
+        let mut size = size_pass(pixels, capacity, self.integrator.schedule(), samples);
+        if self.integrator.in_trial() && self.integrator.schedule() == Schedule::Fused && size.chunks == 1 {
+            let fit = size_pass(pixels, capacity, Schedule::Wavefront, u32::MAX).rows;
+            size.rows = size.rows.min(ScheduleChoice::trial_rows(fit));
+        }
         let mut stats = std::mem::take(&mut session.stats);
         for i in 0..size.chunks {
             let slice = size.slice(pixels, i);
