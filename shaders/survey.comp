@@ -51,7 +51,7 @@ void main() {
             open = false;
             break;
         }
-        Surface sf = surface_at(h.tri, h.uv, h.inst, v.dir);
+        Surface sf = surface_at(h.tri, h.uv, h.inst, v.dir, s);
         if (bounce == 0u) {
             first = vec4(sf.p, h.t);
             uint instance = floatBitsToUint(sf.ts.n2.w);

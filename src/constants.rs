@@ -109,12 +109,15 @@ pub const TEX_SLOTS: u32 = 20;
 pub const MATERIAL_TEXELS: u32 = 53;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
-/// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit.
+/// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit, and from
+/// TEXTURE_LEVELS_SHIFT the number of mip levels after level 0 (mipmaps.rs; 0 for a sampler without mipmaps).
 pub const WRAP_REPEAT: u32 = 0;
 pub const WRAP_CLAMP: u32 = 1;
 pub const WRAP_MIRROR: u32 = 2;
 pub const TEXTURE_WRAP_T_SHIFT: u32 = 2;
 pub const TEXTURE_NEAREST: u32 = 16;
+pub const TEXTURE_LEVELS_SHIFT: u32 = 8;
+pub const TEXTURE_LEVELS_MASK: u32 = 15;
 
 /// ToneMap.op: the viewer's tone curve (low bits) and whether to pack pixels as BGRA instead of RGBA.
 pub const TONEMAP_CLAMP: u32 = 0;
@@ -291,6 +294,10 @@ pub const FEATURE_MEDIA: u32 = 2097152;
 /// Some used thin-walled material scatters part of its transmission diffusely (KHR_materials_scatter's thin-walled
 /// mode): shading reads the material's scatter texel and reshapes its lobes (bsdf.glsl's thin_scatter).
 pub const FEATURE_THIN_SCATTER: u32 = 4194304;
+/// Minified textures are read from their mip chains (--texture-filter trilinear, the default), at a footprint
+/// estimated from the camera (surface.glsl's texture_footprint). A render setting for textured scenes; without it
+/// every lookup is bilinear from level 0, the bytes of renders before mip chains existed.
+pub const FEATURE_TEXTURE_LOD: u32 = 8388608;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;

@@ -22,6 +22,6 @@ pub mod vk;
 pub use error::Error;
 pub use render::{
     Adaptive, BvhReads, Estimator, Film, LightSampler, RenderSettings, RenderStats, Renderer, RendererOptions,
-    Schedule, Session, SpectralChoice,
+    Schedule, Session, SpectralChoice, TextureFilter,
 };
 pub use scene::Scene;

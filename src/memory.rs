@@ -5,10 +5,10 @@
 /// arrays, light table): 330 measured on 2.5 M emissive triangles (`pathwave info`), rounded up.
 pub const HOST_BYTES_PER_TRIANGLE: u64 = 400;
 /// Host bytes an image pixel takes while it decodes (a 16-bit RGBA buffer, its RGBA8 conversion, the texels kept) and
-/// once decoded (the texels, and their copy in the packed scene): what `--max-memory` must leave room for, checked
-/// from each image's header before it is decoded.
+/// once decoded (the texels, and their copy in the packed scene with the mip chain, a third more: 4 + 16 / 3, rounded
+/// up): what `--max-memory` must leave room for, checked from each image's header before it is decoded.
 pub const HOST_BYTES_PER_PIXEL_DECODING: u64 = 16;
-pub const HOST_BYTES_PER_PIXEL_KEPT: u64 = 8;
+pub const HOST_BYTES_PER_PIXEL_KEPT: u64 = 10;
 /// And per later key of the motion over the shutter: its placed vertices and normals (72 bytes) and its device
 /// record (96), rounded up.
 pub const HOST_BYTES_PER_MOTION_KEY: u64 = 176;

@@ -616,3 +616,100 @@ fn specular_glossiness_renders_as_its_metal_rough_equivalent() {
         }
     }
 }
+
+/// A Lambertian quad textured with a 256x256 black and white checkerboard of single texels, under a white sky with
+/// BSDF sampling only (each sample returns the albedo it finds): 32 texels across each of the 8x8 pixels. Mip
+/// levels prefilter it, so one sample per pixel already shows its average, 0.5 in linear light (the analytic answer,
+/// independent of pathwave's filtering), in every pixel and for every seed (no shimmer); read from level 0
+/// (bilinear, or a sampler whose minFilter LINEAR asks for no mipmaps) each sample lands on black, white or between
+/// and the pixels scatter widely about the same average. Catches levels averaged in sRGB (0.21), a level chosen
+/// too fine (shimmer returns), the footprint ignored, or a sampler's "no mipmaps" ignored.
+#[test]
+fn a_minified_checkerboard_is_its_average_at_one_sample_without_shimmer() {
+    let side = 256;
+    let texels: Vec<[u8; 4]> = (0..side * side)
+        .map(|k| {
+            let v = if (k % side + k / side) % 2 == 0 { 255 } else { 0 };
+            [v, v, v, 255]
+        })
+        .collect();
+    let built = |sampler: serde_json::Value| {
+        let mut b = GltfBuilder::new();
+        let m = b.material("quad", [1.0; 3], [0.0; 3], false);
+        let image = b.png_image(side as u32, side as u32, &texels);
+        let t = b.texture(image, sampler);
+        b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
+        screen::quad(&mut b, m, 0.0);
+        screen::view(&mut b);
+        b
+    };
+    let mipmapped = built(json!({}));
+    let no_mipmaps = built(json!({ "minFilter": LINEAR }));
+    let one_sample = |b: &GltfBuilder, seed: u32, filter: pathwave::TextureFilter| {
+        let film = render(b, Some([1.0; 3]), |s| {
+            s.max_depth = Some(1);
+            s.estimator = pathwave::Estimator::Bsdf;
+            s.spp = 1;
+            s.seed = seed;
+            s.texture_filter = filter;
+        });
+        film.mean().iter().map(|p| p[1]).collect::<Vec<f32>>()
+    };
+    let (mut spread_lod, mut spread_flat, mut sum_flat, mut n) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for seed in 1..=4 {
+        let lod = one_sample(&mipmapped, seed, pathwave::TextureFilter::Trilinear);
+        let flat = one_sample(&mipmapped, seed, pathwave::TextureFilter::Bilinear);
+        assert_eq!(
+            one_sample(&no_mipmaps, seed, pathwave::TextureFilter::Trilinear),
+            flat,
+            "minFilter LINEAR (no mipmaps) reads level 0 as --texture-filter bilinear does"
+        );
+        for (&a, &b) in lod.iter().zip(&flat) {
+            assert!(
+                (a - 0.5).abs() < 0.01,
+                "seed {seed}: a pixel of the mip-mapped checkerboard is {a}, not 0.5"
+            );
+            spread_lod += ((a - 0.5) as f64).powi(2);
+            spread_flat += ((b - 0.5) as f64).powi(2);
+            sum_flat += b as f64;
+            n += 1.0;
+        }
+    }
+    let (rms_lod, rms_flat) = ((spread_lod / n).sqrt(), (spread_flat / n).sqrt());
+    // Level 0 at one sample: each pixel one bilinear lookup of the checkerboard at a uniform point of a texel square,
+    // (1 - x)(1 - y) + xy, whose standard deviation is sqrt(1/36) = 0.17; 256 of them average to 0.5 within 0.01
+    // (one standard deviation), so 0.05 is five.
+    assert!(rms_flat > 0.1, "level 0 should shimmer: rms {rms_flat}");
+    assert!(rms_lod < 0.01, "the mip-mapped checkerboard shimmers: rms {rms_lod}");
+    assert!(
+        (sum_flat / n - 0.5).abs() < 0.05,
+        "level 0's mean {} is not the checkerboard's 0.5",
+        sum_flat / n
+    );
+}
+
+/// Magnified textures keep their detail: where a pixel spans less than a texel, the mip-mapped lookup is level 0's
+/// bilinear one, to the bit (the 4x4 texture over 8x8 pixels of base_color_texture_is_the_albedo, bilinear, at 16
+/// samples, whose later samples' footprints shrink further).
+#[test]
+fn magnified_textures_read_level_zero_to_the_bit() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("quad", [0.5, 1.0, 0.8], [0.0; 3], false);
+    let image = b.png_image(4, 4, &texels4());
+    let t = b.texture(image, json!({}));
+    b.material_json(m)["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": t });
+    screen::quad(&mut b, m, 0.0);
+    screen::view(&mut b);
+    let with = |filter| {
+        render(&b, Some([1.0; 3]), |s| {
+            s.max_depth = Some(1);
+            s.estimator = pathwave::Estimator::Bsdf;
+            s.texture_filter = filter;
+        })
+        .mean()
+    };
+    assert_eq!(
+        with(pathwave::TextureFilter::Trilinear),
+        with(pathwave::TextureFilter::Bilinear)
+    );
+}

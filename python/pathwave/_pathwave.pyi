@@ -122,6 +122,7 @@ class Renderer:
         spectral: bool = False,
         rgb: bool = False,
         light_sampler: Literal["bvh", "power", "uniform"] = "bvh",
+        texture_filter: Literal["trilinear", "bilinear"] = "trilinear",
         env: Optional[PathLike] = None,
         env_color: Optional[Triple] = None,
         env_intensity: float = 1.0,

@@ -231,7 +231,7 @@ LightSample sample_light(vec3 p, vec3 n, vec2 u, vec2 u_pick) {
     if (!faces) return ls;
     // Emissive textures and cut-out or blended parts, as a ray hitting the point would find them.
 #ifdef TEXTURED
-    ls.radiance = spectrum_illuminant(material_at(lm, tri, b).emission.rgb) * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
+    ls.radiance = spectrum_illuminant(material_at(lm, tri, b, NO_LOD).emission.rgb) * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
 #else
     ls.radiance = spectrum_illuminant(lm.emission.rgb);
 #endif

@@ -56,10 +56,12 @@ struct Surface {
     vec3 n_in;   // geometric normal on the side the ray arrived from
     vec3 n_mesh; // the interpolated vertex normal
     vec3 ns;     // shading normal (normal-mapped), on n_in's side
+    vec2 lod;    // texture_footprint at p, which the material's textures were read at
 };
 
-// Triangle tri at barycentrics uv, reached along ray_d; inst is the hit's instance (NO_INSTANCE: world space).
-Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
+// Triangle tri at barycentrics uv, reached along ray_d by sample s; inst is the hit's instance (NO_INSTANCE: world
+// space).
+Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d, uint s) {
     Surface sf;
     TriVerts tv = load_tri_verts(tri);
     TriShading ts = load_tri_shading(tri, tv);
@@ -76,15 +78,20 @@ Surface surface_at(uint tri, vec2 uv, uint inst, vec3 ray_d) {
         // Its area in the world now, which light sampling's density per unit area divides by (emitter_pdf_area).
         ts.n1.w = 0.5 * length(cross(tv.e1.xyz, tv.e2.xyz));
     }
-    sf.m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv);
     sf.p = tv.v0.xyz + uv.x * tv.e1.xyz + uv.y * tv.e2.xyz;
     sf.ng = normalize(cross(tv.e1.xyz, tv.e2.xyz));
+#ifdef TEXTURED
+    sf.lod = texture_footprint(tv.e1.xyz, tv.e2.xyz, sf.ng, sf.p, s);
+#else
+    sf.lod = NO_LOD;
+#endif
+    sf.m = material_at(load_material(floatBitsToUint(tv.v0.w)), tri, uv, sf.lod);
     // A mirroring instance turns the winding; its front is still the mesh's.
     if (mirrored) sf.ng = -sf.ng;
     sf.front = dot(sf.ng, ray_d) < 0.0;
     sf.n_in = sf.front ? sf.ng : -sf.ng;
     sf.n_mesh = normalize((1.0 - uv.x - uv.y) * ts.n0.xyz + uv.x * ts.n1.xyz + uv.y * ts.n2.xyz);
-    sf.ns = normal_mapped(sf.m.textures[TEX_NORMAL], sf.m.alpha.z, tri, uv, sf.n_mesh, inst);
+    sf.ns = normal_mapped(sf.m.textures[TEX_NORMAL], sf.m.alpha.z, tri, uv, sf.n_mesh, inst, sf.lod);
     if (dot(sf.ns, sf.n_in) < 0.0) sf.ns = -sf.ns;
     sf.tv = tv;
     sf.ts = ts;
@@ -106,7 +113,7 @@ void shading_frame(Surface sf, uint tri, vec2 uv, uint inst, inout Bsdf bsdf, ou
     }
     if (scene_has(FEATURE_CLEARCOAT) && bsdf.clearcoat > 0.0) {
         // The coat has its own normal map, or none: then it follows the mesh, not the base's map.
-        vec3 nc = normal_mapped(sf.m.textures[TEX_CLEARCOAT_NORMAL], sf.m.clearcoat.z, tri, uv, sf.n_mesh, inst);
+        vec3 nc = normal_mapped(sf.m.textures[TEX_CLEARCOAT_NORMAL], sf.m.clearcoat.z, tri, uv, sf.n_mesh, inst, sf.lod);
         if (dot(nc, sf.n_in) < 0.0) nc = -nc;
         vec3 nl = vec3(dot(nc, tx), dot(nc, ty), dot(nc, sf.ns));
         // A coat normal below the shading hemisphere (an extreme map) falls back to the shading normal.
@@ -208,7 +215,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
         }
     }
 
-    Surface sf = surface_at(tri, hit.zw, inst, ray_d);
+    Surface sf = surface_at(tri, hit.zw, inst, ray_d, s);
     TriVerts tv = sf.tv;
     TriShading ts = sf.ts;
     vec2 uv = hit.zw;

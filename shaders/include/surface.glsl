@@ -11,13 +11,48 @@ bool slot_used(TextureSlot s) {
     return floatBitsToUint(s.u.w) != TEXTURE_NONE;
 }
 
-// The slot's texture at barycentrics b (of vertices 1 and 2) of triangle tri, after KHR_texture_transform.
-vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb) {
+// log2 of the side of a pixel's footprint at p on a triangle of world-space edges e1, e2 (unit normal ng), per unit
+// of the square root of the triangle's area: sample_slot turns it into texels with the triangle's area in the
+// texture. The footprint is the camera's (pbrt-v4's approximation at every bounce): a pixel's angle times the
+// distance from the camera (its width, orthographic), spread by the surface's slant (area-preserving: the side of a
+// square of the ellipse's area, so a grazing floor blurs less than along its long axis), and divided by the sample
+// index plus one: a pixel's first sample is prefiltered over the pixel (no shimmer at one sample), and over N
+// samples the blur falls as log(N) / N, below the noise's 1 / sqrt(N), so converged images keep point sampling's
+// expectation (a floor of an eighth of a pixel, as pbrt-v4 keeps, left a bias the statistical diff found at 256
+// spp). It depends on the point and the sample index alone, so both schedules, every pass split and every bounce
+// choose the same level. y: the number that picks between mip levels (texture_sample), a hash of the point and the sample
+// index for the same reason. NO_LOD without FEATURE_TEXTURE_LOD.
+vec2 texture_footprint(vec3 e1, vec3 e2, vec3 ng, vec3 p, uint s) {
+    if (!scene_has(FEATURE_TEXTURE_LOD)) return NO_LOD;
+    vec3 to = p - frame.cam_origin.xyz;
+    float dist = length(to);
+    float pixel = 2.0 * frame_half_height() / float(frame.height);
+    float width = (frame.flags & FLAG_ORTHOGRAPHIC) != 0u ? pixel : pixel * dist;
+    float slant = abs(dot(ng, to)) / max(dist, 1e-30);
+    width *= inversesqrt(max(slant, 1e-4)) / (float(s) + 1.0);
+    float area = 0.5 * length(cross(e1, e2));
+    float f = log2(width) - 0.5 * log2(area);
+    float u = float(pcg4d(uvec4(floatBitsToUint(p), s)).x >> 8u) * (1.0 / 16777216.0);
+    // A degenerate triangle or a point at the camera: level 0.
+    return abs(f) < 1e30 ? vec2(f, u) : NO_LOD;
+}
+
+// The slot's texture at barycentrics b (of vertices 1 and 2) of triangle tri, after KHR_texture_transform, at the
+// hit's footprint (texture_footprint; NO_LOD: level 0).
+vec4 sample_slot(TextureSlot s, uint tri, vec2 b, bool srgb, vec2 lod) {
     TriTexcoords tc = load_tri_texcoords(tri);
     vec4 w = (1.0 - b.x - b.y) * tc.t0 + b.x * tc.t1 + b.y * tc.t2;
-    vec2 uv = floatBitsToUint(s.v.w) == 0u ? w.xy : w.zw;
+    bool first = floatBitsToUint(s.v.w) == 0u;
+    vec2 uv = first ? w.xy : w.zw;
     vec2 st = vec2(dot(s.u.xyz, vec3(uv, 1.0)), dot(s.v.xyz, vec3(uv, 1.0)));
-    return texture_sample(floatBitsToUint(s.u.w), st, srgb);
+    if (scene_has(FEATURE_TEXTURE_LOD) && lod.x > NO_FOOTPRINT) {
+        // The triangle's area in the texture's uv units, after the transform (which scales areas by its determinant).
+        vec2 d1 = first ? tc.t1.xy - tc.t0.xy : tc.t1.zw - tc.t0.zw;
+        vec2 d2 = first ? tc.t2.xy - tc.t0.xy : tc.t2.zw - tc.t0.zw;
+        float area = 0.5 * abs((d1.x * d2.y - d1.y * d2.x) * (s.u.x * s.v.y - s.u.y * s.v.x));
+        lod.x += 0.5 * log2(area);
+    }
+    return texture_sample(floatBitsToUint(s.u.w), st, srgb, lod);
 }
 
 // COLOR_0 at the hit, white without vertex colours. Its alpha multiplies the material's under MASK and BLEND, as
@@ -30,7 +65,7 @@ vec4 vertex_color(uint tri, vec2 b) {
 
 float material_alpha(Material m, uint tri, vec2 b) {
     float a = m.base_color.w * vertex_color(tri, b).a;
-    if (slot_used(m.textures[TEX_BASE_COLOR])) a *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true).a;
+    if (slot_used(m.textures[TEX_BASE_COLOR])) a *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true, NO_LOD).a;
     return a;
 }
 
@@ -54,39 +89,41 @@ bool alpha_stops(uint tri, vec2 b, uint key) {
     return float(h >> 8u) * (1.0 / 16777216.0) < c;
 }
 
-// The material with its textures applied at the hit: base colour and alpha, metallic and roughness, emission.
-Material material_at(Material m, uint tri, vec2 b) {
+// The material with its textures applied at the hit: base colour and alpha, metallic and roughness, emission; at
+// the hit's footprint (texture_footprint), but emission always at level 0: light selection weighs each emitter by
+// the level-0 texels its lookups can reach (emission.rs), and a light sample reads level 0 too.
+Material material_at(Material m, uint tri, vec2 b, vec2 lod) {
 #ifdef TEXTURED
     m.base_color.rgb *= vertex_color(tri, b).rgb;
-    if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true);
+    if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true, lod);
     if (slot_used(m.textures[TEX_METALLIC_ROUGHNESS])) {
-        vec4 mr = sample_slot(m.textures[TEX_METALLIC_ROUGHNESS], tri, b, false);
+        vec4 mr = sample_slot(m.textures[TEX_METALLIC_ROUGHNESS], tri, b, false, lod);
         m.params.x *= mr.b;
         m.params.y *= mr.g;
     }
-    if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true).rgb;
+    if (slot_used(m.textures[TEX_EMISSIVE])) m.emission.rgb *= sample_slot(m.textures[TEX_EMISSIVE], tri, b, true, NO_LOD).rgb;
     if (scene_has(FEATURE_COAT)) {
-        if (slot_used(m.textures[TEX_SPECULAR])) m.params.w *= sample_slot(m.textures[TEX_SPECULAR], tri, b, false).a;
+        if (slot_used(m.textures[TEX_SPECULAR])) m.params.w *= sample_slot(m.textures[TEX_SPECULAR], tri, b, false, lod).a;
         if (slot_used(m.textures[TEX_SPECULAR_COLOR])) {
-            m.specular_color.rgb *= sample_slot(m.textures[TEX_SPECULAR_COLOR], tri, b, true).rgb;
+            m.specular_color.rgb *= sample_slot(m.textures[TEX_SPECULAR_COLOR], tri, b, true, lod).rgb;
         }
     }
     if (scene_has(FEATURE_TRANSMISSION) && slot_used(m.textures[TEX_TRANSMISSION])) {
-        m.transmission.x *= sample_slot(m.textures[TEX_TRANSMISSION], tri, b, false).r;
+        m.transmission.x *= sample_slot(m.textures[TEX_TRANSMISSION], tri, b, false, lod).r;
     }
     if (scene_has(FEATURE_CLEARCOAT)) {
-        if (slot_used(m.textures[TEX_CLEARCOAT])) m.clearcoat.x *= sample_slot(m.textures[TEX_CLEARCOAT], tri, b, false).r;
+        if (slot_used(m.textures[TEX_CLEARCOAT])) m.clearcoat.x *= sample_slot(m.textures[TEX_CLEARCOAT], tri, b, false, lod).r;
         if (slot_used(m.textures[TEX_CLEARCOAT_ROUGHNESS])) {
-            m.clearcoat.y *= sample_slot(m.textures[TEX_CLEARCOAT_ROUGHNESS], tri, b, false).g;
+            m.clearcoat.y *= sample_slot(m.textures[TEX_CLEARCOAT_ROUGHNESS], tri, b, false, lod).g;
         }
     }
     if (scene_has(FEATURE_SHEEN)) {
-        if (slot_used(m.textures[TEX_SHEEN_COLOR])) m.sheen.rgb *= sample_slot(m.textures[TEX_SHEEN_COLOR], tri, b, true).rgb;
-        if (slot_used(m.textures[TEX_SHEEN_ROUGHNESS])) m.sheen.w *= sample_slot(m.textures[TEX_SHEEN_ROUGHNESS], tri, b, false).a;
+        if (slot_used(m.textures[TEX_SHEEN_COLOR])) m.sheen.rgb *= sample_slot(m.textures[TEX_SHEEN_COLOR], tri, b, true, lod).rgb;
+        if (slot_used(m.textures[TEX_SHEEN_ROUGHNESS])) m.sheen.w *= sample_slot(m.textures[TEX_SHEEN_ROUGHNESS], tri, b, false, lod).a;
     }
     if (scene_has(FEATURE_ANISOTROPY) && slot_used(m.textures[TEX_ANISOTROPY])) {
         // The texel's direction (RG) turned by the material's rotation (yz); a zero direction keeps the rotation's.
-        vec3 a = sample_slot(m.textures[TEX_ANISOTROPY], tri, b, false).rgb;
+        vec3 a = sample_slot(m.textures[TEX_ANISOTROPY], tri, b, false, lod).rgb;
         vec2 d = a.rg * 2.0 - 1.0;
         vec2 r = m.anisotropy.yz;
         d = vec2(r.x * d.x - r.y * d.y, r.y * d.x + r.x * d.y);
@@ -94,28 +131,28 @@ Material material_at(Material m, uint tri, vec2 b) {
         if (dot(d, d) > 1e-12) m.anisotropy.yz = normalize(d);
     }
     if (scene_has(FEATURE_DIFFUSE_ROUGHNESS) && slot_used(m.textures[TEX_DIFFUSE_ROUGHNESS])) {
-        m.specular_color.w *= sample_slot(m.textures[TEX_DIFFUSE_ROUGHNESS], tri, b, false).r;
+        m.specular_color.w *= sample_slot(m.textures[TEX_DIFFUSE_ROUGHNESS], tri, b, false, lod).r;
     }
     if (scene_has(FEATURE_DIFFUSE_TRANSMISSION)) {
         if (slot_used(m.textures[TEX_DIFFUSE_TRANSMISSION])) {
-            m.diffuse_transmission.w *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION], tri, b, false).a;
+            m.diffuse_transmission.w *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION], tri, b, false, lod).a;
         }
         if (slot_used(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR])) {
-            m.diffuse_transmission.rgb *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR], tri, b, true).rgb;
+            m.diffuse_transmission.rgb *= sample_slot(m.textures[TEX_DIFFUSE_TRANSMISSION_COLOR], tri, b, true, lod).rgb;
         }
     }
     if (scene_has(FEATURE_THIN_SCATTER)) {
         if (slot_used(m.textures[TEX_SCATTER_STRENGTH])) {
-            m.transmission.w *= sample_slot(m.textures[TEX_SCATTER_STRENGTH], tri, b, false).a;
+            m.transmission.w *= sample_slot(m.textures[TEX_SCATTER_STRENGTH], tri, b, false, lod).a;
         }
         if (slot_used(m.textures[TEX_SCATTER_COLOR])) {
-            m.medium.rgb *= sample_slot(m.textures[TEX_SCATTER_COLOR], tri, b, true).rgb;
+            m.medium.rgb *= sample_slot(m.textures[TEX_SCATTER_COLOR], tri, b, true, lod).rgb;
         }
     }
     if (scene_has(FEATURE_IRIDESCENCE)) {
-        if (slot_used(m.textures[TEX_IRIDESCENCE])) m.iridescence.x *= sample_slot(m.textures[TEX_IRIDESCENCE], tri, b, false).r;
+        if (slot_used(m.textures[TEX_IRIDESCENCE])) m.iridescence.x *= sample_slot(m.textures[TEX_IRIDESCENCE], tri, b, false, lod).r;
         if (slot_used(m.textures[TEX_IRIDESCENCE_THICKNESS])) {
-            float g = sample_slot(m.textures[TEX_IRIDESCENCE_THICKNESS], tri, b, false).g;
+            float g = sample_slot(m.textures[TEX_IRIDESCENCE_THICKNESS], tri, b, false, lod).g;
             m.iridescence.w = mix(m.iridescence.z, m.iridescence.w, g);
         }
     }
@@ -149,12 +186,12 @@ bool tangent_frame(uint tri, vec2 b, vec3 ns, uint inst, out vec3 t, out vec3 bt
 
 // The shading normal with the normal map in `slot` applied (x and y scaled by `scale`); ns is the interpolated vertex
 // normal (unit length, in the world).
-vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uint inst) {
+vec3 normal_mapped(TextureSlot slot, float scale, uint tri, vec2 b, vec3 ns, uint inst, vec2 lod) {
 #ifdef TEXTURED
     if (!slot_used(slot)) return ns;
     vec3 t, bt;
     if (!tangent_frame(tri, b, ns, inst, t, bt)) return ns;
-    vec3 c = sample_slot(slot, tri, b, false).xyz * 2.0 - 1.0;
+    vec3 c = sample_slot(slot, tri, b, false, lod).xyz * 2.0 - 1.0;
     c.xy *= scale;
     vec3 n = c.x * t + c.y * bt + c.z * ns;
     return dot(n, n) > 1e-12 ? normalize(n) : ns;

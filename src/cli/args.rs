@@ -3,7 +3,7 @@
 use super::info::instancing_rule;
 use super::values::*;
 use crate::vk::DeviceChoice;
-use crate::{scene, LightSampler, RenderSettings, SpectralChoice};
+use crate::{scene, LightSampler, RenderSettings, SpectralChoice, TextureFilter};
 use anyhow::{bail, Result};
 use std::path::PathBuf;
 
@@ -149,6 +149,11 @@ pub struct SceneArgs {
     /// emitters), power (in proportion to power, the same everywhere) or uniform. docs/guide/light-selection.md.
     #[arg(long, value_enum, default_value = "bvh")]
     pub light_sampler: LightSampler,
+    /// How minified textures are read: trilinear (from mip levels at the pixel's footprint, prefiltered) or
+    /// bilinear (from the full-resolution image at any distance, as point sampling converges to).
+    /// docs/guide/materials.md.
+    #[arg(long, value_enum, default_value = "trilinear")]
+    pub texture_filter: TextureFilter,
     #[command(flatten)]
     pub view: CameraArgs,
     #[command(flatten)]
@@ -279,6 +284,7 @@ impl SceneArgs {
             aperture: self.aperture,
             focus_distance: self.focus_distance,
             light_sampler: self.light_sampler,
+            texture_filter: self.texture_filter,
             ..Default::default()
         }
     }

@@ -160,6 +160,7 @@ impl RenderArgs {
             ("max-depth", opt(c.max_depth.map(|d| d.to_string()))),
             ("estimator", format!("{:?}", self.estimator).to_lowercase()),
             ("light-sampler", c.light_sampler.name().to_string()),
+            ("texture-filter", c.texture_filter.name().to_string()),
             ("energy-compensation", (!self.no_energy_compensation).to_string()),
             ("camera", opt(c.camera.map(|n| n.to_string()))),
             ("eye", opt(c.view.eye.map(triple))),

@@ -22,7 +22,8 @@ pub use probes::{BsdfProbe, BsdfQuery};
 pub use schedule::Schedule;
 pub use session::Session;
 pub use settings::{
-    Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, SpectralChoice, Traversal, DEPTH_SAFETY_CAP,
+    Adaptive, Estimator, LightSampler, RenderSettings, RendererOptions, SpectralChoice, TextureFilter, Traversal,
+    DEPTH_SAFETY_CAP,
 };
 
 use crate::constants::*;

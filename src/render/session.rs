@@ -333,9 +333,14 @@ impl Renderer {
             true => FEATURE_LIGHT_TREE,
             false => 0,
         };
+        // Mip levels only where there are textures: an untextured scene keeps its pipelines.
+        let lod = match self.scene.textured {
+            true => FEATURE_TEXTURE_LOD,
+            false => 0,
+        };
         Pass {
             frame,
-            features: self.scene.features | session.features | tree,
+            features: self.scene.features | (session.features & (lod | !FEATURE_TEXTURE_LOD)) | tree,
             variant: self.scene_variant(),
             survey: session.aovs.is_some() || session.debug.is_some(),
             counters: &session.counters,

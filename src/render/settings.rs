@@ -41,6 +41,26 @@ pub enum Traversal {
     RayQuery,
 }
 
+/// How minified textures are read (--texture-filter).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum TextureFilter {
+    /// From the two mip levels around the footprint of the pixel at the hit (FEATURE_TEXTURE_LOD): distant textures
+    /// are prefiltered instead of aliasing, and read from a working set that fits the caches.
+    #[default]
+    Trilinear,
+    /// Bilinear from the full-resolution image at every distance: the converged image of point-sampled textures.
+    Bilinear,
+}
+
+impl TextureFilter {
+    pub fn name(self) -> &'static str {
+        match self {
+            TextureFilter::Trilinear => "trilinear",
+            TextureFilter::Bilinear => "bilinear",
+        }
+    }
+}
+
 /// How next-event estimation picks a light (--light-sampler); the three converge to the same image
 /// (tests/light_tree.rs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -116,6 +136,8 @@ pub struct RenderSettings {
     /// Spectral transport (FEATURE_SPECTRAL): paths carry four wavelengths, colours become spectra at them (see
     /// `spectrum`); off, the render is RGB. `Scene::wants_spectral` says when a scene needs it (dispersion).
     pub spectral: bool,
+    /// How minified textures are read: from mip levels at the pixel's footprint, or from level 0.
+    pub texture_filter: TextureFilter,
 }
 
 /// Adaptive sampling (FEATURE_ADAPTIVE): every pixel takes the first `pilot` samples; then each pixel's budget is the
@@ -147,6 +169,7 @@ impl Default for RenderSettings {
             debug_aovs: false,
             adaptive: None,
             spectral: false,
+            texture_filter: TextureFilter::Trilinear,
         }
     }
 }
@@ -272,14 +295,16 @@ impl SpectralChoice {
 }
 
 impl RenderSettings {
-    /// The FEATURE_* bits these settings specialise the render stages for: a lens, the exact film, adaptive sampling
-    /// and spectral transport (the scene and the light selection add theirs).
+    /// The FEATURE_* bits these settings specialise the render stages for: a lens, the exact film, adaptive sampling,
+    /// spectral transport and mip-mapped textures (the scene and the light selection add theirs; the renderer clears
+    /// FEATURE_TEXTURE_LOD for a scene without textures).
     pub fn features(&self) -> u32 {
         let bit = |on: bool, feature: u32| if on { feature } else { 0 };
         bit(self.aperture > 0.0, FEATURE_LENS)
             | bit(self.exact_film, FEATURE_EXACT_FILM)
             | bit(self.adaptive.is_some(), FEATURE_ADAPTIVE)
             | bit(self.spectral, FEATURE_SPECTRAL)
+            | bit(self.texture_filter == TextureFilter::Trilinear, FEATURE_TEXTURE_LOD)
     }
 
     /// Refuses settings no render can honour, before anything is allocated.
@@ -323,17 +348,24 @@ impl RenderSettings {
 
 #[cfg(test)]
 mod tests {
-    use super::{Adaptive, RenderSettings, SpectralChoice};
+    use super::{Adaptive, RenderSettings, SpectralChoice, TextureFilter};
     use crate::constants::*;
 
     /// Each setting adds its own bit and nothing else; the defaults specialise for none of them. A closed aperture is
     /// a pinhole (no lens stage work), any opening a lens.
     #[test]
     fn settings_features_are_one_bit_each() {
-        let none = RenderSettings::default();
-        assert_eq!(none.features(), 0);
+        let bilinear = RenderSettings {
+            texture_filter: TextureFilter::Bilinear,
+            ..RenderSettings::default()
+        };
+        assert_eq!(bilinear.features(), 0);
+        assert_eq!(RenderSettings::default().features(), FEATURE_TEXTURE_LOD);
         let with = |edit: fn(&mut RenderSettings)| {
-            let mut s = RenderSettings::default();
+            let mut s = RenderSettings {
+                texture_filter: TextureFilter::Bilinear,
+                ..RenderSettings::default()
+            };
             edit(&mut s);
             s.features()
         };
@@ -346,7 +378,7 @@ mod tests {
         });
         let s = RenderSettings {
             adaptive,
-            ..RenderSettings::default()
+            ..bilinear.clone()
         };
         assert_eq!(s.features(), FEATURE_ADAPTIVE);
         assert_eq!(with(|s| s.spectral = true), FEATURE_SPECTRAL);
@@ -362,7 +394,7 @@ mod tests {
         };
         assert_eq!(
             all.features(),
-            FEATURE_LENS | FEATURE_EXACT_FILM | FEATURE_ADAPTIVE | FEATURE_SPECTRAL
+            FEATURE_LENS | FEATURE_EXACT_FILM | FEATURE_ADAPTIVE | FEATURE_SPECTRAL | FEATURE_TEXTURE_LOD
         );
     }
 

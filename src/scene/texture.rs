@@ -20,7 +20,8 @@ pub enum Wrap {
     MirroredRepeat,
 }
 
-/// A glTF texture: an image and how it is sampled. Mipmaps are not built; minification is bilinear too.
+/// A glTF texture: an image and how it is sampled. Minified, it is read from the image's mip chain (trilinear,
+/// `--texture-filter`) unless its sampler's minFilter is NEAREST or LINEAR, which glTF defines as without mipmaps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Texture {
     pub image: usize,
@@ -28,6 +29,8 @@ pub struct Texture {
     pub wrap_t: Wrap,
     /// magFilter NEAREST: texel lookups without interpolation.
     pub nearest: bool,
+    /// minFilter absent or one of the *_MIPMAP_* filters: the texture may be read from coarser levels.
+    pub mipmaps: bool,
 }
 
 /// A material's use of a texture: which texture, which TEXCOORD set, and the KHR_texture_transform as two rows of

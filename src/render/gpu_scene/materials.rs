@@ -1,5 +1,6 @@
 //! Materials and textures for the device: each material's GpuMaterial with its texture slots, and the texture
 //! table with every image's texels once.
+use super::mipmaps;
 use super::pack::v4;
 use crate::constants::*;
 use crate::layout::{GpuMaterial, GpuTexture, TextureSlot};
@@ -78,13 +79,36 @@ pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
     }
 }
 
-/// The texture table and every image's texels, each image once however many textures share it.
+/// The slots whose texture holds sRGB-encoded colour (the shaders decode it; textures.glsl's callers pass `true`).
+const SRGB_SLOTS: [u32; 6] = [
+    TEX_BASE_COLOR,
+    TEX_EMISSIVE,
+    TEX_SHEEN_COLOR,
+    TEX_SPECULAR_COLOR,
+    TEX_DIFFUSE_TRANSMISSION_COLOR,
+    TEX_SCATTER_COLOR,
+];
+
+/// The texture table and every image's texels, each image once however many textures share it, its mip chain after
+/// its level 0 (mipmaps.rs). An image some material reads as sRGB colour is averaged in linear light.
 pub(super) fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
+    let mut srgb = vec![false; scene.images.len()];
+    for m in &scene.materials {
+        for (slot, r) in m.texture_refs().iter().enumerate() {
+            let image = r.and_then(|r| scene.textures.get(r.texture)).map(|t| t.image);
+            if let Some(flag) = image.and_then(|i| srgb.get_mut(i)) {
+                *flag |= SRGB_SLOTS.contains(&(slot as u32));
+            }
+        }
+    }
     let mut offsets = Vec::with_capacity(scene.images.len());
     let mut texels = Vec::new();
-    for image in &scene.images {
+    for (image, &srgb) in scene.images.iter().zip(&srgb) {
         offsets.push(texels.len() as u32);
         texels.extend(image.texels.iter().map(|t| u32::from_le_bytes(*t)));
+        for level in mipmaps::chain(image, srgb) {
+            texels.extend(level.iter().map(|t| u32::from_le_bytes(*t)));
+        }
     }
     let wrap = |w: Wrap| match w {
         Wrap::Repeat => WRAP_REPEAT,
@@ -96,13 +120,20 @@ pub(super) fn pack_textures(scene: &Scene) -> (Vec<GpuTexture>, Vec<u32>) {
         .iter()
         .map(|t| {
             let image = &scene.images[t.image];
+            // A sampler whose minFilter asks for no mipmaps reads level 0 however far the texture is.
+            let levels = if t.mipmaps {
+                mipmaps::level_count(image.width, image.height)
+            } else {
+                1
+            };
             GpuTexture {
                 offset: offsets[t.image],
                 width: image.width,
                 height: image.height,
                 flags: wrap(t.wrap_s)
                     | wrap(t.wrap_t) << TEXTURE_WRAP_T_SHIFT
-                    | if t.nearest { TEXTURE_NEAREST } else { 0 },
+                    | if t.nearest { TEXTURE_NEAREST } else { 0 }
+                    | (levels - 1) << TEXTURE_LEVELS_SHIFT,
             }
         })
         .collect();

@@ -4,6 +4,7 @@ mod emission;
 mod instances;
 mod lights;
 mod materials;
+pub mod mipmaps;
 mod pack;
 
 pub use describe::{describe, Report};

@@ -475,6 +475,10 @@ impl Loader<'_> {
             wrap_s: texture::wrap_of(sampler.wrap_s()),
             wrap_t: texture::wrap_of(sampler.wrap_t()),
             nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+            mipmaps: !matches!(
+                sampler.min_filter(),
+                Some(gltf::texture::MinFilter::Nearest | gltf::texture::MinFilter::Linear)
+            ),
         });
         Ok(Some(self.scene.textures.len() - 1))
     }
