@@ -285,6 +285,8 @@ fn bench_reports_every_case() {
             "cornell-wavefront",
             "cornell-spectral",
             "glass",
+            "textured-props",
+            "textured-props-bilinear",
             "terrain-32k",
             "terrain-storage",
             "instances-400x3k"
@@ -304,7 +306,7 @@ fn bench_reports_every_case() {
         }
         assert!(table.contains(c["name"].as_str().unwrap()), "{table}");
     }
-    assert!(cases[6]["triangles"].as_u64().unwrap() > 30_000);
+    assert!(cases[8]["triangles"].as_u64().unwrap() > 30_000);
     let stages = |k: usize| {
         cases[k]["stage_ms"]
             .as_object()

@@ -1,9 +1,9 @@
 //! The fixed cases: which scenes, sizes, sample counts, traversals and variations bench measures, in which order.
 use super::measure::{measure, process_time, CaseResult, Variation};
-use super::scenes::{instanced_terrain, terrain};
+use super::scenes::{instanced_terrain, terrain, textured_props};
 use super::BenchOptions;
 use crate::error::Error;
-use crate::render::{BvhReads, Schedule, Traversal};
+use crate::render::{BvhReads, Schedule, TextureFilter, Traversal};
 use crate::scene::{self, Scene};
 use crate::vk::{Context, Validation};
 use std::path::Path;
@@ -46,7 +46,11 @@ pub(super) fn run_cases(
     // The main cases once per traversal, each right after the other so the machine's load is shared alike; the
     // variations of the compute BVH's reads and schedules after the compute case.
     let compute_only = traversals.first() == Some(&Traversal::Compute);
+    let wanted = |group: &str| o.only.as_deref().is_none_or(|only| only == group);
     for (name, path, spp) in [("cornell-box", cornell, spp_cornell), ("glass", glass, spp_glass)] {
+        if !wanted(name) {
+            continue;
+        }
         progress(name);
         let scene = scene::load(path, None)?;
         for &t in traversals {
@@ -60,12 +64,20 @@ pub(super) fn run_cases(
             cornell_variations(o, &scene, spp, cases)?;
         }
     }
-    progress("terrain");
-    terrain_cases(o, traversals, side, spp_mesh, compute_only, cases)?;
+    if wanted("textured-props") {
+        progress("textured props");
+        textured_cases(o, traversals, cases)?;
+    }
+    if wanted("terrain") {
+        progress("terrain");
+        terrain_cases(o, traversals, side, spp_mesh, compute_only, cases)?;
+    }
     // 10,000 instances of a 51,200-triangle mesh: 512 M placed triangles, about 200 GB flattened; stored once.
-    progress("instances");
-    instanced_cases(o, traversals, spp_mesh, cases)?;
-    if !o.quick && compute_only {
+    if wanted("instances") {
+        progress("instances");
+        instanced_cases(o, traversals, spp_mesh, cases)?;
+    }
+    if !o.quick && compute_only && wanted("terrain") {
         // Past lavapipe's 128 MiB storage-buffer range: the per-triangle buffers (162 MiB of shading alone) are
         // read through texel views, which is the only way this device can hold the scene.
         progress("terrain past the storage range");
@@ -109,6 +121,33 @@ fn cornell_variations(o: &BenchOptions, scene: &Scene, spp: u32, cases: &mut Vec
         ..Default::default()
     };
     cases.push(measure("cornell-spectral", scene, (256, 256), spp, o, spectral)?);
+    Ok(())
+}
+
+/// The textured props (scenes.rs) once per traversal with mip-mapped textures, then with bilinear lookups of level 0
+/// alone (`--texture-filter bilinear`): the share of shading that goes to texture reads the caches cannot hold.
+fn textured_cases(o: &BenchOptions, traversals: &[Traversal], cases: &mut Vec<CaseResult>) -> Result<(), Error> {
+    let (side, size, spp) = if o.quick {
+        (256, (160, 120), 2)
+    } else {
+        (2048, (320, 240), 16)
+    };
+    let scene = textured_props(side);
+    for &t in traversals {
+        cases.push(measure(
+            &traced_name("textured-props", t),
+            &scene,
+            size,
+            spp,
+            o,
+            traced(t),
+        )?);
+    }
+    let bilinear = Variation {
+        texture_filter: TextureFilter::Bilinear,
+        ..Default::default()
+    };
+    cases.push(measure("textured-props-bilinear", &scene, size, spp, o, bilinear)?);
     Ok(())
 }
 

@@ -1,7 +1,7 @@
 //! One case measured: a render in this process (its times, rates, stages and memory), or a whole process's time.
 use super::{compare, BenchOptions};
 use crate::error::Error;
-use crate::render::{BvhReads, RenderSettings, RenderStats, Schedule, Traversal};
+use crate::render::{BvhReads, RenderSettings, RenderStats, Schedule, TextureFilter, Traversal};
 use crate::scene::Scene;
 use std::path::Path;
 use std::process::Command;
@@ -40,13 +40,15 @@ pub struct CaseResult {
     pub ray_query_structures: Option<(u64, u64, f64)>,
 }
 
-/// How a case departs from the default render: BVH reads, a fixed schedule, spectral transport, the traversal.
+/// How a case departs from the default render: BVH reads, a fixed schedule, spectral transport, the traversal, the
+/// texture filter.
 #[derive(Clone, Copy, Default)]
 pub(super) struct Variation {
     pub(super) reads: Option<BvhReads>,
     pub(super) schedule: Option<Schedule>,
     pub(super) spectral: bool,
     pub(super) traversal: Traversal,
+    pub(super) texture_filter: TextureFilter,
 }
 
 pub(super) fn measure(
@@ -62,6 +64,7 @@ pub(super) fn measure(
         schedule,
         spectral,
         traversal,
+        texture_filter,
     } = variation;
     let mut r =
         compare::tracer(scene, &o.device, traversal).map_err(|e| Error::Settings(format!("bench: {name}: {e}")))?;
@@ -80,6 +83,7 @@ pub(super) fn measure(
         spp,
         spectral,
         light_sampler: o.light_sampler,
+        texture_filter,
         ..Default::default()
     };
     let (film, stats) = r.render(&settings, &mut |_| {})?;

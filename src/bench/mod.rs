@@ -4,7 +4,7 @@ mod cases;
 pub mod compare;
 mod measure;
 mod report;
-mod scenes;
+pub mod scenes;
 
 use crate::error::Error;
 use crate::render::{LightSampler, Traversal};
@@ -37,7 +37,12 @@ pub struct BenchOptions {
     pub light_sampler: LightSampler,
     /// Which traversals to measure: `Auto` both where the device has ray queries (side by side), else the one named.
     pub traversal: Traversal,
+    /// One of CASE_GROUPS to measure alone (`--only`); None: all, with start-up and the light tree.
+    pub only: Option<String>,
 }
+
+/// The groups of fixed cases, in the order they run (`bench --only` names one).
+pub const CASE_GROUPS: [&str; 5] = ["cornell-box", "glass", "textured-props", "terrain", "instances"];
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Compare {
@@ -111,6 +116,9 @@ fn run_fixed(
     report: &mut BenchReport,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(), Error> {
+    if o.only.is_some() {
+        return run_cases(o, traversals, cornell, glass, &mut report.cases, progress);
+    }
     progress("start-up");
     process_time(&o.exe, cornell, (64, 64), 1)?;
     report.startup_s = Some(process_time(&o.exe, cornell, (64, 64), 1)?);

@@ -45,6 +45,10 @@ pub struct BenchArgs {
     /// device has ray queries, else the compute BVH; `compute` or `ray-query` that one alone.
     #[arg(long, value_enum, default_value = "auto", hide_possible_values = true)]
     pub traversal: crate::render::Traversal,
+    /// Measure one group of the fixed cases alone (without start-up and the light tree): cornell-box, glass,
+    /// textured-props, terrain or instances.
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(crate::bench::CASE_GROUPS))]
+    pub only: Option<String>,
 }
 
 pub fn bench(a: BenchArgs) -> Result<()> {
@@ -72,6 +76,7 @@ pub fn bench(a: BenchArgs) -> Result<()> {
         only_compare: a.only_compare,
         light_sampler: a.light_sampler,
         traversal: a.traversal,
+        only: a.only,
     };
     let report = crate::bench::run(&options, &mut |case| eprintln!("bench: {case}"))?;
     print!("{}", report.table());
