@@ -15,6 +15,9 @@ PACKAGES=(
   xvfb xauth            # a headless X server for the viewer's tests (xvfb-run)
   libx11-6 libx11-xcb1 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0   # loaded by winit at run time
   python3 python3-venv  # venvs for Open Image Denoise and for the Python module's tests (below)
+  libllvm19             # Mitsuba 3's LLVM variant JIT-compiles through it (tests/media.rs): with bookworm's
+                        # LLVM 15 alone, drjit's 16-wide code on an AVX-512 host stops at "LLVM ERROR: Cannot
+                        # select ... fminimum"
 )
 
 missing=()
@@ -64,7 +67,7 @@ venv_with "$HOME/.cache/pathwave/oidn-venv" --no-deps pyoidn==2.5.1.0
 venv_with "$HOME/.cache/pathwave/python-venv" maturin==1.16.0 numpy==2.4.6 pytest==9.0.3 OpenEXR==3.5.3 matplotlib==3.10.8
 
 # Mitsuba 3, the independent reference tests/media.rs compares scattering media with (tests/mitsuba/render_gltf.py).
-# Its LLVM variant JIT-compiles through the system's libLLVM, which lavapipe (mesa-vulkan-drivers) already needs.
+# Its LLVM variant JIT-compiles through the system's newest libLLVM (libllvm19, above).
 venv_with "$HOME/.cache/pathwave/mitsuba-venv" mitsuba==3.9.1 drjit==1.5.0 numpy==2.4.6
 
 # A second lavapipe, Mesa 25 from the backports suite, beside the system's: tests/ray_query.rs runs ray-query
