@@ -127,10 +127,11 @@ fn cornell_variations(o: &BenchOptions, scene: &Scene, spp: u32, cases: &mut Vec
 /// The textured props (scenes.rs) once per traversal with mip-mapped textures, then with bilinear lookups of level 0
 /// alone (`--texture-filter bilinear`): the share of shading that goes to texture reads the caches cannot hold.
 fn textured_cases(o: &BenchOptions, traversals: &[Traversal], cases: &mut Vec<CaseResult>) -> Result<(), Error> {
+    // 64 spp: at 16 the first pass (which compiles) was 90 % of the render, and samples/s came from one pass.
     let (side, size, spp) = if o.quick {
         (256, (160, 120), 2)
     } else {
-        (2048, (320, 240), 16)
+        (2048, (320, 240), 64)
     };
     let scene = textured_props(side);
     for &t in traversals {
