@@ -1,5 +1,6 @@
 //! Mip chains of the texture images: each level half the one above (rounded up), a 2x2 box average, in linear light
 //! for images whose colour is sRGB-encoded.
+use crate::output::srgb_encode;
 use crate::scene::texture::{srgb_to_linear, Image};
 
 /// Levels at most: a 16384-texel side (MAX_IMAGE_SIDE) halves to 1 in 14 steps, so 15 levels; the count fits
@@ -34,7 +35,7 @@ pub fn chain(image: &Image, srgb: bool) -> Vec<Vec<[u8; 4]>> {
     let unorm: [f32; 256] = std::array::from_fn(|i| i as f32 / 255.0);
     let encode = |x: f32, colour: bool| -> u8 {
         let x = x.clamp(0.0, 1.0);
-        let e = if colour && srgb { linear_to_srgb(x) } else { x };
+        let e = if colour && srgb { srgb_encode(x) } else { x };
         (e * 255.0 + 0.5) as u8
     };
     let mut levels: Vec<Vec<[u8; 4]>> = Vec::new();
@@ -63,15 +64,6 @@ pub fn chain(image: &Image, srgb: bool) -> Vec<Vec<[u8; 4]>> {
         (w, h) = (lw, lh);
     }
     levels
-}
-
-/// The sRGB transfer function's encoding, per channel in [0, 1].
-fn linear_to_srgb(x: f32) -> f32 {
-    if x <= 0.0031308 {
-        12.92 * x
-    } else {
-        1.055 * x.powf(1.0 / 2.4) - 0.055
-    }
 }
 
 #[cfg(test)]
