@@ -105,8 +105,12 @@ pub const TEX_DIFFUSE_ROUGHNESS: u32 = 17;
 pub const TEX_SCATTER_STRENGTH: u32 = 18;
 pub const TEX_SCATTER_COLOR: u32 = 19;
 pub const TEX_SLOTS: u32 = 20;
-/// 16-byte texels per material (layout.glsl's Material is 848 bytes).
-pub const MATERIAL_TEXELS: u32 = 53;
+/// 16-byte texels per material (layout.glsl's Material is 880 bytes).
+pub const MATERIAL_TEXELS: u32 = 55;
+/// The texel of a material holding its medium (layout.rs checks it against `GpuMaterial`).
+pub const MATERIAL_TEXEL_MEDIUM: u32 = 52;
+/// The first of a material's two texels of spectral coefficients, read only under FEATURE_SPECTRAL.
+pub const MATERIAL_TEXEL_SPECTRA: u32 = 53;
 /// A slot without a texture.
 pub const TEXTURE_NONE: u32 = 0xFFFFFFFF;
 /// TextureInfo.flags: wrap mode along s in bits 0-1, along t in bits 2-3, then the nearest-filter bit, and from
@@ -298,6 +302,11 @@ pub const FEATURE_THIN_SCATTER: u32 = 4194304;
 /// estimated from the camera (surface.glsl's texture_footprint). A render setting for textured scenes; without it
 /// every lookup is bilinear from level 0, the bytes of renders before mip chains existed.
 pub const FEATURE_TEXTURE_LOD: u32 = 8388608;
+/// Under spectral transport, some colour is neither grey nor known to the host (a texture's, vertex colours, a
+/// light's, the environment's, or a material colour without coefficients in its record): shading turns it into a
+/// spectrum through the RGB-to-spectrum table. Without it the table's lookups are not compiled in (on lavapipe their
+/// code alone, never executed, cost the Cornell box's spectral shade stage a quarter of its time).
+pub const FEATURE_SPECTRUM_TABLE: u32 = 16777216;
 /// Adaptive sampling's error is relative to a pixel's mean radiance, as if that were at least sqrt of this: relMSE's
 /// epsilon (diff::REL_MSE_EPSILON), so near-black pixels do not take every sample to pin down a value no one sees.
 pub const ADAPTIVE_EPSILON: f32 = 0.01;

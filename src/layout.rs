@@ -156,12 +156,13 @@ pub struct TriShading {
     pub n2: [f32; 4],
 }
 
-/// 848 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
+/// 880 bytes. See `Material` in layout.glsl: base colour (w: alpha), emission (w: double-sided),
 /// params (metallic, roughness, IOR, specular weight), specular colour (w: diffuse roughness), transmission (factor, thin), absorption,
 /// alpha (mode bits, cutoff, normal scale, MATERIAL_* bits), clear coat (factor, roughness, normal scale), sheen
 /// (colour, roughness), anisotropy (strength, cos and sin of the rotation), iridescence (factor, film IOR, thickness
 /// minimum and maximum in nm), diffuse transmission (colour, factor), one texture slot per TEX_*, then the medium
-/// inside (single-scattering albedo, Henyey-Greenstein g).
+/// inside (single-scattering albedo, Henyey-Greenstein g), and for spectral transport the base colour's and the
+/// emission's RGB-to-spectrum coefficients.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuMaterial {
@@ -183,6 +184,13 @@ pub struct GpuMaterial {
     /// KHR_materials_scatter: in a volume, rgb the medium's single-scattering albedo (0: absorption alone); on a thin
     /// wall, rgb the scattering's colour; w g.
     pub medium: [f32; 4],
+    /// The sigmoid-of-quadratic coefficients (`spectrum::Tables::coefficients`) of the base colour factor, w 1 when
+    /// it is not grey (a grey's spectrum is constant and needs none), so that a hit on an untextured colour reads
+    /// three numbers instead of interpolating the table (spectrum.glsl's spectrum_reflectance_known).
+    pub base_color_spectrum: [f32; 4],
+    /// The same for the emission's colour over twice its largest component (spectrum_unbounded's normalisation, so
+    /// that any strength keeps them), w 1 when the emission is neither zero nor grey.
+    pub emission_spectrum: [f32; 4],
 }
 
 /// 32 bytes: a material's use of a texture. uv' = (u . (uv, 1), v . (uv, 1)); `u[3]` holds the texture index bits
@@ -384,7 +392,12 @@ pub struct DebugSums {
 const _: () = assert!(std::mem::size_of::<DebugSums>() == 48);
 const _: () = assert!(std::mem::size_of::<MotionKey>() == 16 * crate::constants::MOTION_KEY_TEXELS as usize);
 const _: () = assert!(crate::constants::MOTION_CAMERA_KEYS == crate::constants::MOTION_SEGMENTS + 1);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 848);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 880);
+const _: () =
+    assert!(std::mem::offset_of!(GpuMaterial, medium) == 16 * crate::constants::MATERIAL_TEXEL_MEDIUM as usize);
+const _: () = assert!(
+    std::mem::offset_of!(GpuMaterial, base_color_spectrum) == 16 * crate::constants::MATERIAL_TEXEL_SPECTRA as usize
+);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 16 * crate::constants::MATERIAL_TEXELS as usize);
 const _: () = assert!(std::mem::size_of::<TextureSlot>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTexture>() == 16);

@@ -49,7 +49,7 @@ fn mirrors() -> Vec<Mirror> {
         mirror!(BvhNode => "BvhNode", [origin, q0, q1]),
         mirror!(TriVerts => "TriVerts", [v0, e1, e2]),
         mirror!(TriShading => "TriShading", [n0, n1, n2]),
-        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, clearcoat, sheen, anisotropy, iridescence, diffuse_transmission, textures, medium]),
+        mirror!(GpuMaterial => "Material", [base_color, emission, params, specular_color, transmission, attenuation, alpha, clearcoat, sheen, anisotropy, iridescence, diffuse_transmission, textures, medium, base_color_spectrum, emission_spectrum]),
         mirror!(TextureSlot => "TextureSlot", [u, v]),
         mirror!(ToneMap => "ToneMap", [film_width, film_height, out_width, out_height, samples, op, exposure, pad]),
         mirror!(GpuTexture => "TextureInfo", [offset, width, height, flags]),

@@ -97,6 +97,40 @@ fn the_closed_furnace_stays_white_in_spectral_mode() {
     assert_channels("furnace", centre_means(&film), [1.0; 3], 0.0);
 }
 
+/// A closed room of coloured emission and coloured albedo: every wavelength converges to its own E / (1 - a), which
+/// the film integrates over the observer. The expected colour is that integral at 1 nm steps with the host's spectra
+/// (tests/spectrum.rs holds them to the CIE data and the round trip); it is not E / (1 - a) per channel, which the
+/// spectra's overlap moves by up to 0.05 here. Nothing in this room needs the RGB-to-spectrum table on the device (the
+/// Cornell box's kind of scene: untextured colours, emitters, no environment), so it checks what the scene's
+/// precomputed coefficients give: a base colour or emission whose coefficients the host got wrong, or a colour the
+/// host's FEATURE_SPECTRUM_TABLE rule missed (a NaN sample the film drops), is off by far more than the noise.
+#[test]
+fn a_coloured_closed_room_converges_to_its_spectral_fixed_point() {
+    use pathwave::constants::{LAMBDA_MAX, LAMBDA_MIN};
+    let (emission, albedo) = ([0.5f32, 0.35, 0.2], [0.6f32, 0.3, 0.1]);
+    let mut b = common::gltf_builder::GltfBuilder::new();
+    let m = b.material("wall", albedo, emission, false);
+    b.cube("room", [-1.0; 3], [1.0; 3], m, true);
+    b.camera([0.2, -0.1, 0.3], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 60.0);
+    let (_dir, path) = common::write_temp(&b, "room.gltf");
+    let t = pathwave::spectrum::tables();
+    let mut xyz = [0.0f64; 3];
+    let steps = (LAMBDA_MAX - LAMBDA_MIN) as usize;
+    for k in 0..=steps {
+        let nm = LAMBDA_MIN + k as f32;
+        let w = if k == 0 || k == steps { 0.5 } else { 1.0 };
+        let l = t.emission(emission, nm) as f64 / (1.0 - t.reflectance(albedo, nm) as f64);
+        let o = t.observer(nm);
+        (0..3).for_each(|c| xyz[c] += w * o[c] as f64 * l);
+    }
+    let m = t.xyz_to_srgb();
+    let want = [0, 1, 2].map(|r| (0..3).map(|k| m[r][k] as f64 * xyz[k]).sum::<f64>());
+    let mut r = common::renderer(&path);
+    let (film, stats) = r.render(&spectral(16, 16, 256, 9), &mut |_| {}).unwrap();
+    assert_eq!(stats.nonfinite, 0, "samples came out non-finite: {}", stats.summary());
+    assert_channels("coloured room", centre_means(&film), want, 0.0);
+}
+
 /// Colours survive the trip to spectra and back: a Lambertian sphere of albedo (0.8, 0.3, 0.1) in a white
 /// environment shows that albedo (a reflectance upsampled on the device), and a white one in an environment of
 /// (0.9, 0.4, 0.1) shows that colour (an emitter: the upsampled spectrum times D65). The tolerance is the table's

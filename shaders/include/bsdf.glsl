@@ -118,7 +118,7 @@ void thin_scatter(inout Bsdf b, Material m) {
 // front: wo is on the front (counter-clockwise) side, outside the object.
 Bsdf bsdf_from_material(Material m, bool front) {
     Bsdf b;
-    b.base_color = spectrum_reflectance(m.base_color.rgb);
+    b.base_color = spectrum_reflectance_known(m.base_color.rgb, m.base_color_spectrum);
     // A lobe no material in the scene has is a constant zero, and the code for it folds away (see scene_has).
     b.metallic = scene_has(FEATURE_METAL) ? m.params.x : 0.0;
     b.roughness = m.params.y;

@@ -74,7 +74,7 @@ struct TextureSlot {
     vec4 v;
 };
 
-// 848 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
+// 880 bytes, the glTF material as the BSDF reads it; textures multiply the factors at each hit.
 struct Material {
     vec4 base_color;     // rgb linear albedo / metal F0 / transmission tint, w: alpha (opacity under MASK and BLEND)
     vec4 emission;       // rgb radiance (W sr^-1 m^-2), w: 1 if double-sided
@@ -95,6 +95,9 @@ struct Material {
     vec4 medium;         // KHR_materials_scatter inside a volumetric object: rgb single-scattering albedo (the share of
                          // `attenuation` that scatters), w Henyey-Greenstein g (read by load_medium); on a thin wall,
                          // rgb its colour, w its g (read by load_material under FEATURE_THIN_SCATTER)
+    vec4 base_color_spectrum; // spectral transport: xyz the RGB-to-spectrum coefficients of base_color.rgb, w 1 when
+                              // it is not grey; material_at zeroes w where a texture or vertex colour changed it
+    vec4 emission_spectrum;   // the same for emission.rgb over twice its largest component (w 1: neither zero nor grey)
 };
 
 // 16 bytes: a texture's texels[offset ..] (RGBA8, row 0 at the top), its size, and TEXTURE_* / WRAP_* flags.

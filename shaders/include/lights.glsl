@@ -231,9 +231,10 @@ LightSample sample_light(vec3 p, vec3 n, vec2 u, vec2 u_pick) {
     if (!faces) return ls;
     // Emissive textures and cut-out or blended parts, as a ray hitting the point would find them.
 #ifdef TEXTURED
-    ls.radiance = spectrum_illuminant(material_at(lm, tri, b, NO_LOD).emission.rgb) * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
+    Material hit = material_at(lm, tri, b, NO_LOD);
+    ls.radiance = spectrum_illuminant_known(hit.emission.rgb, hit.emission_spectrum) * (lv.e1.w != 0.0 ? material_coverage(lm, tri, b) : 1.0);
 #else
-    ls.radiance = spectrum_illuminant(lm.emission.rgb);
+    ls.radiance = spectrum_illuminant_known(lm.emission.rgb, lm.emission_spectrum);
 #endif
     // A moving emitter's area at the ray's time (the table's is its mean over the shutter, for the pick), and an
     // instanced one's in the world.

@@ -245,7 +245,7 @@ bool shade_path(uint pixel, uint s, uint bounce, vec4 hit, uint inst, inout Path
                 w = power_heuristic(ray_o.w, pdf_light);
             }
         }
-        v.radiance += beta * spectrum_illuminant(m.emission.rgb) * w;
+        v.radiance += beta * spectrum_illuminant_known(m.emission.rgb, m.emission_spectrum) * w;
     }
     // An unlit surface shows its colour to whatever ray reaches it and ends the path. No light sampling aims at it, so
     // the colour counts in full after every kind of bounce.

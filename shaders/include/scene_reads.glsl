@@ -35,7 +35,9 @@ Material load_material(uint i) {
     }
     // Shading at a surface never needs the medium behind it: one texel read fewer per hit, but for a thin wall's
     // scattering.
-    m.medium = scene_has(FEATURE_THIN_SCATTER) ? FETCH(material_texels, b + MATERIAL_TEXELS - 1u) : vec4(0.0);
+    m.medium = scene_has(FEATURE_THIN_SCATTER) ? FETCH(material_texels, b + MATERIAL_TEXEL_MEDIUM) : vec4(0.0);
+    m.base_color_spectrum = scene_has(FEATURE_SPECTRAL) ? FETCH(material_texels, b + MATERIAL_TEXEL_SPECTRA) : vec4(0.0);
+    m.emission_spectrum = scene_has(FEATURE_SPECTRAL) ? FETCH(material_texels, b + MATERIAL_TEXEL_SPECTRA + 1u) : vec4(0.0);
     return m;
 }
 // The medium inside material i (KHR_materials_volume, with KHR_materials_scatter): its extinction (1/m) and, in
@@ -43,7 +45,7 @@ Material load_material(uint i) {
 void load_medium(uint i, out vec3 sigma_t, out vec4 albedo_g) {
     uint b = MATERIAL_TEXELS * i;
     sigma_t = FETCH(material_texels, b + 5u).rgb;
-    albedo_g = FETCH(material_texels, b + MATERIAL_TEXELS - 1u);
+    albedo_g = FETCH(material_texels, b + MATERIAL_TEXEL_MEDIUM);
 }
 BvhNode load_node(uint i) {
     return BvhNode(texelFetch(node_texels, int(3u * i)), texelFetch(node_texels, int(3u * i + 1u)),

@@ -13,12 +13,12 @@
 
 // The wavelengths (nm) of the sample being traced and their densities: wavelengths_begin sets them, as motion_begin
 // sets the time, from the pixel and sample alone, so every stage finds the same ones. With them it keeps what every
-// emitter and the film need at those wavelengths: D65 (Y = 1) and the film's XYZ weights (the observer over the
-// density and the number of wavelengths), so a bounce reads the CIE table once, not per light.
+// emitter needs at those wavelengths, D65 (Y = 1), so a bounce reads the CIE table once, not per light. The film's
+// observer is read where a sample reaches it (spectrum_to_rgb): shading never needs it, and on lavapipe each
+// scattered load of the table costs (reading all four columns there made shading 15 % slower).
 vec4 path_lambda = vec4(550.0);
 vec4 path_lambda_pdf = vec4(1.0);
 vec4 path_d65 = vec4(1.0);
-vec3 path_film_weight[WAVELENGTHS];
 
 bool spectral() {
     return scene_has(FEATURE_SPECTRAL);
@@ -53,28 +53,20 @@ void sample_wavelengths(float u, out vec4 nm, out vec4 pdf) {
 }
 
 
-// The CIE row at nm, linear between the 1 nm rows: the observer over the integral of y-bar (xyz) and D65 with Y = 1
-// (w); zero outside the range.
-vec4 cie_at(float nm) {
+// Column c of the CIE table at nm, linear between the 1 nm rows: the observer over the integral of y-bar (columns
+// 0-2, x y z) and D65 with Y = 1 (column 3); zero outside the range.
+float cie_at(float nm, uint c) {
     float x = nm - LAMBDA_MIN;
-    if (!(x >= 0.0 && x <= float(CIE_ROWS - 1u))) return vec4(0.0);
+    if (!(x >= 0.0 && x <= float(CIE_ROWS - 1u))) return 0.0;
     uint i = min(uint(x), CIE_ROWS - 2u);
-    float t = x - float(i);
-    uint a = SPECTRUM_CIE + 4u * i;
-    vec4 lo = vec4(energy[a], energy[a + 1u], energy[a + 2u], energy[a + 3u]);
-    vec4 hi = vec4(energy[a + 4u], energy[a + 5u], energy[a + 6u], energy[a + 7u]);
-    return mix(lo, hi, t);
+    uint a = SPECTRUM_CIE + 4u * i + c;
+    return mix(energy[a], energy[a + 4u], x - float(i));
 }
 
 void wavelengths_begin(uint pixel, uint sample_index) {
     if (!spectral()) return;
     sample_wavelengths(rand2(pixel, sample_index, 0u, DIM_WAVELENGTH).x, path_lambda, path_lambda_pdf);
-    for (uint k = 0u; k < WAVELENGTHS; k++) {
-        vec4 row = cie_at(path_lambda[k]);
-        path_d65[k] = row.w;
-        float pdf = path_lambda_pdf[k];
-        path_film_weight[k] = pdf > 0.0 ? row.xyz / (pdf * float(WAVELENGTHS)) : vec3(0.0);
-    }
+    for (uint k = 0u; k < WAVELENGTHS; k++) path_d65[k] = cie_at(path_lambda[k], 3u);
 }
 
 // The node of the table's z axis at or below z: the nodes are smoothstep(smoothstep(k / (res - 1))), whose inverse
@@ -119,12 +111,18 @@ float rgb2spec_eval(vec3 c, float nm) {
     return 0.5 + x / (2.0 * sqrt(1.0 + x * x));
 }
 
-// A reflectance (RGB clamped to [0, 1]) at the path's wavelengths; greys are constant spectra.
+Spectrum rgb2spec_eval4(vec3 c, vec4 nm) {
+    return vec4(rgb2spec_eval(c, nm.x), rgb2spec_eval(c, nm.y), rgb2spec_eval(c, nm.z), rgb2spec_eval(c, nm.w));
+}
+
+// A reflectance (RGB clamped to [0, 1]) at the path's wavelengths; greys are constant spectra. A scene whose colours
+// are all grey or known (no FEATURE_SPECTRUM_TABLE) never gets here with another, and the table's code folds away;
+// if one came, its NaN would show as a sample the film drops and counts.
 Spectrum spectrum_reflectance_at(vec3 rgb, vec4 nm) {
     rgb = clamp(rgb, vec3(0.0), vec3(1.0));
     if (rgb.r == rgb.g && rgb.g == rgb.b) return vec4(rgb.r);
-    vec3 c = rgb2spec_coefficients(rgb);
-    return vec4(rgb2spec_eval(c, nm.x), rgb2spec_eval(c, nm.y), rgb2spec_eval(c, nm.z), rgb2spec_eval(c, nm.w));
+    if (!scene_has(FEATURE_SPECTRUM_TABLE)) return vec4(uintBitsToFloat(0x7fc00000u));
+    return rgb2spec_eval4(rgb2spec_coefficients(rgb), nm);
 }
 
 // An RGB of any size (colours above 1, absorption coefficients): twice its largest component times the spectrum of
@@ -146,6 +144,21 @@ Spectrum spectrum_unbounded(vec3 rgb) {
 Spectrum spectrum_illuminant(vec3 rgb) {
     if (!spectral()) return vec4(rgb, 0.0);
     return spectrum_unbounded_at(rgb, path_lambda) * path_d65;
+}
+
+// A material's colour whose coefficients the host may have found: known.w is 1 when known.xyz are rgb's (an
+// untextured base colour: Material.base_color_spectrum), and the hit evaluates them instead of interpolating the
+// table. On lavapipe the table's 26 scattered loads per colour were half of spectral shading's time.
+Spectrum spectrum_reflectance_known(vec3 rgb, vec4 known) {
+    if (!spectral() || known.w == 0.0) return spectrum_reflectance(rgb);
+    return rgb2spec_eval4(known.xyz, path_lambda);
+}
+
+// An emission whose coefficients the host may have found (Material.emission_spectrum: those of rgb over twice its
+// largest component, as spectrum_unbounded_at takes them).
+Spectrum spectrum_illuminant_known(vec3 rgb, vec4 known) {
+    if (!spectral() || known.w == 0.0) return spectrum_illuminant(rgb);
+    return 2.0 * max(rgb.r, max(rgb.g, rgb.b)) * rgb2spec_eval4(known.xyz, path_lambda) * path_d65;
 }
 
 // The largest and the mean of a colour's components (a throughput's, for Russian roulette and lobe choice).
@@ -181,7 +194,12 @@ vec4 spectrum_store(Spectrum c) {
 vec3 spectrum_to_rgb(Spectrum l) {
     if (!spectral()) return l.rgb;
     vec3 xyz = vec3(0.0);
-    for (uint k = 0u; k < WAVELENGTHS; k++) xyz += path_film_weight[k] * l[k];
+    for (uint k = 0u; k < WAVELENGTHS; k++) {
+        float nm = path_lambda[k];
+        float pdf = path_lambda_pdf[k];
+        vec3 observer = vec3(cie_at(nm, 0u), cie_at(nm, 1u), cie_at(nm, 2u));
+        if (pdf > 0.0) xyz += observer * (l[k] / (pdf * float(WAVELENGTHS)));
+    }
     uint m = SPECTRUM_MATRIX;
     return vec3(dot(vec3(energy[m], energy[m + 1u], energy[m + 2u]), xyz),
                 dot(vec3(energy[m + 4u], energy[m + 5u], energy[m + 6u]), xyz),

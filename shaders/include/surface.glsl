@@ -94,6 +94,8 @@ bool alpha_stops(uint tri, vec2 b, uint key) {
 // the level-0 texels its lookups can reach (emission.rs), and a light sample reads level 0 too.
 Material material_at(Material m, uint tri, vec2 b, vec2 lod) {
 #ifdef TEXTURED
+    vec3 base_factor = m.base_color.rgb;
+    vec3 emission_factor = m.emission.rgb;
     m.base_color.rgb *= vertex_color(tri, b).rgb;
     if (slot_used(m.textures[TEX_BASE_COLOR])) m.base_color *= sample_slot(m.textures[TEX_BASE_COLOR], tri, b, true, lod);
     if (slot_used(m.textures[TEX_METALLIC_ROUGHNESS])) {
@@ -156,6 +158,9 @@ Material material_at(Material m, uint tri, vec2 b, vec2 lod) {
             m.iridescence.w = mix(m.iridescence.z, m.iridescence.w, g);
         }
     }
+    // The host's spectral coefficients are the factors'; a colour a texture or the vertices changed has its own.
+    if (m.base_color.rgb != base_factor) m.base_color_spectrum.w = 0.0;
+    if (m.emission.rgb != emission_factor) m.emission_spectrum.w = 0.0;
 #endif
     return m;
 }

@@ -76,11 +76,31 @@ pub(super) fn gpu_material(m: &Material) -> GpuMaterial {
         } else {
             v4(m.medium.albedo, m.medium.anisotropy)
         },
+        base_color_spectrum: known_spectrum(m.base_color.to_array().map(|c| c.clamp(0.0, 1.0))),
+        emission_spectrum: {
+            let e = m.emission.to_array();
+            let scale = 2.0 * e[0].max(e[1]).max(e[2]);
+            if scale > 0.0 {
+                known_spectrum(e.map(|c| c / scale))
+            } else {
+                [0.0; 4]
+            }
+        },
     }
 }
 
+/// A colour's RGB-to-spectrum coefficients as the shaders would interpolate them, w 1; all zero for a grey (or NaN),
+/// whose spectrum the shaders take as constant without them.
+fn known_spectrum(rgb: [f32; 3]) -> [f32; 4] {
+    if rgb.iter().any(|c| !c.is_finite()) || (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {
+        return [0.0; 4];
+    }
+    let c = crate::spectrum::tables().coefficients(rgb);
+    [c[0], c[1], c[2], 1.0]
+}
+
 /// The slots whose texture holds sRGB-encoded colour (the shaders decode it; textures.glsl's callers pass `true`).
-const SRGB_SLOTS: [u32; 6] = [
+pub(super) const SRGB_SLOTS: [u32; 6] = [
     TEX_BASE_COLOR,
     TEX_EMISSIVE,
     TEX_SHEEN_COLOR,

@@ -149,7 +149,43 @@ impl PackedScene {
         if !self.instances.is_empty() {
             bits |= FEATURE_INSTANCES;
         }
+        if self.needs_spectrum_table(&used) {
+            bits |= FEATURE_SPECTRUM_TABLE;
+        }
         bits
+    }
+
+    /// Whether spectral transport would meet a colour that only the RGB-to-spectrum table can turn into a spectrum
+    /// (FEATURE_SPECTRUM_TABLE): every call of spectrum.glsl's spectrum_reflectance, spectrum_unbounded and
+    /// spectrum_illuminant with a colour that is not grey, but for the base colours and emissions whose coefficients
+    /// the material holds. A colour missed here renders as a non-finite sample, which the film drops and counts.
+    fn needs_spectrum_table(&self, used: &[bool]) -> bool {
+        let grey = |c: &[f32]| c[0] == c[1] && c[1] == c[2];
+        let colour_textured = |m: &GpuMaterial| {
+            super::materials::SRGB_SLOTS
+                .iter()
+                .any(|&s| m.textures[s as usize].u[3].to_bits() != TEXTURE_NONE)
+        };
+        let material = |m: &GpuMaterial| {
+            let unlit = m.alpha[3].to_bits() & MATERIAL_UNLIT != 0;
+            colour_textured(m)
+                || (!grey(&m.base_color) && (m.base_color_spectrum[3] == 0.0 || unlit))
+                || (!grey(&m.emission) && m.emission_spectrum[3] == 0.0)
+                || [
+                    &m.specular_color,
+                    &m.sheen,
+                    &m.diffuse_transmission,
+                    &m.attenuation,
+                    &m.medium,
+                ]
+                .iter()
+                .any(|c| !grey(&c[..]))
+        };
+        let materials = self.materials.iter().zip(used).any(|(m, &u)| u && material(m));
+        materials
+            || !self.tri_colors.is_empty()
+            || !self.env_data.is_empty()
+            || self.punctual.iter().any(|p| !grey(&p.intensity))
     }
 }
 
@@ -527,11 +563,13 @@ mod tests {
     // A bit cleared by mistake folds a lobe or light away while the scene uses it; one set by mistake only costs time.
     #[test]
     fn scene_features_name_what_materials_and_lights_use() {
+        // Its colours are all untextured material factors, whose spectra the materials hold.
         assert_eq!(features_of("cornell-box.gltf"), 0);
         assert_eq!(
-            features_of("glass.gltf"),
+            features_of("glass.gltf") & !FEATURE_SPECTRUM_TABLE,
             FEATURE_COAT | FEATURE_TRANSMISSION | FEATURE_DEEP_STACK
         );
+        assert_ne!(features_of("textured.gltf") & FEATURE_SPECTRUM_TABLE, 0);
         assert_eq!(features_of("punctual-lights.gltf") & FEATURE_PUNCTUAL, FEATURE_PUNCTUAL);
         let grid = features_of("material-grid.gltf");
         assert_eq!(grid & (FEATURE_COAT | FEATURE_METAL), FEATURE_COAT | FEATURE_METAL);
