@@ -131,7 +131,8 @@ fn run_fixed(
     Ok(())
 }
 
-/// Mitsuba on the Cornell box, RGB then spectral, and on the subsurface scene; then adaptive against uniform sampling on three scenes.
+/// Mitsuba on the Cornell box, RGB then spectral, and on the subsurface scene; then adaptive against uniform sampling
+/// on three scenes. With `--only cornell-box`, the Cornell box's two alone; with another group, none of them.
 fn against_mitsuba(
     o: &BenchOptions,
     cornell: &Path,
@@ -149,9 +150,15 @@ fn against_mitsuba(
     };
     let mitsuba =
         |case, progress: &mut dyn FnMut(&str)| compare::compare_mitsuba(&o.python, &o.device, case, o.quick, progress);
+    if o.only.as_deref().is_some_and(|only| only != "cornell-box") {
+        return Ok(());
+    }
     report.mitsuba = Some(mitsuba(case(cornell, false, o.light_sampler), progress)?);
     progress("Mitsuba comparison, spectral");
     report.mitsuba_spectral = Some(mitsuba(case(cornell, true, o.light_sampler), progress)?);
+    if o.only.is_some() {
+        return Ok(());
+    }
     // Scattering media: four spheres of dense, chromatic media behind rough and smooth glass under a small light,
     // against Mitsuba's volpath. Smaller, as its paths are hundreds of scatterings long.
     progress("Mitsuba comparison, subsurface");

@@ -46,7 +46,8 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value = "auto", hide_possible_values = true)]
     pub traversal: crate::render::Traversal,
     /// Measure one group of the fixed cases alone (without start-up and the light tree): cornell-box, glass,
-    /// textured-props, terrain or instances.
+    /// textured-props, terrain or instances. With `--compare mitsuba`, `cornell-box` keeps the Cornell box's RGB and
+    /// spectral comparisons alone (no subsurface or adaptive ones), any other group none of them.
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(crate::bench::CASE_GROUPS))]
     pub only: Option<String>,
 }
