@@ -69,10 +69,14 @@ pub const BINDING_LIGHT_TEXELS: u32 = 34;
 pub const BINDING_MOTION_TEXELS: u32 = 35;
 /// The light BVH (BINDING_LIGHT_TREE) as RGBA32UI texels, four per node, for the TEXEL_READS stages.
 pub const BINDING_LIGHT_TREE_TEXELS: u32 = 36;
-pub const BINDING_COUNT: u32 = 37;
+/// The CIE rows of the table buffer (SPECTRUM_CIE) as RGBA32F texels, one per row, for the TEXEL_READS stages:
+/// spectral transport reads two rows per wavelength, a texel each, where the storage buffer takes four bounds-checked
+/// scalar loads per row on lavapipe (the film's conversion of a sample then cost eight times RGB's accumulate stage).
+pub const BINDING_CIE_TEXELS: u32 = 37;
+pub const BINDING_COUNT: u32 = 38;
 /// The top-level acceleration structure ray-query traversal walks (the RAY_QUERY stage variants): in the shared
 /// layout only on devices with ray queries, after the buffers and views.
-pub const BINDING_TLAS: u32 = 37;
+pub const BINDING_TLAS: u32 = 38;
 
 /// Material texture slots (Material.textures[]).
 pub const TEX_BASE_COLOR: u32 = 0;
@@ -174,14 +178,16 @@ pub const RGB2SPEC_RES: u32 = 32;
 /// Rows of the CIE table (1 nm from LAMBDA_MIN to LAMBDA_MAX).
 pub const CIE_ROWS: u32 = 471;
 /// The spectral tables (spectrum.glsl) follow the energy and anisotropic tables in the renderer's table buffer
-/// (BINDING_ENERGY), in floats: the XYZ-to-linear-sRGB matrix (three rows of four), the CIE rows (x, y, z over the
+/// (BINDING_ENERGY), in floats: the XYZ-to-linear-sRGB matrix (three rows of four), zeros up to the next 256 bytes
+/// (the largest offset alignment Vulkan allows a texel view, BINDING_CIE_TEXELS), the CIE rows (x, y, z over the
 /// integral of y-bar, and D65 scaled to Y = 1), the RGB-to-spectrum table's nodes along its largest component, then
 /// its coefficients (spectrum::fit::build_table's layout). The host fills them once per renderer.
 pub const SPECTRUM_MATRIX: u32 = ENERGY_TABLE_FLOATS + ANISO_TABLE_FLOATS;
-pub const SPECTRUM_CIE: u32 = SPECTRUM_MATRIX + 12;
+#[allow(clippy::manual_div_ceil)] // exported to GLSL as written
+pub const SPECTRUM_CIE: u32 = (SPECTRUM_MATRIX + 12 + 63) / 64 * 64;
 pub const SPECTRUM_Z: u32 = SPECTRUM_CIE + 4 * CIE_ROWS;
 pub const SPECTRUM_COEFFS: u32 = SPECTRUM_Z + RGB2SPEC_RES;
-pub const SPECTRUM_FLOATS: u32 = 12 + 4 * CIE_ROWS + RGB2SPEC_RES + 9 * RGB2SPEC_RES * RGB2SPEC_RES * RGB2SPEC_RES;
+pub const SPECTRUM_FLOATS: u32 = SPECTRUM_COEFFS + 9 * RGB2SPEC_RES * RGB2SPEC_RES * RGB2SPEC_RES - SPECTRUM_MATRIX;
 /// The multiple scattering of the dielectric layer (microsurface.rs, data/dielectric_ms.bin): its albedo E_ms over
 /// MS_RES_MU cosines x MS_RES_ROUGH perceptual roughnesses x MS_RES_F0 normal reflectances (square-root spaced), F0-major
 /// then roughness, each cell the mean of MS_WALKS random walks; then 2 int E_ms mu dmu per (F0, roughness). After the

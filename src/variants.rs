@@ -40,6 +40,9 @@ pub const STAGE_VARIANTS: &[(&str, &str, &str)] = &[
     ("survey", "texel", "TEXEL_READS"),
     ("survey", "textured_texel", "TEXTURED TEXEL_READS"),
     ("survey", "alpha_texel", "ALPHA_TEST TEXTURED TEXEL_READS"),
+    // The wavefront's film reads spectral samples' CIE rows through texels (BINDING_CIE_TEXELS): its conversion of
+    // a sample fell from 8x RGB's accumulate stage to 3.5x.
+    ("accumulate", "texel", "TEXEL_READS"),
 ];
 
 /// The Vulkan version glslang targets for a variant's defines: 1.1 (SPIR-V 1.3) for every stage, but 1.2 for ray

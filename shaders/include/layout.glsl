@@ -393,6 +393,7 @@ layout(set = 0, binding = BINDING_MATERIAL_TEXELS) uniform usamplerBuffer materi
 layout(set = 0, binding = BINDING_LIGHT_TEXELS) uniform usamplerBuffer light_texels;
 layout(set = 0, binding = BINDING_LIGHT_TREE_TEXELS) uniform usamplerBuffer light_tree_texels;
 layout(set = 0, binding = BINDING_MOTION_TEXELS) uniform usamplerBuffer motion_texels;
+layout(set = 0, binding = BINDING_CIE_TEXELS) uniform samplerBuffer cie_texels;
 #endif
 
 // The pass's i-th pixel: in image order, or after adaptive sampling's plan in the order of their budgets

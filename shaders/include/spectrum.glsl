@@ -1,7 +1,7 @@
 // Spectra on the device: a path's wavelengths, RGB inputs as spectra at them (Jakob and Hanika 2019, with the
 // conventions of Mitsuba 3 and pbrt-v4), and a sample's radiance at them as linear sRGB for the film. The host twin
 // is src/spectrum/mod.rs; tests/spectrum.rs holds the two together. The tables live in the renderer's table buffer
-// (SPECTRUM_* after the energy tables).
+// (SPECTRUM_* after the energy tables), whose CIE rows the TEXEL_READS variants read through a view (BINDING_CIE_TEXELS).
 #ifndef SPECTRUM_GLSL
 #define SPECTRUM_GLSL
 
@@ -14,8 +14,8 @@
 // The wavelengths (nm) of the sample being traced and their densities: wavelengths_begin sets them, as motion_begin
 // sets the time, from the pixel and sample alone, so every stage finds the same ones. With them it keeps what every
 // emitter needs at those wavelengths, D65 (Y = 1), so a bounce reads the CIE table once, not per light. The film's
-// observer is read where a sample reaches it (spectrum_to_rgb): shading never needs it, and on lavapipe each
-// scattered load of the table costs (reading all four columns there made shading 15 % slower).
+// observer is read where a sample reaches it (spectrum_to_rgb): shading never needs it (computing it there made
+// lavapipe's spectral shade stage 15 % slower, even unused).
 vec4 path_lambda = vec4(550.0);
 vec4 path_lambda_pdf = vec4(1.0);
 vec4 path_d65 = vec4(1.0);
@@ -53,20 +53,26 @@ void sample_wavelengths(float u, out vec4 nm, out vec4 pdf) {
 }
 
 
-// Column c of the CIE table at nm, linear between the 1 nm rows: the observer over the integral of y-bar (columns
-// 0-2, x y z) and D65 with Y = 1 (column 3); zero outside the range.
-float cie_at(float nm, uint c) {
+// The CIE row at nm, linear between the 1 nm rows (two texels of BINDING_CIE_TEXELS in the TEXEL_READS variants): the
+// observer over the integral of y-bar (xyz) and D65 with Y = 1 (w); zero outside the range.
+vec4 cie_at(float nm) {
     float x = nm - LAMBDA_MIN;
-    if (!(x >= 0.0 && x <= float(CIE_ROWS - 1u))) return 0.0;
+    if (!(x >= 0.0 && x <= float(CIE_ROWS - 1u))) return vec4(0.0);
     uint i = min(uint(x), CIE_ROWS - 2u);
-    uint a = SPECTRUM_CIE + 4u * i + c;
-    return mix(energy[a], energy[a + 4u], x - float(i));
+#ifdef TEXEL_READS
+    return mix(texelFetch(cie_texels, int(i)), texelFetch(cie_texels, int(i + 1u)), x - float(i));
+#else
+    uint a = SPECTRUM_CIE + 4u * i;
+    vec4 lo = vec4(energy[a], energy[a + 1u], energy[a + 2u], energy[a + 3u]);
+    vec4 hi = vec4(energy[a + 4u], energy[a + 5u], energy[a + 6u], energy[a + 7u]);
+    return mix(lo, hi, x - float(i));
+#endif
 }
 
 void wavelengths_begin(uint pixel, uint sample_index) {
     if (!spectral()) return;
     sample_wavelengths(rand2(pixel, sample_index, 0u, DIM_WAVELENGTH).x, path_lambda, path_lambda_pdf);
-    for (uint k = 0u; k < WAVELENGTHS; k++) path_d65[k] = cie_at(path_lambda[k], 3u);
+    for (uint k = 0u; k < WAVELENGTHS; k++) path_d65[k] = cie_at(path_lambda[k]).w;
 }
 
 // The node of the table's z axis at or below z: the nodes are smoothstep(smoothstep(k / (res - 1))), whose inverse
@@ -197,7 +203,7 @@ vec3 spectrum_to_rgb(Spectrum l) {
     for (uint k = 0u; k < WAVELENGTHS; k++) {
         float nm = path_lambda[k];
         float pdf = path_lambda_pdf[k];
-        vec3 observer = vec3(cie_at(nm, 0u), cie_at(nm, 1u), cie_at(nm, 2u));
+        vec3 observer = cie_at(nm).xyz;
         if (pdf > 0.0) xyz += observer * (l[k] / (pdf * float(WAVELENGTHS)));
     }
     uint m = SPECTRUM_MATRIX;

@@ -1,22 +1,27 @@
 //! The microfacet and sheen energy tables energy compensation and layering read: the grid from the device (the BSDF's
 //! own sampling), the hemispherical averages from the host; and after them the spectral tables (SPECTRUM_*) and the
-//! dielectric layer's multiple scattering (DIELECTRIC_MS, walked once by examples/dielectric_ms.rs), from the host.
+//! dielectric layer's multiple scattering (DIELECTRIC_MS, walked once by examples/dielectric_ms.rs), from the host;
+//! the CIE rows among them also as texels (BINDING_CIE_TEXELS).
 use super::kernels::{Kernel, Stage};
 use super::Renderer;
 use crate::constants::*;
 use crate::error::Error;
 use crate::layout::Frame;
-use crate::vk::{Buffer, Context};
+use crate::vk::{Buffer, Context, TexelViews};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 /// The tables are one storage buffer bound whole on every device: Vulkan requires every device's storage range to
 /// hold 2^27 bytes, so a device (or a test) with a smaller range for scene data still reads all of them.
 const _: () = assert!(ENERGY_BUFFER_FLOATS as u64 * 4 <= 1 << 27);
+/// The CIE rows' view starts at a multiple of the largest minTexelBufferOffsetAlignment Vulkan allows.
+const _: () = assert!((4 * SPECTRUM_CIE).is_multiple_of(256));
 
 /// The energy buffer and which of its grids are built. The GGX grids are built at start-up; the sheen and anisotropic
 /// grids wait for a scene that needs them (zeros until then).
 pub(super) struct EnergyTables {
+    /// The CIE rows' view of `buffer`; dropped before it.
+    cie_view: TexelViews,
     buffer: Buffer,
     sheen: bool,
     aniso: bool,
@@ -31,7 +36,7 @@ impl EnergyTables {
             ctx,
             "energy tables",
             floats as u64 * 4,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
         let mut floats_in = vec![0f32; SPECTRUM_MATRIX as usize];
@@ -39,8 +44,15 @@ impl EnergyTables {
         floats_in.extend(crate::microsurface::shipped_table());
         debug_assert_eq!(floats_in.len(), floats);
         buffer.upload(ctx, bytemuck::cast_slice(&floats_in))?;
+        let cie_view = TexelViews::range(
+            ctx,
+            (BINDING_CIE_TEXELS, &buffer, vk::Format::R32G32B32A32_SFLOAT),
+            4 * SPECTRUM_CIE as u64,
+            16 * CIE_ROWS as u64,
+        )?;
         Ok(EnergyTables {
             buffer,
+            cie_view,
             sheen: false,
             aniso: false,
         })
@@ -48,6 +60,10 @@ impl EnergyTables {
 
     pub(super) fn binding(&self) -> (u32, &Buffer) {
         (BINDING_ENERGY, &self.buffer)
+    }
+
+    pub(super) fn texel_views(&self) -> &[(u32, vk::BufferView)] {
+        &self.cie_view.views
     }
 
     /// A sheen in any of the scene's materials (not only the ones its triangles use: the probes read any material)

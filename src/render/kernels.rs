@@ -539,7 +539,7 @@ mod tests {
                 format!("probe_trace_alpha{t}")
             );
             assert_eq!(pick(Stage::Generate, true, true, texel), "generate");
-            assert_eq!(pick(Stage::Accumulate, true, true, texel), "accumulate");
+            assert_eq!(pick(Stage::Accumulate, true, true, texel), format!("accumulate{t}"));
         }
     }
 }

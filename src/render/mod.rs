@@ -203,8 +203,11 @@ impl Renderer {
         self.options.fingerprint = on;
     }
 
-    /// The scene's texel views where it has them, the path-state stand-in's otherwise.
+    /// The scene's texel views where it has them, the path-state stand-in's otherwise, and the CIE rows'.
     fn bind_scene_views(&self) {
+        self.kernels
+            .pipelines
+            .bind_texel_views(&self.ctx, self.energy.texel_views());
         if let Some(views) = self.scene.texel_views() {
             self.kernels.pipelines.bind_texel_views(&self.ctx, views);
         }
@@ -516,7 +519,8 @@ mod tests {
     use crate::constants::*;
 
     /// Every binding of the one descriptor set has exactly one filler: the scene (SCENE_BINDINGS), the energy tables,
-    /// or a session, probe or tone map (with a stand-in when none is bound), and the path state's texel view. A binding
+    /// or a session, probe or tone map (with a stand-in when none is bound), the path state's texel view and the CIE
+    /// rows' (the energy tables'). A binding
     /// nobody fills would keep a destroyed buffer on lavapipe, which reads every binding of a bound set; one filled
     /// twice would be bound to whichever comes last.
     #[test]
@@ -529,6 +533,7 @@ mod tests {
         assert_eq!(storage, (0..BINDING_FIRST_TEXEL).collect::<Vec<_>>());
         let mut texel = scene_texel;
         texel.push(BINDING_PATH_TEXELS);
+        texel.push(BINDING_CIE_TEXELS);
         texel.sort_unstable();
         assert_eq!(texel, (BINDING_FIRST_TEXEL..BINDING_COUNT).collect::<Vec<_>>());
     }

@@ -3,7 +3,9 @@
 //! is the device twin; tests/spectrum.rs holds both to the fit.
 pub mod fit;
 
-use crate::constants::{CIE_ROWS, LAMBDA_MAX, LAMBDA_MIN, RGB2SPEC_RES, SPECTRUM_FLOATS, WAVELENGTHS};
+use crate::constants::{
+    CIE_ROWS, LAMBDA_MAX, LAMBDA_MIN, RGB2SPEC_RES, SPECTRUM_CIE, SPECTRUM_FLOATS, SPECTRUM_MATRIX, WAVELENGTHS,
+};
 use std::sync::OnceLock;
 
 const CIE_TEXT: &str = include_str!("../../data/cie1931_d65.tsv");
@@ -60,22 +62,32 @@ pub fn unit_wavelength(nm: f32) -> f32 {
 }
 
 impl Tables {
-    /// The spectral tables as the device reads them (SPECTRUM_* in constants.rs): the matrix, the CIE rows, the nodes
-    /// and the coefficients.
+    /// The spectral tables as the device reads them (SPECTRUM_* in constants.rs): the matrix, zeros to the CIE rows'
+    /// alignment, the CIE rows, the nodes and the coefficients.
     pub fn device_floats(&self) -> Vec<f32> {
         let mut out = Vec::with_capacity(SPECTRUM_FLOATS as usize);
         for row in self.xyz_to_srgb() {
             out.extend_from_slice(&[row[0], row[1], row[2], 0.0]);
         }
-        assert_eq!(self.cie.xyz.len(), CIE_ROWS as usize, "the CIE table has CIE_ROWS rows");
-        for (xyz, d65) in self.cie.xyz.iter().zip(&self.cie.d65) {
-            out.extend(xyz.iter().map(|c| (c / self.y_integral) as f32));
-            out.push((d65 * self.d65_scale) as f32);
-        }
+        out.resize((SPECTRUM_CIE - SPECTRUM_MATRIX) as usize, 0.0);
+        out.extend(self.cie_rows().into_iter().flatten());
         out.extend_from_slice(&self.z_nodes);
         out.extend_from_slice(&self.coefficients);
         assert_eq!(out.len(), SPECTRUM_FLOATS as usize);
         out
+    }
+
+    /// The CIE rows as the device reads them: the observer over the integral of y-bar, and D65 with Y = 1, per nm
+    /// from LAMBDA_MIN.
+    fn cie_rows(&self) -> Vec<[f32; 4]> {
+        assert_eq!(self.cie.xyz.len(), CIE_ROWS as usize, "the CIE table has CIE_ROWS rows");
+        let xyz = |c: &[f64; 3]| c.map(|v| (v / self.y_integral) as f32);
+        (self.cie.xyz.iter().zip(&self.cie.d65))
+            .map(|(c, d65)| {
+                let [x, y, z] = xyz(c);
+                [x, y, z, (d65 * self.d65_scale) as f32]
+            })
+            .collect()
     }
 
     /// The RGB-to-spectrum table as kept (fit::build_table's layout).

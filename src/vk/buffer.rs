@@ -179,6 +179,27 @@ impl TexelViews {
     }
 }
 
+impl TexelViews {
+    /// One view of `range` bytes of a buffer from `offset` (a multiple of the device's minTexelBufferOffsetAlignment).
+    pub fn range(
+        ctx: &Context,
+        (binding, b, format): (u32, &Buffer, vk::Format),
+        offset: u64,
+        range: u64,
+    ) -> Result<Self, Error> {
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(b.raw)
+            .format(format)
+            .offset(offset)
+            .range(range);
+        let view = unsafe { ctx.device.create_buffer_view(&info, None) }?;
+        Ok(TexelViews {
+            views: vec![(binding, view)],
+            device: ctx.device.clone(),
+        })
+    }
+}
+
 impl Drop for TexelViews {
     fn drop(&mut self) {
         if super::device_lost() {
