@@ -39,6 +39,9 @@ impl EnergyTables {
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
             MemoryLocation::GpuOnly,
         )?;
+        // Bound whole even where storage bindings of viewed scene buffers are cut to a small storage range (its view
+        // serves only the CIE rows), as the assertion above allows.
+        buffer.viewed = false;
         let mut floats_in = vec![0f32; SPECTRUM_MATRIX as usize];
         floats_in.extend(crate::spectrum::tables().device_floats());
         floats_in.extend(crate::microsurface::shipped_table());
