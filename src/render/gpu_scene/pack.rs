@@ -122,7 +122,7 @@ impl PackedScene {
             bits |= FEATURE_THIN_SCATTER | FEATURE_DIFFUSE_TRANSMISSION;
         }
         fn dielectric_layer(m: &GpuMaterial) -> bool {
-            let textured = |slot: u32| m.textures[slot as usize].u[3].to_bits() != TEXTURE_NONE;
+            let textured = |slot: u32| slot_used(m, slot);
             m.params[3] != 0.0
                 && (m.params[1] > 0.0 || m.anisotropy[0] != 0.0)
                 && (m.params[0] < 1.0 || textured(TEX_METALLIC_ROUGHNESS))
@@ -161,11 +161,7 @@ impl PackedScene {
     /// the material holds. A colour missed here renders as a non-finite sample, which the film drops and counts.
     fn needs_spectrum_table(&self, used: &[bool]) -> bool {
         let grey = |c: &[f32]| c[0] == c[1] && c[1] == c[2];
-        let colour_textured = |m: &GpuMaterial| {
-            super::materials::SRGB_SLOTS
-                .iter()
-                .any(|&s| m.textures[s as usize].u[3].to_bits() != TEXTURE_NONE)
-        };
+        let colour_textured = |m: &GpuMaterial| super::materials::SRGB_SLOTS.iter().any(|&s| slot_used(m, s));
         let material = |m: &GpuMaterial| {
             let unlit = m.alpha[3].to_bits() & MATERIAL_UNLIT != 0;
             colour_textured(m)
@@ -187,6 +183,11 @@ impl PackedScene {
             || !self.env_data.is_empty()
             || self.punctual.iter().any(|p| !grey(&p.intensity))
     }
+}
+
+/// Whether material `m` has a texture in slot TEX_* `slot` (textures.glsl's slot_used).
+fn slot_used(m: &GpuMaterial, slot: u32) -> bool {
+    m.textures[slot as usize].u[3].to_bits() != TEXTURE_NONE
 }
 
 pub(super) fn v4(v: glam::Vec3, w: f32) -> [f32; 4] {
